@@ -1,0 +1,49 @@
+// Plain data types shared by every part of the core library (no ROS).
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace sag_hand_tracker {
+
+// HSV colour: h in degrees [0, 360), s and v in [0, 1].
+using Hsv = Eigen::Vector3d;
+
+// One isotropic Gaussian of an image SoG (paper section 4.1, "2D RGB Image Modeling").
+struct ImageGaussian {
+  Eigen::Vector2d mean;  // pixels, undistorted pinhole coordinates once attached to a camera
+  double sigma = 1.0;    // pixels
+  Hsv hsv = Hsv::Zero();
+};
+
+// The 2D Sum of Gaussians of one camera image.
+struct ImageSoG {
+  int width = 0;
+  int height = 0;
+  std::vector<ImageGaussian> gaussians;
+};
+
+// A projected model Gaussian in one camera image (pixels).
+struct ProjectedGaussian {
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d cov = Eigen::Matrix2d::Identity();
+  bool valid = false;  // false when the projection is undefined (camera inside, behind, ...)
+};
+
+// Thrown for bad input (model files, cameras, ...): the message names the problem.
+class InputError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+constexpr int kNumFingers = 5;  // thumb, index, middle, ring, pinky
+inline const std::array<const char*, kNumFingers>& fingerNames() {
+  static const std::array<const char*, kNumFingers> names{"thumb", "index", "middle", "ring",
+                                                          "pinky"};
+  return names;
+}
+
+}  // namespace sag_hand_tracker
