@@ -13,10 +13,10 @@
 namespace sag_hand_tracker {
 
 enum class TrackStatus {
-  kWaiting,     // no hand seen yet (or not enough foreground in the cameras)
-  kStarted,     // this frame started (or restarted) the track from hypotheses
-  kTracking,    // warm-started from the previous frames
-  kLost,        // the energy says the track is lost; the next frame restarts
+  kWaiting,   // no hand seen yet (or not enough foreground in the cameras)
+  kStarted,   // this frame started (or restarted) the track from hypotheses
+  kTracking,  // warm-started from the previous frames
+  kLost,      // the energy says the track is lost; the next frame restarts
 };
 std::string toString(TrackStatus status);
 
@@ -58,6 +58,11 @@ class HandTracker {
   void setParams(const TrackerParams& params);
 
  private:
+  // Automatic start: triangulate the foreground, score open-hand orientation hypotheses there,
+  // refine the best few. Empty when too few cameras see the hand.
+  std::optional<OptimizationResult> startFromHypotheses(
+      const PoseEnergy& energy, const std::vector<CameraObservation>& observations) const;
+
   HandModel model_;
   TrackerParams params_;
   std::optional<Pose> previous_;
