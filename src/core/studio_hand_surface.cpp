@@ -234,9 +234,15 @@ std::vector<SurfacePart> buildHandSurface(const HandModel& model,
   }
   if (direction.norm() < 1e-6) direction = -palm.linear().col(0);
   direction.normalize();
-  RoundCone wrist_cone{wrist + 0.012 * ls * direction, wrist + params.sleeve_start * ls * direction,
-                       params.wrist_radius * rs, params.wrist_radius * 1.04 * rs};
-  parts.push_back(skinPart(wrist_cone, kLabelForearm, Eigen::Vector3d::Zero(), 1.0f));
+  Eigen::Vector3d across = palm.linear().col(1) - palm.linear().col(1).dot(direction) * direction;
+  across = across.norm() > 1e-6 ? across.normalized() : direction.unitOrthogonal();
+  for (const double side : {1.0, -1.0}) {
+    const Eigen::Vector3d offset = side * params.wrist_spread * ls * across;
+    RoundCone wrist_cone{wrist + 0.004 * ls * direction + offset - 0.15 * r_palm * palm_z,
+                         wrist + (params.sleeve_start + 0.01) * ls * direction + 0.9 * offset,
+                         params.wrist_radius * rs, params.wrist_radius * 1.05 * rs};
+    parts.push_back(skinPart(wrist_cone, kLabelForearm, Eigen::Vector3d::Zero(), 1.0f));
+  }
   SurfacePart sleeve;
   sleeve.cone = RoundCone{wrist + params.sleeve_start * ls * direction,
                           wrist + params.forearm_length * ls * direction, params.sleeve_radius * rs,

@@ -313,43 +313,55 @@ Motion parseMotion(const std::string& yaml_text, const std::string& source, cons
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   if (const YAML::Node random = root["random"]) {
     parser.checkKeys(random, {"keyframes", "jitter"}, "random");
-    if (const YAML::Node gen = random["keyframes"]) {
-      parser.checkKeys(gen, {"from", "to", "interval", "position", "orientation", "joints"},
-                       "random keyframes");
-      const double from = parser.number(gen["from"], "random keyframes from");
-      const double to = parser.number(gen["to"], "random keyframes to");
-      const double interval = parser.number(gen["interval"], "random keyframes interval");
-      if (interval <= 0.0 || to < from || from < 0.0) {
-        parser.fail(gen, "random keyframes need 0 <= from <= to and a positive interval");
-      }
-      const Eigen::Vector3d dp = gen["position"]
-                                     ? parser.vector3(gen["position"], "random position")
-                                     : Eigen::Vector3d::Zero().eval();
-      const Eigen::Vector3d dr = gen["orientation"]
-                                     ? parser.vector3(gen["orientation"], "random orientation")
-                                     : Eigen::Vector3d::Zero().eval();
-      const double fraction = gen["joints"] ? parser.number(gen["joints"], "random joints") : 0.0;
-      if (fraction < 0.0 || fraction > 1.0) {
-        parser.fail(gen["joints"], "random joints must be a fraction in [0, 1]");
+    if (const YAML::Node blocks = random["keyframes"]) {
+      // One block (a map) or several (a list of maps), each over its own time span.
+      std::vector<YAML::Node> gens;
+      if (blocks.IsSequence()) {
+        for (const YAML::Node& b : blocks) gens.push_back(b);
+      } else {
+        gens.push_back(blocks);
       }
       const std::vector<MotionKeyframe> base = motion.keyframes;
       std::vector<MotionKeyframe> drawn;
-      for (double t = from; t <= to + 1e-9; t += interval) {
-        bool near_explicit = false;
-        for (const auto& b : base) near_explicit |= std::abs(b.time - t) < 0.5 * interval;
-        // Draw even when skipping, so that the sequence of draws does not depend on the skips.
-        MotionKeyframe key;
-        key.time = t;
-        key.random = true;
-        const Eigen::Matrix<double, kChannels, 1> centre = interpolate(base, motion.cubic, t);
-        for (int a = 0; a < 3; ++a) key.position[a] = centre[a] + dp[a] * unit(rng);
-        for (int a = 0; a < 3; ++a) key.orientation[a] = centre[3 + a] + dr[a] * unit(rng);
-        for (int j = 0; j < kNumJointDof; ++j) {
-          const double lo = model.joints[j].min, hi = model.joints[j].max;
-          const double mid = 0.5 * (lo + hi), half = 0.5 * (hi - lo) * fraction;
-          key.joints[j] = fraction > 0.0 ? mid + half * unit(rng) : centre[6 + j];
+      for (const YAML::Node& gen : gens) {
+        parser.checkKeys(gen, {"from", "to", "interval", "position", "orientation", "joints"},
+                         "random keyframes");
+        const double from = parser.number(gen["from"], "random keyframes from");
+        const double to = parser.number(gen["to"], "random keyframes to");
+        const double interval = parser.number(gen["interval"], "random keyframes interval");
+        if (interval <= 0.0 || to < from || from < 0.0) {
+          parser.fail(gen, "random keyframes need 0 <= from <= to and a positive interval");
         }
-        if (!near_explicit) drawn.push_back(key);
+        const Eigen::Vector3d dp = gen["position"]
+                                       ? parser.vector3(gen["position"], "random position")
+                                       : Eigen::Vector3d::Zero().eval();
+        const Eigen::Vector3d dr = gen["orientation"]
+                                       ? parser.vector3(gen["orientation"], "random orientation")
+                                       : Eigen::Vector3d::Zero().eval();
+        const double fraction = gen["joints"] ? parser.number(gen["joints"], "random joints") : 0.0;
+        if (fraction < 0.0 || fraction > 1.0) {
+          parser.fail(gen["joints"], "random joints must be a fraction in [0, 1]");
+        }
+        const int count = static_cast<int>(std::floor((to - from) / interval + 1e-9)) + 1;
+        for (int i = 0; i < count; ++i) {
+          const double t = from + i * interval;
+          bool near_other = false;
+          for (const auto& b : base) near_other |= std::abs(b.time - t) < 0.5 * interval;
+          for (const auto& d : drawn) near_other |= std::abs(d.time - t) < 0.5 * interval;
+          // Draw even when skipping, so that the draws do not depend on the skips.
+          MotionKeyframe key;
+          key.time = t;
+          key.random = true;
+          const Eigen::Matrix<double, kChannels, 1> centre = interpolate(base, motion.cubic, t);
+          for (int a = 0; a < 3; ++a) key.position[a] = centre[a] + dp[a] * unit(rng);
+          for (int a = 0; a < 3; ++a) key.orientation[a] = centre[3 + a] + dr[a] * unit(rng);
+          for (int j = 0; j < kNumJointDof; ++j) {
+            const double lo = model.joints[j].min, hi = model.joints[j].max;
+            const double mid = 0.5 * (lo + hi), half = 0.5 * (hi - lo) * fraction;
+            key.joints[j] = fraction > 0.0 ? mid + half * unit(rng) : centre[6 + j];
+          }
+          if (!near_other) drawn.push_back(key);
+        }
       }
       motion.keyframes.insert(motion.keyframes.end(), drawn.begin(), drawn.end());
       std::sort(motion.keyframes.begin(), motion.keyframes.end(),

@@ -77,11 +77,11 @@ Eigen::Vector3f tableAlbedo(const Eigen::Vector3d& p, std::uint64_t seed) {
   Eigen::Vector3f colour;
   if (mat) {
     colour = srgb(0.20, 0.36, 0.30) * static_cast<float>(0.85 + 0.3 * blotch);
-    if (onGrid(p.x(), 0.05, 0.0012) || onGrid(p.y(), 0.05, 0.0012)) {
-      colour = srgb(0.55, 0.70, 0.62);
+    if (onGrid(p.x(), 0.05, 0.001) || onGrid(p.y(), 0.05, 0.001)) {
+      colour = srgb(0.34, 0.50, 0.43);
     }
-    if (onGrid(p.x(), 0.25, 0.0025) || onGrid(p.y(), 0.25, 0.0025)) {
-      colour = srgb(0.82, 0.86, 0.80);
+    if (onGrid(p.x(), 0.25, 0.002) || onGrid(p.y(), 0.25, 0.002)) {
+      colour = srgb(0.62, 0.70, 0.62);
     }
   } else {
     colour = srgb(0.47, 0.52, 0.58) * static_cast<float>(0.82 + 0.22 * grain + 0.12 * blotch);
@@ -108,7 +108,7 @@ Eigen::Vector3f roomAlbedo(const Eigen::Vector3d& p, const Eigen::Vector3d& n, s
     colour = srgb(c[0], c[1], c[2]) * static_cast<float>(0.9 + 0.2 * noise);
     if (std::abs(dx) < 0.25 && p.z() > 0.55 && p.z() < 0.75) colour = srgb(0.85, 0.85, 0.82);
   }
-  if (p.z() < 0.1) colour = srgb(0.35, 0.33, 0.32);  // skirting board
+  if (p.z() < 0.1) colour = srgb(0.30, 0.31, 0.34);  // skirting board
   return colour;
 }
 
@@ -261,7 +261,10 @@ StudioRenderer::StudioRenderer(std::vector<Camera> cameras, const StudioScenePar
   if (!(scene_.light_direction.norm() > 0.0)) throw InputError("studio: light direction is zero");
   if (!(scene_.shadow_texel > 0.0)) throw InputError("studio: shadow texel must be positive");
   light_ = scene_.light_direction.normalized();
-  constexpr int kSuper = 4;  // background supersampling per axis (anti-aliased textures)
+  if (scene_.background_supersampling < 1) {
+    throw InputError("studio: background_supersampling must be at least 1");
+  }
+  const int supersampling = scene_.background_supersampling;
   // First background surface along a world ray from inside the room: the table top, else the
   // room box's walls, floor or ceiling.
   const auto traceBackground = [this](const Eigen::Vector3d& from, const Eigen::Vector3d& d) {
@@ -314,10 +317,10 @@ StudioRenderer::StudioRenderer(std::vector<Camera> cameras, const StudioScenePar
         data.table_uv[i] = centre_hit.on_table
                                ? Eigen::Vector2f(centre_hit.point.x(), centre_hit.point.y())
                                : Eigen::Vector2f::Constant(std::numeric_limits<float>::quiet_NaN());
-        for (int sy = 0; sy < kSuper; ++sy) {
-          for (int sx = 0; sx < kSuper; ++sx) {
-            const Eigen::Vector3d pixel(u + (sx + 0.5) / kSuper - 0.5,
-                                        v + (sy + 0.5) / kSuper - 0.5, 1.0);
+        for (int sy = 0; sy < supersampling; ++sy) {
+          for (int sx = 0; sx < supersampling; ++sx) {
+            const Eigen::Vector3d pixel(u + (sx + 0.5) / supersampling - 0.5,
+                                        v + (sy + 0.5) / supersampling - 0.5, 1.0);
             const BackgroundHit h =
                 traceBackground(centre, camera_to_world.linear() * (k_inv * pixel).normalized());
             if (!std::isfinite(h.t)) continue;  // camera outside the room: black
@@ -328,7 +331,7 @@ StudioRenderer::StudioRenderer(std::vector<Camera> cameras, const StudioScenePar
             sum_direct += direct;
           }
         }
-        const double samples = kSuper * kSuper;
+        const double samples = supersampling * supersampling;
         data.bg_linear[i] = (sum_lit / samples).cast<float>();
         // The key light's share, to darken shadowed table pixels.
         data.bg_direct[i] = static_cast<float>(sum_direct / samples);

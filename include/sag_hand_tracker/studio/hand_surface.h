@@ -81,7 +81,10 @@ struct HandSurfaceParams {
   // Forearm: it leaves the wrist backwards along the palm axis, bent towards the body.
   Eigen::Vector3d body_direction{0.0, -1.0, -0.3};  // root frame: where the elbow is
   double forearm_bend = 0.5;  // 0: straight on from the palm, larger: towards the body
-  double wrist_radius = 0.0205;
+  // The bare wrist: two capsules side by side (radius and ulna), `wrist_spread` either side of
+  // the forearm axis across the palm.
+  double wrist_radius = 0.0155;
+  double wrist_spread = 0.008;
   double sleeve_start = 0.045;   // distance from the wrist where the sleeve begins
   double sleeve_radius = 0.031;  // at the cuff; it widens towards the elbow
   double sleeve_end_radius = 0.040;

@@ -15,7 +15,7 @@
 //       joints: {index_dip_flexion: 20} # optional: degrees, override the shape
 //   random:                             # optional, drawn from the seed
 //     keyframes:                        # extra keyframes drawn uniformly every `interval` s
-//       from: 2.0                       # in [from, to]
+//       from: 2.0                       # in [from, to]; a list of such blocks is allowed too
 //       to: 12.0
 //       interval: 0.4
 //       position: [0.10, 0.08, 0.06]    # half-ranges (m) around the explicit motion's position

@@ -31,6 +31,8 @@ struct StudioSceneParams {
   // Cast shadows of the hand and arm on the table, sampled on a grid of this spacing (metres).
   bool shadows = true;
   double shadow_texel = 0.002;
+  // Samples per pixel and axis when the static background is precomputed (anti-aliasing).
+  int background_supersampling = 3;
   // Seed of the procedural textures (the background is static; it is not the per-frame seed).
   std::uint64_t texture_seed = 20140101;
 };
