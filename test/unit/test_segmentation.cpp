@@ -646,6 +646,44 @@ TEST(Background, RemovesIsolatedNoiseCells) {
   EXPECT_EQ(segmenter.segment(frame, &leaves).gaussians.size(), with_removal + 2);
 }
 
+TEST(Background, WorksOnOddImageSizes) {
+  // 321 x 243: the last cell column/row and the last leaves are clipped by the border.
+  sag_test::SceneOptions o;
+  o.width = 321;
+  o.height = 243;
+  SegmentationParams p;
+  p.mode = SegmentationMode::plate;
+  ImageSegmenter segmenter(p);
+  for (unsigned seed = 0; seed < 10; ++seed) {
+    o.seed = seed;
+    segmenter.addBackgroundFrame(sag_test::scene(o));
+  }
+  EXPECT_EQ(segmenter.backgroundPlate().cellsX(), 81);
+  EXPECT_EQ(segmenter.backgroundPlate().cellsY(), 61);
+  o.seed = 77;
+  EXPECT_EQ(segmenter.segment(sag_test::scene(o)).gaussians.size(), 0u);
+  o.hand = o.sleeve = o.shadow = true;
+  std::vector<QuadtreeLeaf> leaves;
+  segmenter.segment(sag_test::scene(o), &leaves);
+  const cv::Mat hand = sag_test::handMask(o);
+  EXPECT_GT(overlapWith(hand, leaves).recall, 0.9);
+  EXPECT_GT(overlapWith(dilate(hand, 4), leaves).precision, 0.999);
+  // A blob in the clipped bottom-right corner is found and its leaves stay inside the image.
+  cv::Mat frame = sag_test::scene(o);
+  frame(cv::Rect(312, 236, 9, 7)).setTo(cv::Scalar(214, 158, 128));
+  segmenter.segment(frame, &leaves);
+  int corner = 0;
+  for (const QuadtreeLeaf& l : leaves) {
+    EXPECT_LE(l.x + l.width, 321);
+    EXPECT_LE(l.y + l.height, 243);
+    if (l.x >= 312 && l.y >= 236) ++corner;
+  }
+  EXPECT_GT(corner, 0);
+  const cv::Mat mask = segmenter.foregroundMask(frame);
+  EXPECT_EQ(mask.size(), frame.size());
+  EXPECT_EQ(mask.at<unsigned char>(242, 320), 255);
+}
+
 TEST(Background, RejectsImagesOfAnotherSize) {
   const ImageSegmenter segmenter = learnedSegmenter(SegmentationMode::plate);
   const std::string message =
