@@ -4,7 +4,7 @@
 #include <benchmark/benchmark.h>
 
 #include "sag_hand_tracker/segmentation.h"
-#include "segmentation_test_images.h"
+#include "test_support/segmentation_test_images.h"
 
 namespace {
 

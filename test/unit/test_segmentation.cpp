@@ -12,7 +12,7 @@
 
 #include "sag_hand_tracker/colour.h"
 #include "sag_hand_tracker/segmentation.h"
-#include "segmentation_test_images.h"
+#include "test_support/segmentation_test_images.h"
 
 using namespace sag_hand_tracker;
 
