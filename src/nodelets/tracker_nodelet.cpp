@@ -285,7 +285,15 @@ class TrackerNodelet : public nodelet::Nodelet {
         observations.push_back(std::move(observation));
         observation_camera.push_back(i);
       } else {
-        NODELET_WARN_THROTTLE(2.0, "cam%d skipped: %s", i, problem.c_str());
+        // Throttled per camera and kind of problem (one throttled call site would let one
+        // problem hide the others).
+        const std::string key = std::to_string(i) + problem.substr(0, 24);
+        const ros::WallTime now = ros::WallTime::now();
+        auto last = warned_.find(key);
+        if (last == warned_.end() || (now - last->second).toSec() > 5.0) {
+          warned_[key] = now;
+          NODELET_WARN("cam%d skipped: %s", i, problem.c_str());
+        }
         ++skipped_inputs_;
       }
     }
@@ -554,6 +562,7 @@ class TrackerNodelet : public nodelet::Nodelet {
   std::mutex mutex_;  // guards everything below (callbacks may run on several threads)
   std::vector<CameraInput> cameras_;
   std::map<ros::Time, PendingSet> pending_;
+  std::map<std::string, ros::WallTime> warned_;  // last warning per camera and problem
   ros::Time last_processed_;
   ros::Time last_now_;
   FrameResult last_result_;
