@@ -29,8 +29,10 @@ struct TrackerParams {
   int min_cameras_for_start = 2;
   // Iterations spent on each start hypothesis.
   int start_iterations = 30;
-  // The track counts as lost when the normalised similarity drops below this.
+  // The track counts as lost when the normalised similarity drops below `lost_similarity`, or
+  // below `lost_ratio` times its running average over the recent tracked frames.
   double lost_similarity = 0.15;
+  double lost_ratio = 0.7;
 };
 
 struct FrameResult {
@@ -68,6 +70,8 @@ class HandTracker {
   std::optional<Pose> previous_;
   std::optional<Pose> current_;
   bool lost_ = false;
+  double typical_similarity_ = 0.0;  // running average while tracking (0: none yet)
+  bool looksLost(double similarity) const;
 };
 
 }  // namespace sag_hand_tracker

@@ -89,6 +89,12 @@ void HandTracker::reset() {
   previous_.reset();
   current_.reset();
   lost_ = false;
+  typical_similarity_ = 0.0;
+}
+
+bool HandTracker::looksLost(double similarity) const {
+  return similarity < params_.lost_similarity ||
+         similarity < params_.lost_ratio * typical_similarity_;
 }
 
 void HandTracker::setParams(const TrackerParams& params) { params_ = params; }
@@ -160,7 +166,7 @@ FrameResult HandTracker::update(const std::vector<CameraObservation>& observatio
     optimized = optimizePose(energy, start, params_.optimizer);
     EnergyTerms terms;
     energy.evaluate(optimized->pose, nullptr, &terms);
-    if (terms.similarity < params_.lost_similarity) {
+    if (looksLost(terms.similarity)) {
       // The track looks lost: try the start routine on this frame and keep the better one.
       const std::optional<OptimizationResult> restart = startFromHypotheses(energy, observations);
       if (restart && restart->energy > optimized->energy) {
@@ -184,7 +190,12 @@ FrameResult HandTracker::update(const std::vector<CameraObservation>& observatio
   result.pose = optimized->pose;
   result.fingertips = fingertips(model_, result.pose);
   result.restarted = started && current_.has_value();
-  lost_ = result.energy.similarity < params_.lost_similarity;
+  lost_ = looksLost(result.energy.similarity);
+  if (!lost_) {
+    // A fresh start resets the reference; tracking frames update it slowly.
+    typical_similarity_ = started ? result.energy.similarity
+                                  : 0.9 * typical_similarity_ + 0.1 * result.energy.similarity;
+  }
   result.status =
       lost_ ? TrackStatus::kLost : (started ? TrackStatus::kStarted : TrackStatus::kTracking);
 
