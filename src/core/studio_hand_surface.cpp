@@ -134,7 +134,7 @@ std::vector<SurfacePart> buildHandSurface(const HandModel& model,
   const auto chains = fingerChains(model);
   const double rs = shape.scale * shape.thickness;  // radius scale
   const double ls = shape.scale;                    // length scale
-  const SkinParams& skin = params.skin;
+  const SkinAlbedo& skin = params.skin;
   std::vector<SurfacePart> parts;
   parts.reserve(24);
 

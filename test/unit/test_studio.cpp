@@ -11,6 +11,7 @@
 #include "sag_hand_tracker/colour.h"
 #include "sag_hand_tracker/hand_model.h"
 #include "sag_hand_tracker/kinematics.h"
+#include "sag_hand_tracker/segmentation.h"
 #include "sag_hand_tracker/studio/hand_surface.h"
 #include "sag_hand_tracker/studio/motion.h"
 #include "sag_hand_tracker/studio/primitives.h"
@@ -430,6 +431,54 @@ TEST(StudioRender, MotionBlurAveragesSubFrames) {
   EXPECT_GT(cv::norm(x.rgb, y.rgb, cv::NORM_L1), 1000.0);
   // Frame ground truth is at the frame time, whatever the blur.
   EXPECT_EQ((a.frame(index).pose.toVector() - b.frame(index).pose.toVector()).norm(), 0.0);
+}
+
+TEST(StudioRender, PlateSegmentationSeparatesTheRenderedHand) {
+  // The studio's images are what the tracker consumes: a background plate learned from the empty
+  // frames must find the hand (skin) and reject the table, the shadows and the black sleeve.
+  const StudioSequence sequence(handModel(), builtinMotion("tigergrasp", 1), SequenceParams());
+  std::vector<ImageSegmenter> segmenters(dexter5().size());
+  for (int k = 0; k < 10; ++k) {
+    const auto images = sharedRenderer().render(sequence.surfaces(k), sequence.noiseSeed(k));
+    for (size_t c = 0; c < images.size(); ++c) segmenters[c].addBackgroundFrame(images[c].rgb);
+  }
+  double hand_found = 0, hand_total = 0, false_fg = 0, fg_total = 0, sleeve_fg = 0;
+  for (const int k : {20, 80, 150, 230}) {
+    const auto images = sharedRenderer().render(sequence.surfaces(k), sequence.noiseSeed(k));
+    for (size_t c = 0; c < images.size(); ++c) {
+      ASSERT_TRUE(segmenters[c].backgroundReady());
+      const cv::Mat mask = segmenters[c].foregroundMask(images[c].rgb);
+      for (int v = 0; v < mask.rows; ++v) {
+        for (int u = 0; u < mask.cols; ++u) {
+          const std::uint8_t label = images[c].labels.at<std::uint8_t>(v, u);
+          const bool fg = mask.at<std::uint8_t>(v, u) > 0;
+          // Ignore pixels within 4 px of the silhouette (cells are 4 px).
+          bool boundary = false;
+          for (int dv = -4; dv <= 4 && !boundary; dv += 4) {
+            for (int du = -4; du <= 4 && !boundary; du += 4) {
+              const int vv = std::clamp(v + dv, 0, mask.rows - 1);
+              const int uu = std::clamp(u + du, 0, mask.cols - 1);
+              boundary =
+                  isSkinLabel(images[c].labels.at<std::uint8_t>(vv, uu)) != isSkinLabel(label);
+            }
+          }
+          if (boundary) continue;
+          if (isSkinLabel(label)) {
+            ++hand_total;
+            hand_found += fg;
+          }
+          if (fg) {
+            ++fg_total;
+            false_fg += !isSkinLabel(label);
+            sleeve_fg += label == kLabelSleeve;
+          }
+        }
+      }
+    }
+  }
+  EXPECT_GT(hand_found / hand_total, 0.95);
+  EXPECT_LT(false_fg / fg_total, 0.05);
+  EXPECT_LT(sleeve_fg / fg_total, 0.01);
 }
 
 TEST(StudioRender, RejectsUnusableCameras) {

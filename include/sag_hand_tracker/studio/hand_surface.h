@@ -55,7 +55,7 @@ inline std::uint8_t fingerBoneLabel(int finger, int phalanx) {
 bool isSkinLabel(std::uint8_t label);
 
 // Colours are linear RGB albedos in [0, 1].
-struct SkinParams {
+struct SkinAlbedo {
   Eigen::Vector3f dorsal{0.73f, 0.41f, 0.27f};     // back of the hand and fingers
   Eigen::Vector3f palmar{0.78f, 0.44f, 0.33f};     // palm side: lighter and pinker
   Eigen::Vector3f nail{0.82f, 0.56f, 0.50f};       // finger nails
@@ -65,7 +65,7 @@ struct SkinParams {
 };
 
 struct HandSurfaceParams {
-  SkinParams skin;
+  SkinAlbedo skin;
   // Radii in metres at HandShape scale 1 and thickness 1, per finger (thumb..pinky), at the
   // proximal joint of each of the 3 bones and at the fingertip. For the thumb the first bone is
   // the metacarpal.
