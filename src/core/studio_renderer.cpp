@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <iomanip>
 #include <limits>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
@@ -211,6 +212,8 @@ void checkCamera(const Camera& camera) {
     problem << "focal length must be positive and finite";
   } else if (!camera.world_to_camera.matrix().allFinite()) {
     problem << "extrinsics are not finite";
+  } else if (camera.hasDistortion()) {
+    problem << "the studio renders exact pinhole cameras: set the distortion coefficients to 0";
   }
   if (!problem.str().empty()) {
     throw InputError("studio camera '" + camera.name + "': " + problem.str());
@@ -547,6 +550,74 @@ std::vector<StudioImage> StudioRenderer::render(
     images.push_back(renderCamera(static_cast<int>(c), subframes, shadows, noise_seed));
   }
   return images;
+}
+
+cv::Mat contactSheet(const std::vector<StudioImage>& images, const std::vector<Camera>& cameras,
+                     const std::array<Eigen::Vector3d, kNumFingers>* fingertips,
+                     const std::string& caption) {
+  if (images.empty()) return cv::Mat();
+  if (images.size() != cameras.size()) {
+    throw InputError("contactSheet: " + std::to_string(images.size()) + " images for " +
+                     std::to_string(cameras.size()) + " cameras");
+  }
+  const int tile_w = images[0].rgb.cols, tile_h = images[0].rgb.rows;
+  const int columns = std::min<int>(3, static_cast<int>(images.size()) + 1);
+  const int tiles = static_cast<int>(images.size()) + 1;  // the views and the label image
+  const int rows = (tiles + columns - 1) / columns;
+  cv::Mat sheet(rows * tile_h, columns * tile_w, CV_8UC3, cv::Scalar::all(255));
+  auto place = [&](int tile) {
+    return cv::Rect((tile % columns) * tile_w, (tile / columns) * tile_h, tile_w, tile_h);
+  };
+  static const cv::Scalar kTipColours[kNumFingers] = {
+      {255, 60, 60}, {255, 220, 0}, {60, 220, 60}, {0, 200, 255}, {200, 80, 255}};
+  for (size_t c = 0; c < images.size(); ++c) {
+    cv::Mat tile;
+    cv::resize(images[c].rgb, tile, cv::Size(tile_w, tile_h), 0, 0, cv::INTER_NEAREST);
+    cv::putText(tile, cameras[c].name, cv::Point(5, 15), cv::FONT_HERSHEY_SIMPLEX, 0.45,
+                cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+    tile.copyTo(sheet(place(static_cast<int>(c))));
+  }
+  // Last tile: camera 0's labels (skin parts coloured by finger, sleeve dark) with the
+  // ground-truth fingertips.
+  cv::Mat labels(tile_h, tile_w, CV_8UC3, cv::Scalar(235, 235, 235));
+  for (int v = 0; v < std::min(tile_h, images[0].labels.rows); ++v) {
+    for (int u = 0; u < std::min(tile_w, images[0].labels.cols); ++u) {
+      const std::uint8_t label = images[0].labels.at<std::uint8_t>(v, u);
+      cv::Vec3b colour(235, 235, 235);
+      if (label == kLabelSleeve) {
+        colour = cv::Vec3b(40, 40, 40);
+      } else if (label == kLabelForearm || label == kLabelPalm) {
+        colour = cv::Vec3b(225, 170, 140);
+      } else if (label >= kLabelFirstFingerBone) {
+        const int finger = (label - kLabelFirstFingerBone) / 3;
+        const int phalanx = (label - kLabelFirstFingerBone) % 3;
+        const cv::Scalar& c = kTipColours[finger];
+        const double shade = 0.55 + 0.15 * phalanx;
+        colour = cv::Vec3b(cv::saturate_cast<uchar>(c[0] * shade),
+                           cv::saturate_cast<uchar>(c[1] * shade),
+                           cv::saturate_cast<uchar>(c[2] * shade));
+      }
+      labels.at<cv::Vec3b>(v, u) = colour;
+    }
+  }
+  if (fingertips != nullptr) {
+    for (int f = 0; f < kNumFingers; ++f) {
+      const Eigen::Vector3d p = cameras[0].world_to_camera * (*fingertips)[f];
+      if (p.z() <= 0) continue;
+      const Eigen::Vector2d px = (cameras[0].K * p).hnormalized();
+      const cv::Point centre(static_cast<int>(std::lround(px.x())),
+                             static_cast<int>(std::lround(px.y())));
+      cv::drawMarker(labels, centre, cv::Scalar(0, 0, 0), cv::MARKER_CROSS, 9, 1);
+    }
+  }
+  cv::putText(labels, cameras[0].name + " labels, + = fingertips", cv::Point(5, 15),
+              cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  labels.copyTo(sheet(place(static_cast<int>(images.size()))));
+  if (!caption.empty()) {
+    cv::putText(sheet, caption, cv::Point(5, sheet.rows - 8), cv::FONT_HERSHEY_SIMPLEX, 0.45,
+                cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+  }
+  return sheet;
 }
 
 }  // namespace studio

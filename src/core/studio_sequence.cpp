@@ -1,6 +1,7 @@
 #include "sag_hand_tracker/studio/sequence.h"
 
 #include <cmath>
+#include <filesystem>
 
 #include "sag_hand_tracker/kinematics.h"
 #include "sag_hand_tracker/studio/renderer.h"
@@ -54,6 +55,24 @@ std::vector<std::vector<SurfacePart>> StudioSequence::surfaces(int index) const 
 
 std::uint64_t StudioSequence::noiseSeed(int index) const {
   return mixSeed(params_.seed, static_cast<std::uint64_t>(index));
+}
+
+std::string resolveRigPath(const std::string& name_or_path, const std::string& config_dir) {
+  namespace fs = std::filesystem;
+  std::error_code error;
+  if (fs::is_directory(name_or_path, error)) {
+    const fs::path rig = fs::path(name_or_path) / "rig.yaml";
+    if (fs::is_regular_file(rig, error)) return rig.string();
+    throw InputError("rig directory " + name_or_path + " holds no rig.yaml");
+  }
+  if (fs::is_regular_file(name_or_path, error)) return name_or_path;
+  if (name_or_path.find('/') == std::string::npos) {
+    const fs::path rig = fs::path(config_dir) / "rigs" / name_or_path / "rig.yaml";
+    if (fs::is_regular_file(rig, error)) return rig.string();
+  }
+  throw InputError("no camera rig '" + name_or_path + "': give a built-in rig name (" +
+                   (fs::path(config_dir) / "rigs").string() +
+                   "/<name>), a directory with rig.yaml, or a rig file");
 }
 
 }  // namespace studio

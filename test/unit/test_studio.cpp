@@ -488,6 +488,60 @@ TEST(StudioRender, RejectsUnusableCameras) {
   bad = dexter5()[0];
   bad.width = 0;
   EXPECT_THROW(StudioRenderer({bad}), InputError);
+  bad = dexter5()[0];
+  bad.distortion = {0.1, 0.0, 0.0, 0.0, 0.0};
+  EXPECT_THROW(StudioRenderer({bad}), InputError);
+  bad.distortion = {0.0, 0.0, 0.0, 0.0, 0.0};  // zeros are a pinhole
+  EXPECT_NO_THROW(StudioRenderer({bad}));
+}
+
+TEST(StudioRender, ContactSheetShowsEveryViewAndTheLabels) {
+  const StudioSequence sequence(handModel(), builtinMotion("pinch", 1), SequenceParams());
+  const auto images = sharedRenderer().render(sequence.surfaces(50), sequence.noiseSeed(50));
+  const StudioFrame frame = sequence.frame(50);
+  const cv::Mat sheet = contactSheet(images, dexter5(), &frame.fingertips, "pinch 50");
+  ASSERT_EQ(sheet.type(), CV_8UC3);
+  EXPECT_EQ(sheet.cols, 3 * 320);
+  EXPECT_EQ(sheet.rows, 2 * 240);
+  // The second view sits in the top middle tile, unchanged apart from its name in the corner.
+  const cv::Rect tile(320, 30, 320, 200);
+  EXPECT_EQ(cv::norm(sheet(tile), images[1].rgb(cv::Rect(0, 30, 320, 200)), cv::NORM_L1), 0.0);
+  EXPECT_THROW(contactSheet(images, {dexter5()[0]}), InputError);
+}
+
+TEST(StudioRig, ResolvesNamesDirectoriesAndFiles) {
+  const std::string config = kSourceDir + "/config";
+  const std::string rig = config + "/rigs/dexter5/rig.yaml";
+  EXPECT_EQ(resolveRigPath("dexter5", config), rig);
+  EXPECT_EQ(resolveRigPath(config + "/rigs/dexter5", config), rig);
+  EXPECT_EQ(resolveRigPath(rig, config), rig);
+  try {
+    resolveRigPath("nosuchrig", config);
+    FAIL() << "accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no camera rig 'nosuchrig'"), std::string::npos);
+  }
+}
+
+TEST(StudioRig, Dexter5LooksAtTheWorkspaceFromAboveTheTable) {
+  const std::vector<Camera>& cameras = dexter5();
+  ASSERT_EQ(cameras.size(), 5u);
+  const Eigen::Vector3d centre(0.0, 0.0, 0.15);
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    SCOPED_TRACE(cameras[c].name);
+    EXPECT_EQ(cameras[c].name, "cam" + std::to_string(c));
+    EXPECT_EQ(cameras[c].width, 320);
+    EXPECT_EQ(cameras[c].height, 240);
+    const Eigen::Isometry3d pose = cameras[c].world_to_camera.inverse();
+    const double distance = (pose.translation() - centre).norm();
+    EXPECT_GT(distance, 0.6);
+    EXPECT_LT(distance, 0.9);
+    EXPECT_GT(pose.translation().z(), centre.z());  // none looks from below
+    // The workspace centre projects near the image centre.
+    const Eigen::Vector2d px = (cameras[c].K * (cameras[c].world_to_camera * centre)).hnormalized();
+    EXPECT_NEAR(px.x(), 160.0, 25.0);
+    EXPECT_NEAR(px.y(), 120.0, 25.0);
+  }
 }
 
 // ---- motions -----------------------------------------------------------------------------------

@@ -6,8 +6,10 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <opencv2/core.hpp>
+#include <string>
 #include <vector>
 
 #include "sag_hand_tracker/camera.h"
@@ -52,7 +54,7 @@ struct StudioImage {
 
 class StudioRenderer {
  public:
-  // Throws InputError for an unusable camera (non-positive size or focal length).
+  // Throws InputError for an unusable camera (non-positive size or focal length, distortion).
   StudioRenderer(std::vector<Camera> cameras, const StudioSceneParams& scene = StudioSceneParams(),
                  const SensorParams& sensor = SensorParams());
 
@@ -104,6 +106,13 @@ class StudioRenderer {
 // albedo), from procedural textures seeded by `seed`. Exposed for tests and tools.
 Eigen::Vector3f studioAlbedo(const Eigen::Vector3d& point, const Eigen::Vector3d& normal,
                              bool on_table, std::uint64_t seed);
+
+// A contact sheet (RGB, CV_8UC3): every camera's image in a grid of 3 columns, named, and a last
+// tile with camera 0's label image and, if given, the ground-truth fingertips (+) projected into
+// it. `caption` is written at the bottom left.
+cv::Mat contactSheet(const std::vector<StudioImage>& images, const std::vector<Camera>& cameras,
+                     const std::array<Eigen::Vector3d, kNumFingers>* fingertips = nullptr,
+                     const std::string& caption = "");
 
 // Linear <-> sRGB-encoded values in [0, 1].
 float linearToSrgb(float linear);

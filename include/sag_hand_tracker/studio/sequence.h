@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "sag_hand_tracker/hand_model.h"
@@ -58,6 +59,10 @@ class StudioSequence {
   SequenceParams params_;
   int frames_ = 0;
 };
+
+// A camera rig file: a directory holding rig.yaml, a rig file, or the name of a built-in rig
+// (`<config_dir>/rigs/<name>/rig.yaml`, e.g. "dexter5"). Throws InputError when none exists.
+std::string resolveRigPath(const std::string& name_or_path, const std::string& config_dir);
 
 }  // namespace studio
 }  // namespace sag_hand_tracker
