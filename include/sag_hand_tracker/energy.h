@@ -14,6 +14,10 @@ namespace sag_hand_tracker {
 
 struct EnergyParams {
   double limit_weight = 0.1;  // w_l of paper eq. 9
+  // Common factor on the model Gaussians' weights w_p^h of eq. 8. Below 0.5 a single projected
+  // Gaussian cannot saturate an image Gaussian (D_pq < 2 E_qq), so the energy has a peak at the
+  // true pose instead of a flat plateau; overlapping model Gaussians still saturate (occlusion).
+  double model_weight = 0.5;
   ColourSimilarityParams colour;
   // Pairs whose Mahalanobis term exceeds this are skipped: exp(-30) ~ 1e-13 of the pair's peak.
   double max_mahalanobis_sq = 60.0;
@@ -27,9 +31,9 @@ struct CameraObservation {
 
 // Per-camera breakdown, for diagnostics and the overlay.
 struct EnergyTerms {
-  double similarity = 0.0;       // E_sim, normalised: mean over cameras of sum_q min(..) / sum_q E_qq
-  double limit_penalty = 0.0;    // E_lim
-  double total = 0.0;            // E_sim - w_l E_lim
+  double similarity = 0.0;     // E_sim, normalised: mean over cameras of sum_q min(..) / sum_q E_qq
+  double limit_penalty = 0.0;  // E_lim
+  double total = 0.0;          // E_sim - w_l E_lim
   std::vector<double> per_camera;
 };
 
@@ -64,11 +68,11 @@ class PoseEnergy {
     int num_pairs;
   };
   struct FrameCamera {
-    Eigen::Matrix3d rotation;     // root -> camera
+    Eigen::Matrix3d rotation;  // root -> camera
     Eigen::Vector3d translation;
     Eigen::Matrix3d K;
     std::vector<FrameImageGaussian> image_gaussians;
-    double normaliser = 1.0;      // 1 / sum_q E_qq
+    double normaliser = 1.0;  // 1 / sum_q E_qq
   };
 
   HandModel model_;

@@ -23,18 +23,18 @@ enum class ProjectionMode { kPerspective, kScaledOrthographic };
 // One rotational degree of freedom of a finger joint.
 struct JointDof {
   std::string name;
-  int bone = -1;                               // bone it rotates
+  int bone = -1;                                    // bone it rotates
   Eigen::Vector3d axis = Eigen::Vector3d::UnitY();  // unit axis in the bone's rest frame
-  double min = 0.0;                            // radians
-  double max = 0.0;                            // radians
+  double min = 0.0;                                 // radians
+  double max = 0.0;                                 // radians
 };
 
 struct Bone {
   std::string name;
-  int parent = -1;                                  // -1 for the root (palm)
+  int parent = -1;                                   // -1 for the root (palm)
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();  // origin in the parent frame (metres)
   Eigen::Matrix3d rest_rotation = Eigen::Matrix3d::Identity();  // relative to the parent
-  double length = 0.0;                              // along the bone's x axis (metres)
+  double length = 0.0;                                          // along the bone's x axis (metres)
   std::vector<int> joint_dofs;  // indices into HandModel::joints, applied in this order
 };
 
@@ -51,8 +51,8 @@ struct HandModel {
   std::string name;
   Handedness handedness = Handedness::kRight;
   ProjectionMode projection = ProjectionMode::kPerspective;
-  std::vector<Bone> bones;             // parents before children; bones[0] is the palm
-  std::vector<JointDof> joints;        // kNumJointDof entries, parameter order 6..25
+  std::vector<Bone> bones;       // parents before children; bones[0] is the palm
+  std::vector<JointDof> joints;  // kNumJointDof entries, parameter order 6..25
   std::vector<ModelGaussian> gaussians;
   // Per finger (thumb..pinky): index of the Gaussian that defines the fingertip (its mean plus
   // its 1-sigma extent along the bone axis), see fingertips() in kinematics.h.

@@ -9,8 +9,8 @@
 namespace sag_hand_tracker {
 
 enum class StepControl {
-  kFixed,   // plain gradient ascent with per-group scaled fixed steps
-  kRprop,   // sign-based per-parameter adaptive steps with backtracking (iRprop+), the default
+  kFixed,  // plain gradient ascent with per-group scaled fixed steps
+  kRprop,  // sign-based per-parameter adaptive steps with backtracking (iRprop+), the default
 };
 
 StepControl parseStepControl(const std::string& name);  // "fixed" | "rprop"

@@ -14,8 +14,8 @@ using PoseVector = Eigen::Matrix<double, kNumDof, 1>;
 // vector (axis * angle). Gradients and optimizer steps for the orientation are taken in the tangent
 // space at the current orientation: R <- exp([delta]_x) R (delta in world axes).
 struct Pose {
-  Eigen::Vector3d translation = Eigen::Vector3d::Zero();      // wrist position in the root frame
-  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();     // palm frame to root frame
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();   // wrist position in the root frame
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  // palm frame to root frame
   Eigen::Matrix<double, kNumJointDof, 1> joints = Eigen::Matrix<double, kNumJointDof, 1>::Zero();
 
   // Parameters: tx ty tz, rotation vector (3), joints (20).

@@ -13,10 +13,10 @@
 namespace sag_hand_tracker {
 
 enum class TrackStatus {
-  kWaiting,     // no hand seen yet (or not enough foreground in the cameras)
-  kStarted,     // this frame started (or restarted) the track from hypotheses
-  kTracking,    // warm-started from the previous frames
-  kLost,        // the energy says the track is lost; the next frame restarts
+  kWaiting,   // no hand seen yet (or not enough foreground in the cameras)
+  kStarted,   // this frame started (or restarted) the track from hypotheses
+  kTracking,  // warm-started from the previous frames
+  kLost,      // the energy says the track is lost; the next frame restarts
 };
 std::string toString(TrackStatus status);
 
@@ -29,8 +29,10 @@ struct TrackerParams {
   int min_cameras_for_start = 2;
   // Iterations spent on each start hypothesis.
   int start_iterations = 30;
-  // The track counts as lost when the normalised similarity drops below this.
+  // The track counts as lost when the normalised similarity drops below `lost_similarity`, or
+  // below `lost_ratio` times its running average over the recent tracked frames.
   double lost_similarity = 0.15;
+  double lost_ratio = 0.7;
 };
 
 struct FrameResult {
@@ -58,11 +60,18 @@ class HandTracker {
   void setParams(const TrackerParams& params);
 
  private:
+  // Automatic start: triangulate the foreground, score open-hand orientation hypotheses there,
+  // refine the best few. Empty when too few cameras see the hand.
+  std::optional<OptimizationResult> startFromHypotheses(
+      const PoseEnergy& energy, const std::vector<CameraObservation>& observations) const;
+
   HandModel model_;
   TrackerParams params_;
   std::optional<Pose> previous_;
   std::optional<Pose> current_;
   bool lost_ = false;
+  double typical_similarity_ = 0.0;  // running average while tracking (0: none yet)
+  bool looksLost(double similarity) const;
 };
 
 }  // namespace sag_hand_tracker

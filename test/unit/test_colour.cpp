@@ -26,7 +26,8 @@ TEST(Colour, HueIsCircular) {
   ColourSimilarityParams params;
   const Hsv a(355.0, 0.6, 0.7), b(5.0, 0.6, 0.7), c(45.0, 0.6, 0.7);
   EXPECT_GT(colourSimilarity(a, b, params), colourSimilarity(b, c, params));
-  EXPECT_NEAR(colourSimilarity(a, b, params), colourSimilarity(Hsv(10, 0.6, 0.7), Hsv(20, 0.6, 0.7), params), 1e-12);
+  EXPECT_NEAR(colourSimilarity(a, b, params),
+              colourSimilarity(Hsv(10, 0.6, 0.7), Hsv(20, 0.6, 0.7), params), 1e-12);
   EXPECT_DOUBLE_EQ(colourSimilarity(a, a, params), 1.0);
   EXPECT_DOUBLE_EQ(colourSimilarity(Hsv(20, 0.6, 0.7), Hsv(200, 0.6, 0.7), params), 0.0);
 }

@@ -1,0 +1,80 @@
+// One energy + gradient evaluation: 17 model Gaussians (SAG) or 30 (SoG), 5 cameras, 500 image
+// Gaussians per camera, all colour-compatible (the worst case), placed over the hand's
+// projection as a foreground segmentation would.
+#include <benchmark/benchmark.h>
+
+#include <random>
+
+#include "sag_hand_tracker/optimizer.h"
+#include "test_support/synthetic_scene.h"
+
+using namespace sag_hand_tracker;
+using namespace sag_test;
+
+namespace {
+
+std::vector<CameraObservation> worstCaseObservations(const HandModel& model, const Pose& pose,
+                                                     int per_camera) {
+  std::vector<CameraObservation> observations;
+  std::mt19937 rng(1);
+  for (const Camera& camera : fiveCameraRig()) {
+    // The bounding box of the projected hand.
+    Eigen::Vector2d low(1e9, 1e9), high(-1e9, -1e9);
+    for (const WorldGaussian& g : forwardKinematics(model, pose).gaussians) {
+      Eigen::Vector2d pixel;
+      if (camera.project(g.mean, &pixel)) {
+        low = low.cwiseMin(pixel);
+        high = high.cwiseMax(pixel);
+      }
+    }
+    low -= Eigen::Vector2d(10, 10);
+    high += Eigen::Vector2d(10, 10);
+    std::uniform_real_distribution<double> x(low.x(), high.x()), y(low.y(), high.y()),
+        sigma(1.0, 4.0);
+    ImageSoG sog;
+    sog.width = camera.width;
+    sog.height = camera.height;
+    for (int i = 0; i < per_camera; ++i) {
+      sog.gaussians.push_back(
+          {Eigen::Vector2d(x(rng), y(rng)), sigma(rng), model.gaussians[0].hsv});
+    }
+    observations.push_back({camera, sog});
+  }
+  return observations;
+}
+
+void energyBenchmark(benchmark::State& state, const std::string& model_name, bool with_gradient) {
+  const HandModel model = loadHandModel(modelPath(model_name));
+  const Pose pose = typicalPose(model);
+  PoseEnergy energy(model, EnergyParams());
+  energy.setFrame(worstCaseObservations(model, pose, static_cast<int>(state.range(0))));
+  PoseVector gradient;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(energy.evaluate(pose, with_gradient ? &gradient : nullptr));
+  }
+  state.counters["image_gaussians_per_camera"] = static_cast<double>(state.range(0));
+}
+
+void BM_EnergyGradientSag(benchmark::State& state) { energyBenchmark(state, "sag", true); }
+void BM_EnergyGradientSog(benchmark::State& state) { energyBenchmark(state, "sog", true); }
+void BM_EnergyOnlySag(benchmark::State& state) { energyBenchmark(state, "sag", false); }
+
+// One frame of tracking: setFrame (colour table) + 10 iterations, 5 cameras.
+void BM_OptimizeFrameSag(benchmark::State& state) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const Pose pose = typicalPose(model);
+  const auto observations = worstCaseObservations(model, pose, static_cast<int>(state.range(0)));
+  PoseEnergy energy(model, EnergyParams());
+  OptimizerParams params;
+  for (auto _ : state) {
+    energy.setFrame(observations);
+    benchmark::DoNotOptimize(optimizePose(energy, pose, params).energy);
+  }
+}
+
+}  // namespace
+
+BENCHMARK(BM_EnergyGradientSag)->Arg(500)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_EnergyGradientSog)->Arg(500)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_EnergyOnlySag)->Arg(500)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_OptimizeFrameSag)->Arg(500)->Unit(benchmark::kMillisecond);

@@ -1,0 +1,136 @@
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "sag_hand_tracker/energy.h"
+#include "test_support/synthetic_scene.h"
+
+using namespace sag_hand_tracker;
+using namespace sag_test;
+
+namespace {
+
+// A random pose near the typical one: every parameter moved, joints across their range.
+Pose randomPose(const HandModel& model, std::mt19937& rng) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0), symmetric(-1.0, 1.0);
+  Pose pose = typicalPose(model);
+  pose.translation += 0.02 * Eigen::Vector3d(symmetric(rng), symmetric(rng), symmetric(rng));
+  pose.rotation =
+      rotationFromVector(0.3 * Eigen::Vector3d(symmetric(rng), symmetric(rng), symmetric(rng))) *
+      pose.rotation;
+  for (int j = 0; j < kNumJointDof; ++j) {
+    // Slightly beyond the limits too, so the limit penalty's gradient is exercised.
+    const double span = model.joints[j].max - model.joints[j].min;
+    pose.joints[j] = model.joints[j].min - 0.1 * span + 1.2 * span * unit(rng);
+  }
+  return pose;
+}
+
+// Central difference along parameter i; the orientation in the tangent space (see pose.h).
+double centralDifference(const PoseEnergy& energy, const Pose& pose, int i, double h) {
+  PoseVector step = PoseVector::Zero();
+  step[i] = h;
+  const double plus = energy.evaluate(pose.stepped(step));
+  step[i] = -h;
+  const double minus = energy.evaluate(pose.stepped(step));
+  return (plus - minus) / (2.0 * h);
+}
+
+void checkGradient(const std::string& model_name) {
+  const HandModel model = loadHandModel(modelPath(model_name));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  std::mt19937 rng(42);
+  EnergyParams params;
+  params.max_mahalanobis_sq = 1e9;  // no cut-off: the energy is then smooth everywhere
+  PoseEnergy energy(model, params);
+  // Image from one pose, gradient at others: many pairs unsaturated, many partially overlapping.
+  energy.setFrame(modelObservations(model, typicalPose(model), cameras, 6.0));
+  int checked = 0;
+  for (int trial = 0; trial < 4; ++trial) {
+    const Pose pose = randomPose(model, rng);
+    PoseVector gradient;
+    energy.evaluate(pose, &gradient);
+    const double scale = gradient.cwiseAbs().maxCoeff();
+    ASSERT_GT(scale, 0.0);
+    for (int i = 0; i < kNumDof; ++i) {
+      const double h = i < 3 ? 1e-6 : 1e-5;  // metres / radians
+      const double numeric = centralDifference(energy, pose, i, h);
+      // Relative error, against the parameter's own size or 1e-3 of the largest component.
+      const double tolerance = 1e-4 * std::max(std::fabs(numeric), 1e-3 * scale);
+      EXPECT_NEAR(gradient[i], numeric, tolerance)
+          << model_name << " trial " << trial << " parameter " << model.parameterNames()[i];
+      ++checked;
+    }
+  }
+  EXPECT_EQ(checked, 4 * kNumDof);
+}
+
+}  // namespace
+
+// The analytic / forward-mode gradient equals central differences for all 26 parameters,
+// relative error below 1e-4.
+TEST(EnergyGradient, SagMatchesCentralDifferences) { checkGradient("sag"); }
+TEST(EnergyGradient, SogMatchesCentralDifferences) { checkGradient("sog"); }
+
+TEST(Energy, TruePoseScoresHigherThanPerturbedPoses) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const Pose truth = typicalPose(model);
+  PoseEnergy energy(model, EnergyParams());
+  energy.setFrame(modelObservations(model, truth, fiveCameraRig()));
+  EnergyTerms terms;
+  const double at_truth = energy.evaluate(truth, nullptr, &terms);
+  EXPECT_GT(terms.similarity, 0.5);
+  EXPECT_LE(terms.similarity, 1.0);
+  EXPECT_EQ(terms.per_camera.size(), 5u);
+  Pose moved = truth;
+  moved.translation.x() += 0.02;
+  EXPECT_GT(at_truth, energy.evaluate(moved));
+  moved = truth;
+  moved.joints[kNumJointDof - 3] += 0.5;  // pinky MCP flexion
+  EXPECT_GT(at_truth, energy.evaluate(moved));
+}
+
+TEST(Energy, LimitPenaltyIsQuadraticOutsideTheLimits) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  Pose pose = neutralPose(model, Eigen::Vector3d::Zero(), Eigen::Matrix3d::Identity());
+  EXPECT_EQ(limitPenalty(model, pose, nullptr), 0.0);
+  pose.joints[3] = model.joints[3].max + 0.2;
+  PoseVector gradient;
+  EXPECT_NEAR(limitPenalty(model, pose, &gradient), 0.04, 1e-12);
+  EXPECT_NEAR(gradient[kFirstJointDof + 3], 0.4, 1e-12);
+  // w_l = 0.1 of paper eq. 9.
+  EXPECT_DOUBLE_EQ(EnergyParams().limit_weight, 0.1);
+}
+
+TEST(Energy, EmptyFramesAndBadCamerasAreHandled) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  PoseEnergy energy(model, EnergyParams());
+  energy.setFrame({});
+  PoseVector gradient;
+  EXPECT_EQ(energy.evaluate(typicalPose(model), &gradient), 0.0);
+  EXPECT_TRUE(gradient.allFinite());
+
+  std::vector<Camera> cameras = fiveCameraRig();
+  cameras[2].K(0, 0) = 0.0;
+  try {
+    energy.setFrame(modelObservations(model, typicalPose(model), {cameras[2]}));
+    FAIL() << "zero focal length accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("focal length"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("cam2"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Energy, PoseWithCameraInsideAGaussianStaysFinite) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  PoseEnergy energy(model, EnergyParams());
+  energy.setFrame(modelObservations(model, typicalPose(model), cameras));
+  // Put the hand over camera 0's centre: some Gaussians contain it, some are behind it.
+  Pose pose = typicalPose(model);
+  pose.translation = cameras[0].centre() - Eigen::Vector3d(0.03, 0.0, 0.0);
+  PoseVector gradient;
+  const double value = energy.evaluate(pose, &gradient);
+  EXPECT_TRUE(std::isfinite(value));
+  EXPECT_TRUE(gradient.allFinite());
+}

@@ -1,0 +1,167 @@
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <fstream>
+#include <regex>
+
+#include "sag_hand_tracker/kinematics.h"
+#include "test_support/synthetic_scene.h"
+
+using namespace sag_hand_tracker;
+using namespace sag_test;
+
+namespace {
+
+std::string readFile(const std::string& path) {
+  std::ifstream in(path);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// Writes `text` to a temporary model file and returns the loader's error message.
+std::string loadError(const std::string& text) {
+  const std::string path = testing::TempDir() + "/model_under_test.yaml";
+  std::ofstream(path) << text;
+  try {
+    loadHandModel(path);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(HandModel, LoadsTheBuiltInModels) {
+  const HandModel sag = loadHandModel(modelPath("sag"));
+  EXPECT_EQ(sag.gaussians.size(), 17u);
+  EXPECT_EQ(sag.joints.size(), static_cast<size_t>(kNumJointDof));
+  EXPECT_EQ(sag.bones.size(), 16u);
+  EXPECT_EQ(sag.projection, ProjectionMode::kPerspective);
+  EXPECT_EQ(sag.parameterNames().size(), static_cast<size_t>(kNumDof));
+  EXPECT_EQ(sag.parameterNames()[6], "thumb_cmc_flex");
+  const HandModel sog = loadHandModel(modelPath("sog"));
+  EXPECT_EQ(sog.gaussians.size(), 30u);
+  EXPECT_EQ(sog.projection, ProjectionMode::kScaledOrthographic);
+  for (const ModelGaussian& g : sog.gaussians) {
+    EXPECT_NEAR(g.cov(0, 0), g.cov(1, 1), 1e-15);  // isotropic
+    EXPECT_NEAR(g.cov(0, 0), g.cov(2, 2), 1e-15);
+  }
+}
+
+// The fingertip (DESIGN.md section 3) is the end of the distal bone in both models.
+TEST(HandModel, FingertipsAreTheDistalBoneEnds) {
+  for (const std::string name : {"sag", "sog"}) {
+    const HandModel model = loadHandModel(modelPath(name));
+    const Pose pose = typicalPose(model);
+    const PosedHand hand = forwardKinematics(model, pose);
+    const auto tips = fingertips(model, hand);
+    for (int f = 0; f < kNumFingers; ++f) {
+      const int bone = model.gaussians[model.fingertip_gaussians[f]].bone;
+      const Eigen::Vector3d bone_end =
+          hand.bone_frames[bone] * Eigen::Vector3d(model.bones[bone].length, 0, 0);
+      EXPECT_LT((tips[f] - bone_end).norm(), 1e-9) << name << " finger " << f;
+    }
+  }
+}
+
+TEST(HandModel, FlexionBendsTowardThePalm) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  Pose pose = neutralPose(model, Eigen::Vector3d::Zero(), Eigen::Matrix3d::Identity());
+  const double open_z = fingertips(model, pose)[1].z();
+  pose.joints[4] = 1.0;                                      // index MCP flexion
+  EXPECT_LT(fingertips(model, pose)[1].z(), open_z - 0.02);  // palm side is -z
+  // Right hand, palm down, fingers along +x: the thumb is on +y.
+  EXPECT_GT(fingertips(model, pose)[0].y(), fingertips(model, pose)[4].y());
+}
+
+TEST(HandModel, LeftHandIsTheMirrorImage) {
+  const HandModel right = loadHandModel(modelPath("sag"));
+  const HandModel left = loadHandModel(modelPath("sag"), Handedness::kLeft);
+  EXPECT_EQ(left.handedness, Handedness::kLeft);
+  Pose pose = typicalPose(right);
+  pose.translation.setZero();
+  pose.rotation.setIdentity();
+  const auto right_tips = fingertips(right, pose);
+  const auto left_tips = fingertips(left, pose);
+  for (int f = 0; f < kNumFingers; ++f) {
+    EXPECT_NEAR(left_tips[f].x(), right_tips[f].x(), 1e-12);
+    EXPECT_NEAR(left_tips[f].y(), -right_tips[f].y(), 1e-12);
+    EXPECT_NEAR(left_tips[f].z(), right_tips[f].z(), 1e-12);
+  }
+}
+
+TEST(HandModel, MissingFileIsNamed) {
+  try {
+    loadHandModel("/nonexistent/hand.yaml");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/hand.yaml"), std::string::npos);
+  }
+}
+
+TEST(HandModel, MalformedYamlNamesTheLine) {
+  const std::string message = loadError("name: x\nhandedness: right\nbones: [\n  - {name: palm\n");
+  EXPECT_NE(message.find("malformed YAML"), std::string::npos) << message;
+  EXPECT_TRUE(std::regex_search(message, std::regex("line [0-9]+"))) << message;
+}
+
+TEST(HandModel, MissingKeyNamesKeyAndLine) {
+  std::string text = readFile(modelPath("sag"));
+  text = std::regex_replace(text, std::regex("projection: perspective\n"), "");
+  const std::string message = loadError(text);
+  EXPECT_NE(message.find("key 'projection'"), std::string::npos) << message;
+  EXPECT_NE(message.find("line"), std::string::npos) << message;
+}
+
+TEST(HandModel, NonPositiveDefiniteCovarianceIsRejected) {
+  std::string text = readFile(modelPath("sag"));
+  text = std::regex_replace(text, std::regex("sigma: \\[0.030, 0.030, 0.014\\]"),
+                            "sigma: [0.030, 0.0, 0.014]");
+  const std::string message = loadError(text);
+  EXPECT_NE(message.find("not positive definite"), std::string::npos) << message;
+  EXPECT_NE(message.find("key 'sigma'"), std::string::npos) << message;
+  EXPECT_NE(message.find("line 1"), std::string::npos) << message;  // lines 1xx
+}
+
+TEST(HandModel, WrongNumberOfDofIsRejected) {
+  std::string text = readFile(modelPath("sag"));
+  text = std::regex_replace(text, std::regex("      - \\{name: thumb_cmc_abd[^\n]*\n"), "");
+  const std::string message = loadError(text);
+  EXPECT_NE(message.find("wrong number of DOF"), std::string::npos) << message;
+  EXPECT_NE(message.find("25"), std::string::npos) << message;
+}
+
+TEST(HandModel, UnknownBoneAndBadAxisAreNamed) {
+  std::string text = readFile(modelPath("sag"));
+  std::string message =
+      loadError(std::regex_replace(text, std::regex("bone: ring_middle"), "bone: ring_midle"));
+  EXPECT_NE(message.find("unknown bone 'ring_midle'"), std::string::npos) << message;
+  message = loadError(std::regex_replace(text, std::regex("axis: z"), "axis: w"));
+  EXPECT_NE(message.find("key 'axis'"), std::string::npos) << message;
+}
+
+TEST(Camera, ValidationNamesTheProblem) {
+  Camera camera = fiveCameraRig()[1];
+  EXPECT_NO_THROW(validateCamera(camera));
+  camera.K(1, 1) = -5.0;
+  EXPECT_THROW(validateCamera(camera), InputError);
+  camera = fiveCameraRig()[1];
+  camera.width = 0;
+  EXPECT_THROW(validateCamera(camera), InputError);
+  camera = fiveCameraRig()[1];
+  camera.world_to_camera.linear() *= 2.0;
+  EXPECT_THROW(validateCamera(camera), InputError);
+}
+
+TEST(Camera, UndistortionMovesImageGaussians) {
+  Camera camera = fiveCameraRig()[0];
+  ImageSoG sog;
+  sog.gaussians.push_back({Eigen::Vector2d(300.0, 220.0), 2.0, Hsv::Zero()});
+  ImageSoG unchanged = sog;
+  undistortImageSoG(camera, &unchanged);
+  EXPECT_EQ(unchanged.gaussians[0].mean, sog.gaussians[0].mean);
+  camera.distortion = {-0.2, 0.05, 0.0, 0.0, 0.0};
+  undistortImageSoG(camera, &sog);
+  // Barrel distortion pulls points in: undistorting pushes a corner point outward.
+  EXPECT_GT(sog.gaussians[0].mean.x(), 300.0);
+}
