@@ -1,9 +1,12 @@
-// A synchronized set of camera images: what the bag reader yields and the pipeline consumes.
+// A synchronized set of camera images (what the bag reader yields and the pipeline consumes) and
+// what the pipeline makes of it.
 #pragma once
 
 #include <cstdint>
 #include <opencv2/core.hpp>
 #include <vector>
+
+#include "sag_hand_tracker/tracker.h"
 
 namespace sag_hand_tracker {
 
@@ -20,6 +23,16 @@ struct FrameSet {
   std::vector<CameraImage> images;
 
   double stamp() const { return static_cast<double>(stamp_ns) * 1e-9; }
+};
+
+// The outcome of one set: either it went into the background plates (the first frames of a
+// recording, without the hand), or it was segmented and tracked.
+struct ProcessedFrame {
+  bool background = false;  // true: learned as background, `result` holds no pose
+  FrameResult result;
+  int image_gaussians = 0;  // foreground image Gaussians over all cameras of the set
+  double segmentation_seconds = 0.0;
+  double tracking_seconds = 0.0;  // HandTracker::update (start or optimisation)
 };
 
 }  // namespace sag_hand_tracker
