@@ -7,6 +7,7 @@
 #include "sag_hand_tracker/colour.h"
 #include "sag_hand_tracker/hand_model.h"
 #include "sag_hand_tracker/kinematics.h"
+#include "sag_hand_tracker/overlap.h"
 #include "sag_hand_tracker/pose.h"
 #include "sag_hand_tracker/types.h"
 
@@ -56,29 +57,20 @@ class PoseEnergy {
   const std::vector<CameraObservation>& observations() const { return observations_; }
 
  private:
-  struct CompatiblePair {
-    int model_gaussian;
-    double similarity;  // d(c_p, c_q) * w_p
-  };
-  struct FrameImageGaussian {
-    Eigen::Vector2d mean;
-    double sigma;
-    double self_overlap;  // E_qq
-    int first_pair;       // into pairs_
-    int num_pairs;
-  };
   struct FrameCamera {
     Eigen::Matrix3d rotation;  // root -> camera
     Eigen::Vector3d translation;
     Eigen::Matrix3d K;
-    std::vector<FrameImageGaussian> image_gaussians;
+    ImageGaussianArrays image_gaussians;
+    // Row p: w_p d(c_p, c_q) for every image Gaussian q. The colour term does not depend on the
+    // pose, so it is computed once per frame.
+    std::vector<double> weights;
     double normaliser = 1.0;  // 1 / sum_q E_qq
   };
 
   HandModel model_;
   EnergyParams params_;
   std::vector<std::vector<int>> ancestor_dofs_;  // per bone
-  std::vector<CompatiblePair> pairs_;
   std::vector<FrameCamera> cameras_;
   std::vector<CameraObservation> observations_;
 };

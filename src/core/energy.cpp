@@ -3,7 +3,6 @@
 #include <unsupported/Eigen/AutoDiff>
 
 #include "projection_impl.h"
-#include "sag_hand_tracker/overlap.h"
 
 namespace sag_hand_tracker {
 namespace {
@@ -81,35 +80,38 @@ PoseEnergy::PoseEnergy(const HandModel& model, const EnergyParams& params)
 void PoseEnergy::setFrame(const std::vector<CameraObservation>& observations) {
   observations_ = observations;
   cameras_.clear();
-  pairs_.clear();
+  const size_t num_gaussians = model_.gaussians.size();
   for (const CameraObservation& observation : observations) {
     validateCamera(observation.camera);
     FrameCamera camera;
     camera.rotation = observation.camera.world_to_camera.linear();
     camera.translation = observation.camera.world_to_camera.translation();
     camera.K = observation.camera.K;
+    ImageGaussianArrays& q = camera.image_gaussians;
+    std::vector<const ImageGaussian*> kept;
     double self_overlap_sum = 0.0;
-    for (const ImageGaussian& q : observation.sog.gaussians) {
-      if (!q.mean.allFinite() || !(q.sigma > 0.0) || !std::isfinite(q.sigma)) continue;
-      FrameImageGaussian image_gaussian;
-      image_gaussian.mean = q.mean;
-      image_gaussian.sigma = q.sigma;
-      image_gaussian.self_overlap = M_PI * q.sigma * q.sigma;  // E_qq: D_qq with d(c_q, c_q) = 1
-      image_gaussian.first_pair = static_cast<int>(pairs_.size());
-      // The colour term does not depend on the pose: once per frame, and only non-zero pairs.
-      for (size_t p = 0; p < model_.gaussians.size(); ++p) {
-        const double similarity = colourSimilarity(model_.gaussians[p].hsv, q.hsv, params_.colour);
-        if (similarity > 0.0) {
-          pairs_.push_back({static_cast<int>(p),
-                            similarity * model_.gaussians[p].weight * params_.model_weight});
-        }
+    for (const ImageGaussian& g : observation.sog.gaussians) {
+      if (!g.mean.allFinite() || !(g.sigma > 0.0) || !std::isfinite(g.sigma) ||
+          !g.hsv.allFinite()) {
+        continue;
       }
-      image_gaussian.num_pairs = static_cast<int>(pairs_.size()) - image_gaussian.first_pair;
-      self_overlap_sum += image_gaussian.self_overlap;
-      camera.image_gaussians.push_back(image_gaussian);
+      kept.push_back(&g);
+      q.mean_x.push_back(g.mean.x());
+      q.mean_y.push_back(g.mean.y());
+      q.variance.push_back(g.sigma * g.sigma);
+      q.self_overlap.push_back(M_PI * g.sigma * g.sigma);  // E_qq: D_qq with d(c_q, c_q) = 1
+      self_overlap_sum += q.self_overlap.back();
     }
     // A camera that sees nothing carries no information: it is left out of the mean.
-    if (camera.image_gaussians.empty()) continue;
+    if (kept.empty()) continue;
+    camera.weights.resize(num_gaussians * kept.size());
+    for (size_t p = 0; p < num_gaussians; ++p) {
+      const double model_weight = model_.gaussians[p].weight * params_.model_weight;
+      for (size_t i = 0; i < kept.size(); ++i) {
+        camera.weights[p * kept.size() + i] =
+            model_weight * colourSimilarity(model_.gaussians[p].hsv, kept[i]->hsv, params_.colour);
+      }
+    }
     camera.normaliser = 1.0 / self_overlap_sum;
     cameras_.push_back(std::move(camera));
   }
@@ -126,71 +128,52 @@ double PoseEnergy::evaluate(const Pose& pose, PoseVector* gradient, EnergyTerms*
   std::vector<Eigen::Matrix3d> g_cov(num_gaussians, Eigen::Matrix3d::Zero());
   std::vector<ProjectionWithJacobian> projections(num_gaussians);
   std::vector<OverlapTerm> overlap_terms(num_gaussians);
-  std::vector<Eigen::Matrix<double, 5, 1>> g_projected(num_gaussians);
-  std::vector<OverlapGradient> pair_gradients;
-  std::vector<double> pair_values;
+  std::vector<double> weighted, active, sums;
 
   double similarity = 0.0;
   if (terms) terms->per_camera.assign(cameras_.size(), 0.0);
   for (size_t c = 0; c < cameras_.size(); ++c) {
     const FrameCamera& camera = cameras_[c];
+    const ImageGaussianArrays& q = camera.image_gaussians;
+    const int n = q.size();
+    weighted.assign(num_gaussians * n, 0.0);
+    sums.assign(n, 0.0);
     for (size_t p = 0; p < num_gaussians; ++p) {
       const Eigen::Vector3d mean = camera.rotation * hand.gaussians[p].mean + camera.translation;
       const Eigen::Matrix3d cov =
           camera.rotation * hand.gaussians[p].cov * camera.rotation.transpose();
       projections[p] = projectInCamera(model_.projection, mean, cov, camera.K, with_gradient);
-      if (projections[p].projected.valid) {
-        overlap_terms[p] = prepareOverlapTerm(projections[p].projected);
-      }
-      g_projected[p].setZero();
+      if (!projections[p].projected.valid) continue;  // contributes nothing in this camera
+      overlap_terms[p] = prepareOverlapTerm(projections[p].projected);
+      double* row = weighted.data() + p * n;
+      overlapRow(overlap_terms[p], q, camera.weights.data() + p * n, params_.max_mahalanobis_sq,
+                 row);
+      for (int i = 0; i < n; ++i) sums[i] += row[i];
     }
 
-    // Paper eq. 8: sum over image Gaussians of min(sum_p w_p E_pq, E_qq).
+    // Paper eq. 8: sum over image Gaussians of min(sum_p w_p E_pq, E_qq). A saturated image
+    // Gaussian passes no gradient.
     double camera_similarity = 0.0;
-    for (const FrameImageGaussian& q : camera.image_gaussians) {
-      const double variance_q = q.sigma * q.sigma;
-      pair_values.resize(q.num_pairs);
-      pair_gradients.resize(q.num_pairs);
-      double sum = 0.0;
-      for (int k = 0; k < q.num_pairs; ++k) {
-        const CompatiblePair& pair = pairs_[q.first_pair + k];
-        pair_values[k] = 0.0;
-        if (!projections[pair.model_gaussian].projected.valid) continue;
-        const double overlap = overlapIsotropic(overlap_terms[pair.model_gaussian], q.mean.x(),
-                                                q.mean.y(), variance_q, params_.max_mahalanobis_sq,
-                                                with_gradient ? &pair_gradients[k] : nullptr);
-        pair_values[k] = pair.similarity * overlap;
-        sum += pair_values[k];
-      }
-      if (sum >= q.self_overlap) {
-        camera_similarity += q.self_overlap;  // saturated: no gradient through this q
-        continue;
-      }
-      camera_similarity += sum;
-      if (!with_gradient) continue;
-      for (int k = 0; k < q.num_pairs; ++k) {
-        if (pair_values[k] == 0.0) continue;
-        const CompatiblePair& pair = pairs_[q.first_pair + k];
-        const OverlapGradient& g = pair_gradients[k];
-        Eigen::Matrix<double, 5, 1>& target = g_projected[pair.model_gaussian];
-        target[0] += pair.similarity * g.d_mean_x;
-        target[1] += pair.similarity * g.d_mean_y;
-        target[2] += pair.similarity * g.d_cov_xx;
-        target[3] += pair.similarity * g.d_cov_xy;
-        target[4] += pair.similarity * g.d_cov_yy;
-      }
+    active.resize(n);
+    for (int i = 0; i < n; ++i) {
+      const bool saturated = sums[i] >= q.self_overlap[i];
+      camera_similarity += saturated ? q.self_overlap[i] : sums[i];
+      active[i] = saturated ? 0.0 : 1.0;
     }
     camera_similarity *= camera.normaliser;
     similarity += camera_similarity;
     if (terms) terms->per_camera[c] = camera_similarity;
-
     if (!with_gradient) continue;
-    // Chain once per (Gaussian, camera) through the projection (forward-mode Jacobian) and the
-    // camera rotation into root-frame gradients.
+
+    // Accumulate dE/d(mu_p, Sigma_p) over all image Gaussians, then chain once per (Gaussian,
+    // camera) through the projection (forward-mode Jacobian) and the camera rotation.
     for (size_t p = 0; p < num_gaussians; ++p) {
       if (!projections[p].projected.valid) continue;
+      Eigen::Matrix<double, 5, 1> g_projected = Eigen::Matrix<double, 5, 1>::Zero();
+      accumulateOverlapGradient(overlap_terms[p], q, weighted.data() + p * n, active.data(),
+                                g_projected.data());
       const Eigen::Matrix<double, 9, 1> g_input =
-          projections[p].jacobian.transpose() * (g_projected[p] * camera.normaliser);
+          projections[p].jacobian.transpose() * (g_projected * camera.normaliser);
       const Eigen::Vector3d g_mean_camera = g_input.head<3>();
       Eigen::Matrix3d g_cov_camera;
       g_cov_camera << g_input[3], 0.5 * g_input[6], 0.5 * g_input[7],  //

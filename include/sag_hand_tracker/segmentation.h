@@ -1,0 +1,224 @@
+// From a camera image to its 2D Sum of Gaussians (paper section 4.1, "2D RGB Image Modeling";
+// DESIGN.md section 5): quad-tree clustering into regions of near-uniform colour, one isotropic
+// Gaussian per leaf, and the removal of what cannot be hand (background plate, skin-colour gate).
+// Core library: OpenCV + Eigen only, no ROS. The tracker, the offline tools and the segmentation
+// nodelet all call ImageSegmenter::segment, so the live graph and the benchmarks measure the same
+// code.
+//
+// Conventions: images are CV_8UC3 in R,G,B order (convert bgr8 before calling); pixel centres are
+// at integer coordinates, so the pixel (col, row) covers [col - 0.5, col + 0.5] x [row - 0.5,
+// row + 0.5]; RGB values are in [0, 255]; HSV as in colour.h (h degrees, s and v in [0, 1]).
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "sag_hand_tracker/types.h"
+
+namespace sag_hand_tracker {
+
+// Which pixels may become image Gaussians.
+enum class SegmentationMode {
+  none,           // the whole image, background included
+  plate,          // what differs from the learned background plate, minus shadows and dark sleeves
+  skin,           // what has skin colour (no plate needed)
+  plate_and_skin  // both tests must pass
+};
+const char* toString(SegmentationMode mode);
+// "none", "plate", "skin", "plate_and_skin"; anything else throws InputError.
+SegmentationMode parseSegmentationMode(const std::string& name);
+
+// Quad-tree clustering. The image is covered by a grid of root squares of max_leaf_size pixels
+// (the last row/column is clipped by the image border when the size is not a multiple); a square
+// is split into four while it is larger than min_leaf_size and either its colour is not uniform
+// enough, it is clipped by the border, or (with a foreground mask) it is partly foreground.
+struct QuadtreeParams {
+  // pixels; power of two >= 1. Colour edges are resolved down to this size, and they produce most
+  // leaves: 2 gives about twice as many Gaussians as 4.
+  int min_leaf_size = 4;
+  int max_leaf_size = 32;  // pixels; power of two, min_leaf_size <= max_leaf_size <= 128
+  // A square is a leaf when the standard deviation of every RGB channel over its pixels is at most
+  // this (RGB units). Camera noise (std 2-5) stays below it; colour edges and texture do not.
+  double max_colour_std = 12.0;
+  // sigma = sigma_per_leaf_size * side. Default 1/sqrt(2 pi) = 0.399: the (unnormalised) Gaussian's
+  // integral 2 pi sigma^2 then equals the area side^2 of the square it stands for, so the image SoG
+  // carries the same mass as the pixels it replaces and E_qq = pi sigma^2 = side^2 / 2. (Matching
+  // the second moment of the square instead would give 1/sqrt(12) = 0.289.) A leaf clipped to a
+  // w x h rectangle by the image border uses sqrt(w h) as its side.
+  double sigma_per_leaf_size = 0.3989422804014327;
+};
+
+// Background plate: the mean colour of every cell (cell_size x cell_size pixels) over frames
+// without the hand, and its spread over those frames. A cell of a new frame is background when
+//   1. its mean colour c is within the plate's tolerance: sum_k ((c_k - p_k) / tol_k)^2 <= 1 with
+//      tol_k = max(k_sigma * spread_k, min_tolerance) (RGB units), or
+//   2. it is a shadow on the plate: darker (brightness ratio (r+g+b)/(r_p+g_p+b_p) in
+//      [shadow_min_ratio, 1]) with the same chromaticity: max_k |c_k/sum(c) - p_k/sum(p)| <=
+//      shadow_chroma_tolerance. A cast shadow scales all channels alike (also after the camera's
+//      gamma), so it keeps the normalised rgb of the surface; a hand does not.
+// A cell that differs from the plate is then still rejected when it is too dark to be skin
+// (value < dark_max_value) or dark and unsaturated (value < sleeve_max_value and saturation <
+// sleeve_max_saturation): the black sleeve the paper asks the user to wear, and deep shadows.
+// Limitation: a surface whose chromaticity equals the skin's (e.g. beige wood) cannot tell a darker
+// hand from a shadow; a plate_and_skin mode does not help there either. Prefer neutral tables.
+struct BackgroundParams {
+  int frames = 10;  // frames needed before the plate is ready (more are averaged in as well)
+  double k_sigma = 3.0;
+  double min_tolerance = 12.0;  // RGB units (the cell mean's noise floor, small flicker)
+  double shadow_min_ratio = 0.25;
+  double shadow_chroma_tolerance = 0.04;
+  double shadow_min_plate_brightness = 30.0;  // r+g+b of the plate; darker plate: no shadow test
+  double dark_max_value = 0.12;
+  double sleeve_max_value = 0.35;
+  double sleeve_max_saturation = 0.3;
+};
+
+// Skin-colour gate on the cell's mean colour in HSV: hue in the circular range
+// [hue_min_deg, hue_max_deg] (red to orange-yellow; skin of every tone has R > G > B, i.e. hue in
+// about [0, 50] degrees, slightly below 0 under pinkish light), saturation in [saturation_min,
+// saturation_max] (rejects grey, white, black and vivid red/orange objects), value >= value_min
+// (rejects black). Rejects blue, green, purple and neutral colours. Beige/wood/cardboard objects
+// pass, and so do the cells where a saturated red object blends with a grey surface (its outline):
+// use a plate (or plate_and_skin) when such things are in view.
+struct SkinParams {
+  double hue_min_deg = -25.0;  // = 335 degrees
+  double hue_max_deg = 50.0;
+  double saturation_min = 0.12;
+  double saturation_max = 0.8;
+  double value_min = 0.2;
+};
+
+struct SegmentationParams {
+  SegmentationMode mode = SegmentationMode::plate;
+  // Foreground decisions (plate, skin) are made per cell_size x cell_size cell on the cell's mean
+  // colour: power of two >= 1 (1 = per pixel). The silhouette is accurate to a cell.
+  int cell_size = 4;
+  // A foreground cell none of whose 8 neighbours is foreground is dropped (noise, specular spots).
+  bool remove_isolated_cells = true;
+  QuadtreeParams quadtree;
+  BackgroundParams background;
+  SkinParams skin;
+};
+// Throws InputError naming the first bad parameter.
+void validate(const SegmentationParams& params);
+
+// One quad-tree leaf in pixels: columns [x, x + width), rows [y, y + height); mean RGB colour.
+struct QuadtreeLeaf {
+  int x = 0;
+  int y = 0;
+  int width = 0;
+  int height = 0;
+  Eigen::Vector3d rgb = Eigen::Vector3d::Zero();
+};
+
+// Skin-colour gate on one colour (RGB in [0, 255]).
+bool isSkinColour(const Eigen::Vector3d& rgb, const SkinParams& params);
+// The dark/sleeve rejection of BackgroundParams on one colour: true when too dark to be skin or
+// dark and unsaturated.
+bool isDarkNonSkin(const Eigen::Vector3d& rgb, const BackgroundParams& params);
+
+// The background plate of one camera on a grid of cells (see BackgroundParams for the test).
+// Frames are given as cell means; ImageSegmenter computes those from the image.
+class BackgroundPlate {
+ public:
+  explicit BackgroundPlate(int cell_size = 4);
+  // Forgets everything; the next frame fixes the size again.
+  void reset(int cell_size);
+
+  int cellSize() const { return cell_size_; }
+  int width() const { return width_; }  // image size the plate was learned at (0 before)
+  int height() const { return height_; }
+  int cellsX() const { return cells_x_; }
+  int cellsY() const { return cells_y_; }
+  int frameCount() const { return frames_; }
+
+  // Adds one frame of width x height pixels given as its cell means: cellsY x cellsX cells (for
+  // this size and the cell size, the last row/column clipped by the border), row after row, R,G,B
+  // per cell. Throws InputError when the size differs from the first frame's.
+  void addFrame(int width, int height, const std::vector<float>& cell_means);
+
+  // Whether a cell (index row * cellsX() + col) with mean colour rgb is background or a shadow
+  // on it. Requires frameCount() > 0.
+  bool isBackground(int cell, const float* rgb, const BackgroundParams& params) const;
+
+  // Per cell mean colour and spread (standard deviation over the frames), CV_32FC3, RGB.
+  cv::Mat mean() const;
+  cv::Mat spread() const;
+
+  // cv::FileStorage file (.yml, .yml.gz, .xml, .json): image size, cell size, frame count, mean
+  // and spread per cell. load throws InputError for a missing/unreadable/inconsistent file; it
+  // adopts the file's cell size.
+  void save(const std::string& path) const;
+  void load(const std::string& path);
+
+ private:
+  struct Cell {
+    float mean[3];
+    float spread[3];
+    float brightness;  // r + g + b of the mean
+    float chroma[3];   // normalised rgb of the mean
+  };
+  void updateCell(int cell);
+
+  int cell_size_ = 4;
+  int width_ = 0;
+  int height_ = 0;
+  int cells_x_ = 0;
+  int cells_y_ = 0;
+  int frames_ = 0;
+  std::vector<double> sum_;     // per cell and channel: sum over frames of the cell mean
+  std::vector<double> sum_sq_;  // same, squares
+  std::vector<Cell> cells_;
+};
+
+// The single entry point: learn a plate (optional), then turn images into image SoGs.
+// segment() and foregroundMask() are const and thread-safe (scratch buffers are per thread).
+class ImageSegmenter {
+ public:
+  explicit ImageSegmenter(const SegmentationParams& params = SegmentationParams());
+
+  const SegmentationParams& params() const { return params_; }
+  // Validates; keeps the learned plate unless the cell size changes (then the plate is reset).
+  void setParams(const SegmentationParams& params);
+
+  // Learning the plate from frames without the hand. The first frame fixes the image size.
+  void addBackgroundFrame(const cv::Mat& rgb);
+  // The plate holds at least params().background.frames frames (a loaded plate counts with the
+  // frame count stored in its file; more frames can still be added to it).
+  bool backgroundReady() const;
+  int backgroundFrameCount() const { return plate_.frameCount(); }
+  void resetBackground();
+  const BackgroundPlate& backgroundPlate() const { return plate_; }
+  void saveBackground(const std::string& path) const;
+  // Throws InputError as BackgroundPlate::load, and when the file's cell size differs from
+  // params().cell_size (the segmenter is left unchanged then).
+  void loadBackground(const std::string& path);
+
+  // The mode actually applied: plate and plate_and_skin fall back to skin while the plate is not
+  // ready, so that the tracker never sees the unmodelled background.
+  SegmentationMode effectiveMode() const;
+
+  // The image SoG (width, height and one Gaussian per leaf); with a foreground test active only
+  // foreground leaves. leaves (optional) receives the leaf rectangles, in the same order.
+  // Throws InputError for an empty image, a type other than CV_8UC3, or a size different from the
+  // plate's (when the plate is used).
+  ImageSoG segment(const cv::Mat& rgb, std::vector<QuadtreeLeaf>* leaves = nullptr) const;
+
+  // The foreground decision at image size: CV_8UC1, 255 where leaves may be, 0 elsewhere (all 255
+  // in mode none). For debugging overlays and the automatic start. Same errors as segment.
+  cv::Mat foregroundMask(const cv::Mat& rgb) const;
+
+ private:
+  SegmentationParams params_;
+  BackgroundPlate plate_;
+};
+
+// The quad-tree alone on the whole image (mode none), for tools and tests.
+ImageSoG quadtreeSegment(const cv::Mat& rgb, const QuadtreeParams& params,
+                         std::vector<QuadtreeLeaf>* leaves = nullptr);
+
+// Throws InputError unless rgb is a non-empty CV_8UC3 image; what names the caller in the message.
+void checkRgbImage(const cv::Mat& rgb, const char* what);
+
+}  // namespace sag_hand_tracker

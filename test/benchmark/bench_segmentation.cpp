@@ -1,0 +1,72 @@
+// Speed of the image-to-SoG segmentation (issue 3 target: <= 0.5 ms per 320x240 image, one core).
+// One realistic 320x240 frame: textured desk scene, skin-coloured hand, black sleeve, and the
+// shadow of hand and arm; the plate is learned from 10 frames without the hand.
+#include <benchmark/benchmark.h>
+
+#include "sag_hand_tracker/segmentation.h"
+#include "test_support/segmentation_test_images.h"
+
+namespace {
+
+using namespace sag_hand_tracker;
+
+const cv::Mat& benchmarkFrame() {
+  static const cv::Mat frame = [] {
+    sag_test::SceneOptions o;
+    o.hand = o.sleeve = o.shadow = true;
+    o.seed = 1234;
+    return sag_test::scene(o);
+  }();
+  return frame;
+}
+
+ImageSegmenter makeSegmenter(SegmentationMode mode) {
+  SegmentationParams p;
+  p.mode = mode;
+  ImageSegmenter segmenter(p);
+  if (mode == SegmentationMode::plate || mode == SegmentationMode::plate_and_skin) {
+    for (unsigned seed = 0; seed < 10; ++seed) {
+      segmenter.addBackgroundFrame(sag_test::backgroundFrame(seed));
+    }
+  }
+  return segmenter;
+}
+
+void run(benchmark::State& state, SegmentationMode mode) {
+  const ImageSegmenter segmenter = makeSegmenter(mode);
+  const cv::Mat& frame = benchmarkFrame();
+  std::size_t gaussians = 0;
+  for (auto _ : state) {
+    ImageSoG sog = segmenter.segment(frame);
+    gaussians = sog.gaussians.size();
+    benchmark::DoNotOptimize(sog);
+  }
+  state.counters["gaussians"] = static_cast<double>(gaussians);
+}
+
+// The whole image (no background removal): the paper's image SoG.
+void SegmentQuadtreeNoBackgroundRemoval(benchmark::State& state) {
+  run(state, SegmentationMode::none);
+}
+BENCHMARK(SegmentQuadtreeNoBackgroundRemoval)->Unit(benchmark::kMicrosecond);
+
+void SegmentWithBackgroundPlate(benchmark::State& state) { run(state, SegmentationMode::plate); }
+BENCHMARK(SegmentWithBackgroundPlate)->Unit(benchmark::kMicrosecond);
+
+void SegmentWithPlateAndSkinGate(benchmark::State& state) {
+  run(state, SegmentationMode::plate_and_skin);
+}
+BENCHMARK(SegmentWithPlateAndSkinGate)->Unit(benchmark::kMicrosecond);
+
+void SegmentWithSkinGateOnly(benchmark::State& state) { run(state, SegmentationMode::skin); }
+BENCHMARK(SegmentWithSkinGateOnly)->Unit(benchmark::kMicrosecond);
+
+// Learning: the cost of one addBackgroundFrame.
+void SegmentAddBackgroundFrame(benchmark::State& state) {
+  ImageSegmenter segmenter;
+  const cv::Mat frame = sag_test::backgroundFrame(0);
+  for (auto _ : state) segmenter.addBackgroundFrame(frame);
+}
+BENCHMARK(SegmentAddBackgroundFrame)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
