@@ -25,7 +25,8 @@ struct PipelineParams {
 
 class TrackingPipeline {
  public:
-  // One segmenter per camera. Throws InputError for a camera that fails validateCamera, or bad
+  // One segmenter per camera. Throws InputError for fewer cameras than the automatic start needs
+  // (TrackerParams::min_cameras_for_start), a camera that fails validateCamera, or bad
   // segmentation or model parameters.
   TrackingPipeline(const HandModel& model, const std::vector<Camera>& cameras,
                    const PipelineParams& params);

@@ -28,6 +28,12 @@ double secondsSince(std::chrono::steady_clock::time_point start) {
 TrackingPipeline::TrackingPipeline(const HandModel& model, const std::vector<Camera>& cameras,
                                    const PipelineParams& params)
     : cameras_(cameras), params_(adjusted(params)), tracker_(model, params.tracker) {
+  if (static_cast<int>(cameras_.size()) < params_.tracker.min_cameras_for_start) {
+    throw InputError("the tracker starts from at least " +
+                     std::to_string(params_.tracker.min_cameras_for_start) +
+                     " cameras that see the hand, but there are " +
+                     std::to_string(cameras_.size()));
+  }
   for (const Camera& camera : cameras_) {
     validateCamera(camera);
     segmenters_.emplace_back(params_.segmentation);

@@ -221,7 +221,8 @@ TrackBagSummary runTrackBag(BagReader& reader, const TrackFrameFunction& track,
     }
     if (progress) {
       std::string status = "frame " + std::to_string(summary.frames) + ", " +
-                           std::to_string(set.images.size()) + " cameras, ";
+                           std::to_string(set.images.size()) +
+                           (set.images.size() == 1 ? " camera, " : " cameras, ");
       status += processed.background ? "background" : toString(processed.result.status);
       progress->update(reader.progress(), status);
     }

@@ -133,6 +133,8 @@ TEST(Pipeline, PipelineRejectsBadInput) {
   negative.background_frames = -1;
   EXPECT_EQ(errorOf([&] { TrackingPipeline(model, cameras, negative); }),
             "background_frames must be >= 0, got -1");
+  EXPECT_EQ(errorOf([&] { TrackingPipeline(model, {cameras[0]}, PipelineParams()); }),
+            "the tracker starts from at least 2 cameras that see the hand, but there are 1");
   cameras[2].K(0, 0) = 0.0;
   EXPECT_NE(errorOf([&] { TrackingPipeline(model, cameras, PipelineParams()); }).find("cam2"),
             std::string::npos);
