@@ -375,6 +375,8 @@ BagReader::BagReader(const std::string& path, const BagReaderOptions& options)
 }
 
 BagReader::~BagReader() = default;
+BagReader::BagReader(BagReader&&) noexcept = default;
+BagReader& BagReader::operator=(BagReader&&) noexcept = default;
 
 const std::string& BagReader::path() const { return impl_->path; }
 const std::string& BagReader::rootFrame() const { return impl_->root_frame; }

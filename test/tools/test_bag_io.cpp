@@ -159,9 +159,10 @@ TEST_F(BagFiles, BagRoundTrip) {
   }
   EXPECT_EQ(reader.statistics().image_messages, 11u);
 
+  BagReader moved(std::move(reader));  // readers can be kept in containers
   FrameSet set;
   for (int frame = 0; frame < 4; ++frame) {
-    ASSERT_TRUE(reader.next(&set)) << frame;
+    ASSERT_TRUE(moved.next(&set)) << frame;
     EXPECT_EQ(set.stamp_ns, static_cast<std::int64_t>(frameTime(frame).toNSec()));
     EXPECT_NEAR(set.stamp(), frameTime(frame).toSec(), 1e-9);
     std::vector<int> expected_cameras =
@@ -174,15 +175,15 @@ TEST_F(BagFiles, BagRoundTrip) {
           << "frame " << frame << " camera " << expected_cameras[k];
     }
   }
-  EXPECT_FALSE(reader.next(&set));
-  EXPECT_FALSE(reader.next(&set));
-  const BagReaderStatistics& stats = reader.statistics();
+  EXPECT_FALSE(moved.next(&set));
+  EXPECT_FALSE(moved.next(&set));
+  const BagReaderStatistics& stats = moved.statistics();
   EXPECT_EQ(stats.sets, 4u);
   EXPECT_EQ(stats.incomplete_sets, 1u);
   EXPECT_EQ(stats.images_read, 11u);
   EXPECT_EQ(stats.dropped_images, 0u);
   EXPECT_GT(stats.decode_seconds, 0.0);
-  EXPECT_DOUBLE_EQ(reader.progress(), 1.0);
+  EXPECT_DOUBLE_EQ(moved.progress(), 1.0);
 }
 
 TEST_F(BagFiles, BagGroupsInterleavedImagesByHeaderStamp) {

@@ -53,6 +53,8 @@ class BagReader {
   // its camera_info.
   explicit BagReader(const std::string& path, const BagReaderOptions& options = {});
   ~BagReader();
+  BagReader(BagReader&&) noexcept;
+  BagReader& operator=(BagReader&&) noexcept;
   BagReader(const BagReader&) = delete;
   BagReader& operator=(const BagReader&) = delete;
 
