@@ -1,0 +1,585 @@
+// Tracker nodelet: groups the N per-camera image SoGs by stamp, reads the extrinsics from tf, runs
+// the core HandTracker and publishes the pose (joint_states, tf, markers, fingertips, status,
+// diagnostics, optional overlay images), all stamped with the image stamp.
+//
+// Topics (relative to the nodelet's namespace), i = 0..num_cameras-1:
+//   in:  cam<i>/sog (sag_hand_tracker/SumOfGaussians), cam<i>/camera_info,
+//        cam<i>/image_raw (only while cam<i>/overlay has subscribers)
+//   out: joint_states, markers, fingertips, status, cam<i>/overlay, /tf, /diagnostics
+// Private parameters: num_cameras (5), root_frame (world), model ("sag", "sog" or a path),
+//   handedness (right|left), camera_timeout (0.5 s), time_jump_threshold (1.0 s), plus the
+//   dynamic_reconfigure parameters of cfg/Tracker.cfg.
+//
+// Synchronization (message_filters::Synchronizer takes at most 9 inputs, DESIGN.md section 7):
+// a stamp-keyed buffer. A set is processed as soon as every camera that is not marked missing has
+// delivered its SoG for that stamp. A set still incomplete after camera_timeout (wall clock) is
+// processed with the cameras present, and the absent ones are marked missing (no longer waited
+// for) until they deliver again. Older incomplete sets are dropped when a newer one completes.
+#include "sag_hand_tracker/SumOfGaussians.h"
+
+#include <cv_bridge/cv_bridge.h>
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <dynamic_reconfigure/server.h>
+#include <geometry_msgs/PoseArray.h>
+#include <image_transport/image_transport.h>
+#include <nodelet/nodelet.h>
+#include <pluginlib/class_list_macros.hpp>
+#include <ros/package.h>
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/JointState.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <Eigen/Eigenvalues>
+#include <chrono>
+#include <deque>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <opencv2/imgproc.hpp>
+
+#include "sag_hand_tracker/ros/sog_conversions.h"
+#include "sag_hand_tracker/TrackerConfig.h"
+#include "sag_hand_tracker/TrackingStatus.h"
+#include "sag_hand_tracker/kinematics.h"
+#include "sag_hand_tracker/projection.h"
+#include "sag_hand_tracker/tracker.h"
+
+namespace sag_hand_tracker {
+
+namespace {
+
+geometry_msgs::Point toPoint(const Eigen::Vector3d& p) {
+  geometry_msgs::Point point;
+  point.x = p.x();
+  point.y = p.y();
+  point.z = p.z();
+  return point;
+}
+
+geometry_msgs::Quaternion toQuaternion(const Eigen::Matrix3d& rotation) {
+  const Eigen::Quaterniond q(rotation);
+  geometry_msgs::Quaternion msg;
+  msg.x = q.x();
+  msg.y = q.y();
+  msg.z = q.z();
+  msg.w = q.w();
+  return msg;
+}
+
+}  // namespace
+
+class TrackerNodelet : public nodelet::Nodelet {
+ private:
+  struct PendingSet {
+    std::vector<SumOfGaussians::ConstPtr> sogs;  // per camera, null until it arrived
+    ros::WallTime first_arrival;
+    int count = 0;
+  };
+  struct CameraInput {
+    ros::Subscriber sog_sub;
+    ros::Subscriber info_sub;
+    sensor_msgs::CameraInfo::ConstPtr info;
+    bool missing = false;
+    image_transport::Publisher overlay_pub;
+    image_transport::Subscriber image_sub;
+    std::deque<sensor_msgs::ImageConstPtr> images;  // recent images, for the overlay
+  };
+
+  void onInit() override {
+    ros::NodeHandle& nh = getNodeHandle();
+    ros::NodeHandle& pnh = getPrivateNodeHandle();
+    num_cameras_ = pnh.param("num_cameras", 5);
+    if (num_cameras_ < 1) {
+      NODELET_ERROR("num_cameras must be >= 1 (got %d); using 1", num_cameras_);
+      num_cameras_ = 1;
+    }
+    root_frame_ = pnh.param<std::string>("root_frame", "world");
+    camera_timeout_ = pnh.param("camera_timeout", 0.5);
+    time_jump_threshold_ = pnh.param("time_jump_threshold", 1.0);
+    const std::string model_name = pnh.param<std::string>("model", "sag");
+    const std::string handedness = pnh.param<std::string>("handedness", "right");
+    try {
+      const std::string path =
+          resolveModelPath(model_name, ros::package::getPath("sag_hand_tracker") + "/config");
+      model_ = loadHandModel(path, handedness == "left" ? Handedness::kLeft : Handedness::kRight);
+    } catch (const std::exception& e) {
+      NODELET_FATAL("cannot load hand model '%s': %s", model_name.c_str(), e.what());
+      throw;
+    }
+    tracker_ = std::make_unique<HandTracker>(model_, TrackerParams());
+    joint_names_ = model_.parameterNames();
+
+    tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
+    tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
+
+    joint_pub_ = nh.advertise<sensor_msgs::JointState>("joint_states", 10);
+    marker_pub_ = nh.advertise<visualization_msgs::MarkerArray>("markers", 2);
+    fingertip_pub_ = nh.advertise<geometry_msgs::PoseArray>("fingertips", 10);
+    status_pub_ = nh.advertise<TrackingStatus>("status", 10);
+
+    it_ = std::make_unique<image_transport::ImageTransport>(nh);
+    cameras_.resize(num_cameras_);
+    for (int i = 0; i < num_cameras_; ++i) {
+      const std::string cam = "cam" + std::to_string(i);
+      cameras_[i].sog_sub = nh.subscribe<SumOfGaussians>(
+          cam + "/sog", 5, [this, i](const SumOfGaussians::ConstPtr& msg) { onSoG(i, msg); });
+      cameras_[i].info_sub = nh.subscribe<sensor_msgs::CameraInfo>(
+          cam + "/camera_info", 2, [this, i](const sensor_msgs::CameraInfo::ConstPtr& msg) {
+            std::lock_guard<std::mutex> lock(mutex_);
+            cameras_[i].info = msg;
+          });
+      auto connect = [this, i](const image_transport::SingleSubscriberPublisher&) {
+        updateOverlaySubscription(i);
+      };
+      cameras_[i].overlay_pub = it_->advertise(cam + "/overlay", 1, connect, connect);
+    }
+
+    diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
+    diagnostics_->setHardwareID("sag_hand_tracker");
+    diagnostics_->add("tracker", this, &TrackerNodelet::diagnose);
+
+    reconfigure_ = std::make_unique<dynamic_reconfigure::Server<TrackerConfig>>(reconfigure_mutex_,
+                                                                               pnh);
+    reconfigure_->setCallback([this](TrackerConfig& config, uint32_t) { reconfigure(config); });
+
+    // Processes sets whose cameras timed out, and watches for ROS time jumping back.
+    timer_ = nh.createWallTimer(ros::WallDuration(std::max(0.01, camera_timeout_ / 5.0)),
+                                [this](const ros::WallTimerEvent&) { onTimer(); });
+    NODELET_INFO("tracker: %d cameras, root frame '%s', model '%s' (%zu Gaussians)", num_cameras_,
+                 root_frame_.c_str(), model_.name.c_str(), model_.gaussians.size());
+  }
+
+  void reconfigure(TrackerConfig& config) {
+    TrackerParams params;
+    params.optimizer.iterations = config.iterations;
+    try {
+      params.optimizer.step_control = parseStepControl(config.step_control);
+    } catch (const std::exception& e) {
+      NODELET_WARN("step_control: %s; keeping rprop", e.what());
+      config.step_control = "rprop";
+    }
+    params.optimizer.translation_step = config.translation_step;
+    params.optimizer.rotation_step = config.rotation_step;
+    params.optimizer.joint_step = config.joint_step;
+    params.energy.limit_weight = config.limit_weight;
+    params.energy.colour.hue_radius_deg = config.hue_radius_deg;
+    params.energy.colour.saturation_radius = config.saturation_radius;
+    params.energy.model_weight = config.model_weight;
+    params.lost_similarity = config.lost_similarity;
+    params.min_foreground_gaussians = config.min_foreground_gaussians;
+    params.min_cameras_for_start = config.min_cameras_for_start;
+    std::lock_guard<std::mutex> lock(mutex_);
+    tracker_->setParams(params);
+    if (config.reset) {
+      NODELET_INFO("tracker reset requested");
+      tracker_->reset();
+      config.reset = false;
+    }
+  }
+
+  void onSoG(int camera, const SumOfGaussians::ConstPtr& msg) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const ros::Time stamp = msg->header.stamp;
+    if (stamp.isZero()) {
+      NODELET_WARN_THROTTLE(5.0, "cam%d/sog: message with a zero stamp, skipped", camera);
+      return;
+    }
+    CameraInput& input = cameras_[camera];
+    if (input.missing) {
+      input.missing = false;
+      NODELET_INFO("cam%d delivers again: waiting for it again", camera);
+    }
+    if (!last_processed_.isZero() && stamp <= last_processed_) {
+      if ((last_processed_ - stamp).toSec() > time_jump_threshold_) {
+        resetLocked("image stamps jumped back by " +
+                    std::to_string((last_processed_ - stamp).toSec()) + " s");
+      } else {
+        ++late_messages_;
+        return;  // late message of a set already processed
+      }
+    }
+    PendingSet& set = pending_[stamp];
+    if (set.sogs.empty()) {
+      set.sogs.resize(num_cameras_);
+      set.first_arrival = ros::WallTime::now();
+    }
+    if (!set.sogs[camera]) ++set.count;
+    set.sogs[camera] = msg;
+    processCompleteSets();
+  }
+
+  bool isComplete(const PendingSet& set) const {
+    for (int i = 0; i < num_cameras_; ++i) {
+      if (!cameras_[i].missing && !set.sogs[i]) return false;
+    }
+    return set.count > 0;
+  }
+
+  // Processes the newest complete set (dropping older incomplete ones). Caller holds mutex_.
+  void processCompleteSets() {
+    for (auto it = pending_.rbegin(); it != pending_.rend(); ++it) {
+      if (!isComplete(it->second)) continue;
+      const ros::Time stamp = it->first;
+      PendingSet set = std::move(it->second);
+      auto end = pending_.upper_bound(stamp);
+      for (auto old = pending_.begin(); old != end; ++old) {
+        if (old->first != stamp) ++dropped_sets_;
+      }
+      pending_.erase(pending_.begin(), end);
+      processSet(stamp, set);
+      return;
+    }
+  }
+
+  void onTimer() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const ros::Time now = ros::Time::now();
+    if (!last_now_.isZero() && now + ros::Duration(time_jump_threshold_) < last_now_) {
+      resetLocked("ROS time jumped back (bag loop?)");
+    }
+    last_now_ = now;
+    const ros::WallTime wall = ros::WallTime::now();
+    while (!pending_.empty()) {
+      auto it = pending_.begin();
+      if ((wall - it->second.first_arrival).toSec() < camera_timeout_) break;
+      for (int i = 0; i < num_cameras_; ++i) {
+        if (!it->second.sogs[i] && !cameras_[i].missing) {
+          cameras_[i].missing = true;
+          NODELET_WARN("cam%d delivered no SoG for %.2f s: continuing without it", i,
+                       camera_timeout_);
+        }
+      }
+      const ros::Time stamp = it->first;
+      PendingSet set = std::move(it->second);
+      pending_.erase(it);
+      processSet(stamp, set);
+    }
+    diagnostics_->update();
+  }
+
+  void resetLocked(const std::string& why) {
+    NODELET_WARN("%s: resetting the tracker and its buffers", why.c_str());
+    tracker_->reset();
+    pending_.clear();
+    last_processed_ = ros::Time();
+    for (CameraInput& input : cameras_) input.images.clear();
+    tf_buffer_->clear();
+    ++resets_;
+  }
+
+  // Caller holds mutex_.
+  void processSet(const ros::Time& stamp, const PendingSet& set) {
+    const auto start = std::chrono::steady_clock::now();
+    last_processed_ = stamp;
+    std::vector<CameraObservation> observations;
+    std::vector<int> observation_camera;
+    for (int i = 0; i < num_cameras_; ++i) {
+      if (!set.sogs[i]) continue;
+      std::string problem;
+      CameraObservation observation;
+      if (makeObservation(i, *set.sogs[i], &observation, &problem)) {
+        observations.push_back(std::move(observation));
+        observation_camera.push_back(i);
+      } else {
+        // Throttled per camera and kind of problem (one throttled call site would let one
+        // problem hide the others).
+        const std::string key = std::to_string(i) + problem.substr(0, 24);
+        const ros::WallTime now = ros::WallTime::now();
+        auto last = warned_.find(key);
+        if (last == warned_.end() || (now - last->second).toSec() > 5.0) {
+          warned_[key] = now;
+          NODELET_WARN("cam%d skipped: %s", i, problem.c_str());
+        }
+        ++skipped_inputs_;
+      }
+    }
+    FrameResult result;
+    try {
+      result = tracker_->update(observations, stamp.toSec());
+    } catch (const std::exception& e) {
+      NODELET_ERROR_THROTTLE(2.0, "tracker failed on the set at %.3f: %s", stamp.toSec(),
+                             e.what());
+      tracker_->reset();
+      return;
+    }
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    ++frames_;
+    seconds_sum_ += seconds;
+    last_result_ = result;
+    last_seconds_ = seconds;
+    const bool pose_ok = result.has_pose && result.pose.allFinite();
+    if (result.has_pose && !pose_ok) {
+      NODELET_ERROR_THROTTLE(2.0, "tracker returned a non-finite pose: not published; reset");
+      tracker_->reset();
+    }
+    PosedHand hand;
+    if (pose_ok) {
+      hand = forwardKinematics(model_, result.pose);
+      publishPose(stamp, result, hand);
+      publishOverlays(stamp, observations, observation_camera, hand);
+    }
+    TrackingStatus status;
+    status.header.stamp = stamp;
+    status.header.frame_id = root_frame_;
+    status.status = toString(result.status);
+    status.has_pose = pose_ok;
+    status.energy = std::isfinite(result.energy.total) ? result.energy.total : 0.0;
+    status.similarity = std::isfinite(result.energy.similarity) ? result.energy.similarity : 0.0;
+    status.num_cameras = static_cast<int>(observations.size());
+    status.expected_cameras = num_cameras_;
+    status.seconds_per_frame = seconds;
+    status.restarted = result.restarted;
+    status_pub_.publish(status);
+  }
+
+  // Caller holds mutex_.
+  bool makeObservation(int i, const SumOfGaussians& msg, CameraObservation* observation,
+                       std::string* problem) {
+    const sensor_msgs::CameraInfo::ConstPtr& info = cameras_[i].info;
+    if (!info) {
+      *problem = "no camera_info received yet on cam" + std::to_string(i) + "/camera_info";
+      return false;
+    }
+    if (msg.width != info->width || msg.height != info->height) {
+      *problem = "SoG image size " + std::to_string(msg.width) + "x" + std::to_string(msg.height) +
+                 " does not match camera_info " + std::to_string(info->width) + "x" +
+                 std::to_string(info->height);
+      return false;
+    }
+    const std::string cam = "cam" + std::to_string(i);
+    const std::string frame = msg.header.frame_id.empty() ? cam + "_optical_frame"
+                                                          : msg.header.frame_id;
+    geometry_msgs::TransformStamped transform;
+    try {
+      // Extrinsics are static: the latest transform is the one.
+      transform = tf_buffer_->lookupTransform(root_frame_, frame, ros::Time(0));
+    } catch (const tf2::TransformException& e) {
+      *problem = "no tf from '" + root_frame_ + "' to '" + frame + "': " + e.what();
+      return false;
+    }
+    try {
+      observation->camera = ros_util::cameraFromInfo(*info, cam, transform.transform);
+      validateCamera(observation->camera);
+      observation->sog = ros_util::sogFromMsg(msg);
+      undistortImageSoG(observation->camera, &observation->sog);
+    } catch (const std::exception& e) {
+      *problem = e.what();
+      return false;
+    }
+    return true;
+  }
+
+  void publishPose(const ros::Time& stamp, const FrameResult& result, const PosedHand& hand) {
+    sensor_msgs::JointState joints;
+    joints.header.stamp = stamp;
+    joints.header.frame_id = root_frame_;
+    joints.name = joint_names_;
+    const PoseVector v = result.pose.toVector();
+    joints.position.assign(v.data(), v.data() + v.size());
+    joint_pub_.publish(joints);
+
+    std::vector<geometry_msgs::TransformStamped> transforms;
+    for (size_t b = 0; b < model_.bones.size(); ++b) {
+      geometry_msgs::TransformStamped t;
+      t.header.stamp = stamp;
+      t.header.frame_id = root_frame_;
+      t.child_frame_id = "hand_" + model_.bones[b].name;
+      const Eigen::Isometry3d& frame = hand.bone_frames[b];
+      t.transform.translation.x = frame.translation().x();
+      t.transform.translation.y = frame.translation().y();
+      t.transform.translation.z = frame.translation().z();
+      t.transform.rotation = toQuaternion(frame.rotation());
+      transforms.push_back(t);
+    }
+    tf_broadcaster_.sendTransform(transforms);
+
+    geometry_msgs::PoseArray tips;
+    tips.header = joints.header;
+    for (const Eigen::Vector3d& tip : result.fingertips) {
+      geometry_msgs::Pose pose;
+      pose.position = toPoint(tip);
+      pose.orientation.w = 1.0;
+      tips.poses.push_back(pose);
+    }
+    fingertip_pub_.publish(tips);
+
+    if (marker_pub_.getNumSubscribers() > 0) marker_pub_.publish(makeMarkers(stamp, hand));
+  }
+
+  visualization_msgs::MarkerArray makeMarkers(const ros::Time& stamp, const PosedHand& hand) {
+    visualization_msgs::MarkerArray markers;
+    for (size_t g = 0; g < hand.gaussians.size(); ++g) {
+      visualization_msgs::Marker m;
+      m.header.stamp = stamp;
+      m.header.frame_id = root_frame_;
+      m.ns = "gaussians";
+      m.id = static_cast<int>(g);
+      m.type = visualization_msgs::Marker::SPHERE;
+      m.action = visualization_msgs::Marker::ADD;
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(hand.gaussians[g].cov);
+      Eigen::Matrix3d axes = eig.eigenvectors();
+      if (axes.determinant() < 0) axes.col(2) = -axes.col(2);  // a rotation, not a reflection
+      m.pose.position = toPoint(hand.gaussians[g].mean);
+      m.pose.orientation = toQuaternion(axes);
+      const Eigen::Vector3d sigma = eig.eigenvalues().cwiseMax(0.0).cwiseSqrt();
+      m.scale.x = 2.0 * sigma[0];
+      m.scale.y = 2.0 * sigma[1];
+      m.scale.z = 2.0 * sigma[2];
+      const Eigen::Vector3d rgb = ros_util::hsvToRgb(model_.gaussians[g].hsv);
+      m.color.r = static_cast<float>(rgb[0]);
+      m.color.g = static_cast<float>(rgb[1]);
+      m.color.b = static_cast<float>(rgb[2]);
+      m.color.a = 0.8f;
+      markers.markers.push_back(m);
+    }
+    visualization_msgs::Marker lines;
+    lines.header.stamp = stamp;
+    lines.header.frame_id = root_frame_;
+    lines.ns = "skeleton";
+    lines.id = 0;
+    lines.type = visualization_msgs::Marker::LINE_LIST;
+    lines.action = visualization_msgs::Marker::ADD;
+    lines.pose.orientation.w = 1.0;
+    lines.scale.x = 0.002;
+    lines.color.r = lines.color.g = lines.color.b = 0.9f;
+    lines.color.a = 1.0f;
+    for (size_t b = 0; b < model_.bones.size(); ++b) {
+      const Eigen::Isometry3d& frame = hand.bone_frames[b];
+      if (model_.bones[b].parent >= 0) {  // parent origin -> bone origin
+        lines.points.push_back(toPoint(hand.bone_frames[model_.bones[b].parent].translation()));
+        lines.points.push_back(toPoint(frame.translation()));
+      }
+      if (model_.bones[b].length > 0.0) {  // along the bone's x axis
+        lines.points.push_back(toPoint(frame.translation()));
+        lines.points.push_back(
+            toPoint(frame * Eigen::Vector3d(model_.bones[b].length, 0.0, 0.0)));
+      }
+    }
+    markers.markers.push_back(lines);
+    return markers;
+  }
+
+  // Overlay images: subscribe to cam<i>/image_raw only while someone watches cam<i>/overlay.
+  void updateOverlaySubscription(int i) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    CameraInput& input = cameras_[i];
+    const bool wanted = input.overlay_pub.getNumSubscribers() > 0;
+    if (wanted && !input.image_sub) {
+      input.image_sub = it_->subscribe("cam" + std::to_string(i) + "/image_raw", 2,
+                                       [this, i](const sensor_msgs::ImageConstPtr& image) {
+                                         std::lock_guard<std::mutex> lock(mutex_);
+                                         auto& images = cameras_[i].images;
+                                         images.push_back(image);
+                                         while (images.size() > 30) images.pop_front();
+                                       });
+    } else if (!wanted && input.image_sub) {
+      input.image_sub.shutdown();
+      input.images.clear();
+    }
+  }
+
+  void publishOverlays(const ros::Time& stamp, const std::vector<CameraObservation>& observations,
+                       const std::vector<int>& observation_camera, const PosedHand& hand) {
+    for (size_t o = 0; o < observations.size(); ++o) {
+      CameraInput& input = cameras_[observation_camera[o]];
+      if (input.overlay_pub.getNumSubscribers() == 0) continue;
+      sensor_msgs::ImageConstPtr image;
+      for (const auto& candidate : input.images) {
+        if (candidate->header.stamp == stamp) image = candidate;
+      }
+      if (!image) continue;  // the image of this set has not arrived (yet)
+      cv_bridge::CvImagePtr cv;
+      try {
+        cv = cv_bridge::toCvCopy(image, "bgr8");
+      } catch (const std::exception& e) {
+        NODELET_WARN_THROTTLE(5.0, "overlay of cam%d: %s", observation_camera[o], e.what());
+        continue;
+      }
+      const Camera& camera = observations[o].camera;
+      const Eigen::Matrix3d R = camera.world_to_camera.linear();
+      for (size_t g = 0; g < hand.gaussians.size(); ++g) {
+        // Drawn in ideal pinhole pixels (the tracker's space); with strong lens distortion the
+        // ellipses are slightly off near the image border.
+        const ProjectedGaussian p = projectPerspective(
+            camera.world_to_camera * hand.gaussians[g].mean,
+            R * hand.gaussians[g].cov * R.transpose(), camera.K);
+        if (!p.valid) continue;
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(p.cov);
+        const Eigen::Vector2d axes = eig.eigenvalues().cwiseMax(0.0).cwiseSqrt();
+        const double angle =
+            std::atan2(eig.eigenvectors()(1, 1), eig.eigenvectors()(0, 1)) * 180.0 / M_PI;
+        const Eigen::Vector3d rgb = ros_util::hsvToRgb(model_.gaussians[g].hsv) * 255.0;
+        if (!p.mean.allFinite() || !axes.allFinite()) continue;
+        cv::ellipse(cv->image, cv::Point2d(p.mean.x(), p.mean.y()),
+                    cv::Size2d(axes[1], axes[0]), angle, 0, 360,
+                    cv::Scalar(rgb[2], rgb[1], rgb[0]), 1, cv::LINE_AA);
+      }
+      input.overlay_pub.publish(cv->toImageMsg());
+    }
+  }
+
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
+    // Called from onTimer with mutex_ held.
+    int missing = 0;
+    for (const CameraInput& input : cameras_) missing += input.missing ? 1 : 0;
+    if (frames_ == 0) {
+      stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no camera set received yet");
+    } else if (missing > 0) {
+      stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%d of %d cameras missing; %s",
+                    missing, num_cameras_, toString(last_result_.status).c_str());
+    } else if (last_result_.status == TrackStatus::kLost ||
+               last_result_.status == TrackStatus::kWaiting) {
+      stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, toString(last_result_.status));
+    } else {
+      stat.summary(diagnostic_msgs::DiagnosticStatus::OK, toString(last_result_.status));
+    }
+    stat.add("frames", frames_);
+    stat.add("mean seconds per frame", frames_ ? seconds_sum_ / frames_ : 0.0);
+    stat.add("last seconds per frame", last_seconds_);
+    stat.add("energy", last_result_.energy.total);
+    stat.add("similarity", last_result_.energy.similarity);
+    stat.add("cameras in last set", last_result_.num_cameras);
+    stat.add("missing cameras", missing);
+    stat.add("dropped incomplete sets", dropped_sets_);
+    stat.add("late messages", late_messages_);
+    stat.add("skipped camera inputs", skipped_inputs_);
+    stat.add("resets (time jumped back)", resets_);
+  }
+
+  int num_cameras_ = 5;
+  std::string root_frame_;
+  double camera_timeout_ = 0.5;
+  double time_jump_threshold_ = 1.0;
+  HandModel model_;
+  std::vector<std::string> joint_names_;
+  std::unique_ptr<HandTracker> tracker_;
+
+  std::mutex mutex_;  // guards everything below (callbacks may run on several threads)
+  std::vector<CameraInput> cameras_;
+  std::map<ros::Time, PendingSet> pending_;
+  std::map<std::string, ros::WallTime> warned_;  // last warning per camera and problem
+  ros::Time last_processed_;
+  ros::Time last_now_;
+  FrameResult last_result_;
+  double last_seconds_ = 0.0, seconds_sum_ = 0.0;
+  long frames_ = 0, dropped_sets_ = 0, late_messages_ = 0, skipped_inputs_ = 0, resets_ = 0;
+
+  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  tf2_ros::TransformBroadcaster tf_broadcaster_;
+  std::unique_ptr<image_transport::ImageTransport> it_;
+  ros::Publisher joint_pub_, marker_pub_, fingertip_pub_, status_pub_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  boost::recursive_mutex reconfigure_mutex_;
+  std::unique_ptr<dynamic_reconfigure::Server<TrackerConfig>> reconfigure_;
+  ros::WallTimer timer_;
+};
+
+}  // namespace sag_hand_tracker
+
+PLUGINLIB_EXPORT_CLASS(sag_hand_tracker::TrackerNodelet, nodelet::Nodelet)

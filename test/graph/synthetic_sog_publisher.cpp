@@ -1,0 +1,137 @@
+// Test input for the tracker graph: a synthetic five-camera rig (test_support/synthetic_scene.h)
+// and a slowly moving hand, published like the segmentation nodelets would: static tf of the
+// optical frames, cam<i>/camera_info and cam<i>/sog, one stamp per set, plus the ground truth
+// fingertips on ground_truth/fingertips.
+// Private parameters:
+//   rate (15 Hz), num_cameras (5), duration (0 = forever)
+//   drop_cameras (list of indices) and drop_after (s): those cameras stop publishing then
+//   malformed (false): cam<last> sends malformed SoGs in turn (size not matching camera_info,
+//     a NaN Gaussian, no Gaussians at all, an unknown frame) and cam<last-1> never sends its
+//     camera_info.
+#include "sag_hand_tracker/SumOfGaussians.h"
+
+#include <geometry_msgs/PoseArray.h>
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <tf2_ros/static_transform_broadcaster.h>
+
+#include <cmath>
+#include <limits>
+#include <set>
+
+#include "sag_hand_tracker/ros/sog_conversions.h"
+#include "test_support/synthetic_scene.h"
+
+using namespace sag_hand_tracker;
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "synthetic_sog_publisher");
+  ros::NodeHandle nh;
+  ros::NodeHandle pnh("~");
+  const double rate = pnh.param("rate", 15.0);
+  const double duration = pnh.param("duration", 0.0);
+  const double drop_after = pnh.param("drop_after", 1e9);
+  const bool malformed = pnh.param("malformed", false);
+  std::vector<int> drop_list;
+  pnh.getParam("drop_cameras", drop_list);
+  const std::set<int> drop(drop_list.begin(), drop_list.end());
+
+  const HandModel model = loadHandModel(sag_test::modelPath("sag"));
+  std::vector<Camera> cameras = sag_test::fiveCameraRig();
+  const int n = std::min<int>(pnh.param("num_cameras", 5), cameras.size());
+  cameras.resize(n);
+
+  tf2_ros::StaticTransformBroadcaster static_tf;
+  std::vector<geometry_msgs::TransformStamped> transforms;
+  std::vector<ros::Publisher> sog_pubs, info_pubs;
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Isometry3d camera_to_world = cameras[i].world_to_camera.inverse();
+    const Eigen::Quaterniond q(camera_to_world.rotation());
+    geometry_msgs::TransformStamped t;
+    t.header.stamp = ros::Time::now();
+    t.header.frame_id = "world";
+    t.child_frame_id = "cam" + std::to_string(i) + "_optical_frame";
+    t.transform.translation.x = camera_to_world.translation().x();
+    t.transform.translation.y = camera_to_world.translation().y();
+    t.transform.translation.z = camera_to_world.translation().z();
+    t.transform.rotation.x = q.x();
+    t.transform.rotation.y = q.y();
+    t.transform.rotation.z = q.z();
+    t.transform.rotation.w = q.w();
+    transforms.push_back(t);
+    sog_pubs.push_back(nh.advertise<SumOfGaussians>("cam" + std::to_string(i) + "/sog", 5));
+    info_pubs.push_back(
+        nh.advertise<sensor_msgs::CameraInfo>("cam" + std::to_string(i) + "/camera_info", 5));
+  }
+  static_tf.sendTransform(transforms);
+  ros::Publisher truth_pub = nh.advertise<geometry_msgs::PoseArray>("ground_truth/fingertips", 10);
+
+  ros::Duration(1.0).sleep();  // let the graph connect
+  const ros::Time start = ros::Time::now();
+  ros::Rate loop(rate);
+  long frame = 0;
+  while (ros::ok()) {
+    const ros::Time stamp = ros::Time::now();
+    const double t = (stamp - start).toSec();
+    if (duration > 0 && t > duration) break;
+    // Slow motion: the wrist sways 2 cm, the fingers flex a little.
+    Pose pose = sag_test::typicalPose(model);
+    pose.translation.x() += 0.02 * std::sin(2 * M_PI * 0.2 * t);
+    pose.translation.y() += 0.01 * std::sin(2 * M_PI * 0.13 * t);
+    for (int j = 0; j < kNumJointDof; ++j) {
+      const double range = model.joints[j].max - model.joints[j].min;
+      pose.joints[j] += 0.1 * range * std::sin(2 * M_PI * 0.25 * t);
+    }
+    clampToLimits(model, &pose);
+
+    for (int i = 0; i < n; ++i) {
+      if (drop.count(i) && t > drop_after) continue;
+      const std::string frame_id = "cam" + std::to_string(i) + "_optical_frame";
+      const bool broken_info = malformed && i == n - 2;
+      const bool broken_sog = malformed && i == n - 1;
+      if (!broken_info) {
+        sensor_msgs::CameraInfo info;
+        info.header.stamp = stamp;
+        info.header.frame_id = frame_id;
+        info.width = cameras[i].width;
+        info.height = cameras[i].height;
+        info.distortion_model = "plumb_bob";
+        info.D.assign(5, 0.0);
+        for (int k = 0; k < 9; ++k) info.K[k] = cameras[i].K(k / 3, k % 3);
+        info.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+        for (int r = 0; r < 3; ++r)
+          for (int c = 0; c < 3; ++c) info.P[r * 4 + c] = cameras[i].K(r, c);
+        info_pubs[i].publish(info);
+      }
+      SumOfGaussians msg = ros_util::sogToMsg(sag_test::modelImageSoG(model, pose, cameras[i]));
+      msg.header.stamp = stamp;
+      msg.header.frame_id = frame_id;
+      if (broken_sog) {
+        switch (frame % 4) {
+          case 0: msg.width /= 2; break;  // size does not match camera_info
+          case 1:
+            if (!msg.gaussians.empty()) msg.gaussians[0].x = std::numeric_limits<float>::quiet_NaN();
+            break;
+          case 2: msg.gaussians.clear(); break;  // an empty SoG
+          default: msg.header.frame_id = "no_such_frame"; break;
+        }
+      }
+      sog_pubs[i].publish(msg);
+    }
+    geometry_msgs::PoseArray truth;
+    truth.header.stamp = stamp;
+    truth.header.frame_id = "world";
+    for (const Eigen::Vector3d& tip : fingertips(model, pose)) {
+      geometry_msgs::Pose p;
+      p.position.x = tip.x();
+      p.position.y = tip.y();
+      p.position.z = tip.z();
+      p.orientation.w = 1.0;
+      truth.poses.push_back(p);
+    }
+    truth_pub.publish(truth);
+    ++frame;
+    loop.sleep();
+  }
+  return 0;
+}
