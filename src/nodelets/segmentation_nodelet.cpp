@@ -3,7 +3,7 @@
 //
 // Topics (relative to the nodelet's namespace, e.g. /cam0):
 //   in:  image_raw (rgb8 or bgr8) with camera_info, paired by image_transport::CameraSubscriber
-//   out: sog (sag_hand_tracker/ImageSoG, header = the image's header, means in raw pixels)
+//   out: sog (sag_hand_tracker/SumOfGaussians, header = the image's header, means in raw pixels)
 // Lazy: the camera is subscribed only while `sog` has subscribers, so the plate too is learned
 // only then.
 // Private parameters: background_file (load the plate from it when it exists; "" = learn),
@@ -11,7 +11,7 @@
 //   cfg/Segmentation.cfg (mode, quad-tree thresholds, background_frames, relearn_background).
 // The plate is learned from the first background_frames images (the hand must be out of view);
 // nothing is published for those images.
-#include "sag_hand_tracker/ros/sog_msg.h"  // first: see the header
+#include "sag_hand_tracker/SumOfGaussians.h"
 
 #include <cv_bridge/cv_bridge.h>
 #include <dynamic_reconfigure/server.h>
@@ -49,7 +49,7 @@ class SegmentationNodelet : public nodelet::Nodelet {
     loadBackgroundFile();
 
     auto connect = [this](const ros::SingleSubscriberPublisher&) { updateSubscription(); };
-    sog_pub_ = nh.advertise<ImageSoGMsg>("sog", 5, connect, connect);
+    sog_pub_ = nh.advertise<SumOfGaussians>("sog", 5, connect, connect);
   }
 
   void loadBackgroundFile() {
@@ -173,7 +173,7 @@ class SegmentationNodelet : public nodelet::Nodelet {
         return;
       }
       const ImageSoG sog = segmenter_.segment(rgb);
-      ImageSoGMsg msg = ros_util::sogToMsg(sog);
+      SumOfGaussians msg = ros_util::sogToMsg(sog);
       msg.header = image->header;
       sog_pub_.publish(msg);
     } catch (const std::exception& e) {

@@ -3,7 +3,7 @@
 // diagnostics, optional overlay images), all stamped with the image stamp.
 //
 // Topics (relative to the nodelet's namespace), i = 0..num_cameras-1:
-//   in:  cam<i>/sog (sag_hand_tracker/ImageSoG), cam<i>/camera_info,
+//   in:  cam<i>/sog (sag_hand_tracker/SumOfGaussians), cam<i>/camera_info,
 //        cam<i>/image_raw (only while cam<i>/overlay has subscribers)
 //   out: joint_states, markers, fingertips, status, cam<i>/overlay, /tf, /diagnostics
 // Private parameters: num_cameras (5), root_frame (world), model ("sag", "sog" or a path),
@@ -15,7 +15,7 @@
 // delivered its SoG for that stamp. A set still incomplete after camera_timeout (wall clock) is
 // processed with the cameras present, and the absent ones are marked missing (no longer waited
 // for) until they deliver again. Older incomplete sets are dropped when a newer one completes.
-#include "sag_hand_tracker/ros/sog_msg.h"  // first: see the header
+#include "sag_hand_tracker/SumOfGaussians.h"
 
 #include <cv_bridge/cv_bridge.h>
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -75,7 +75,7 @@ geometry_msgs::Quaternion toQuaternion(const Eigen::Matrix3d& rotation) {
 class TrackerNodelet : public nodelet::Nodelet {
  private:
   struct PendingSet {
-    std::vector<ImageSoGMsg::ConstPtr> sogs;  // per camera, null until it arrived
+    std::vector<SumOfGaussians::ConstPtr> sogs;  // per camera, null until it arrived
     ros::WallTime first_arrival;
     int count = 0;
   };
@@ -125,8 +125,8 @@ class TrackerNodelet : public nodelet::Nodelet {
     cameras_.resize(num_cameras_);
     for (int i = 0; i < num_cameras_; ++i) {
       const std::string cam = "cam" + std::to_string(i);
-      cameras_[i].sog_sub = nh.subscribe<ImageSoGMsg>(
-          cam + "/sog", 5, [this, i](const ImageSoGMsg::ConstPtr& msg) { onSoG(i, msg); });
+      cameras_[i].sog_sub = nh.subscribe<SumOfGaussians>(
+          cam + "/sog", 5, [this, i](const SumOfGaussians::ConstPtr& msg) { onSoG(i, msg); });
       cameras_[i].info_sub = nh.subscribe<sensor_msgs::CameraInfo>(
           cam + "/camera_info", 2, [this, i](const sensor_msgs::CameraInfo::ConstPtr& msg) {
             std::lock_guard<std::mutex> lock(mutex_);
@@ -181,7 +181,7 @@ class TrackerNodelet : public nodelet::Nodelet {
     }
   }
 
-  void onSoG(int camera, const ImageSoGMsg::ConstPtr& msg) {
+  void onSoG(int camera, const SumOfGaussians::ConstPtr& msg) {
     std::lock_guard<std::mutex> lock(mutex_);
     const ros::Time stamp = msg->header.stamp;
     if (stamp.isZero()) {
@@ -338,7 +338,7 @@ class TrackerNodelet : public nodelet::Nodelet {
   }
 
   // Caller holds mutex_.
-  bool makeObservation(int i, const ImageSoGMsg& msg, CameraObservation* observation,
+  bool makeObservation(int i, const SumOfGaussians& msg, CameraObservation* observation,
                        std::string* problem) {
     const sensor_msgs::CameraInfo::ConstPtr& info = cameras_[i].info;
     if (!info) {

@@ -8,7 +8,7 @@
 //   malformed (false): cam<last> sends malformed SoGs in turn (size not matching camera_info,
 //     a NaN Gaussian, no Gaussians at all, an unknown frame) and cam<last-1> never sends its
 //     camera_info.
-#include "sag_hand_tracker/ros/sog_msg.h"  // first: see the header
+#include "sag_hand_tracker/SumOfGaussians.h"
 
 #include <geometry_msgs/PoseArray.h>
 #include <ros/ros.h>
@@ -59,7 +59,7 @@ int main(int argc, char** argv) {
     t.transform.rotation.z = q.z();
     t.transform.rotation.w = q.w();
     transforms.push_back(t);
-    sog_pubs.push_back(nh.advertise<ImageSoGMsg>("cam" + std::to_string(i) + "/sog", 5));
+    sog_pubs.push_back(nh.advertise<SumOfGaussians>("cam" + std::to_string(i) + "/sog", 5));
     info_pubs.push_back(
         nh.advertise<sensor_msgs::CameraInfo>("cam" + std::to_string(i) + "/camera_info", 5));
   }
@@ -103,7 +103,7 @@ int main(int argc, char** argv) {
           for (int c = 0; c < 3; ++c) info.P[r * 4 + c] = cameras[i].K(r, c);
         info_pubs[i].publish(info);
       }
-      ImageSoGMsg msg = ros_util::sogToMsg(sag_test::modelImageSoG(model, pose, cameras[i]));
+      SumOfGaussians msg = ros_util::sogToMsg(sag_test::modelImageSoG(model, pose, cameras[i]));
       msg.header.stamp = stamp;
       msg.header.frame_id = frame_id;
       if (broken_sog) {

@@ -11,7 +11,7 @@ import rospy
 import rostest
 from rosgraph_msgs.msg import Log
 from sensor_msgs.msg import CameraInfo, Image
-from sag_hand_tracker.msg import ImageSoG
+from sag_hand_tracker.msg import SumOfGaussians
 
 W, H = 160, 120
 
@@ -58,7 +58,7 @@ class SegmentationInput(unittest.TestCase):
             if msg.level >= Log.WARN:
                 with lock:
                     self.warnings.append(msg.msg)
-        rospy.Subscriber("cam0/sog", ImageSoG, on_sog)
+        rospy.Subscriber("cam0/sog", SumOfGaussians, on_sog)
         rospy.Subscriber("/rosout", Log, on_log)
         img_pub = rospy.Publisher("cam0/image_raw", Image, queue_size=10)
         info_pub = rospy.Publisher("cam0/camera_info", CameraInfo, queue_size=10)

@@ -10,7 +10,7 @@
 #include <cmath>
 #include <string>
 
-#include "sag_hand_tracker/ros/sog_msg.h"
+#include "sag_hand_tracker/SumOfGaussians.h"
 #include "sag_hand_tracker/camera.h"
 #include "sag_hand_tracker/types.h"
 
@@ -39,7 +39,7 @@ inline Camera cameraFromInfo(const sensor_msgs::CameraInfo& info, const std::str
 
 // Core image SoG from the message (raw pixels). Throws InputError naming the first non-finite or
 // negative value.
-inline ImageSoG sogFromMsg(const sag_hand_tracker::ImageSoGMsg& msg) {
+inline ImageSoG sogFromMsg(const sag_hand_tracker::SumOfGaussians& msg) {
   ImageSoG sog;
   sog.width = static_cast<int>(msg.width);
   sog.height = static_cast<int>(msg.height);
@@ -56,8 +56,8 @@ inline ImageSoG sogFromMsg(const sag_hand_tracker::ImageSoGMsg& msg) {
   return sog;
 }
 
-inline sag_hand_tracker::ImageSoGMsg sogToMsg(const ImageSoG& sog) {
-  sag_hand_tracker::ImageSoGMsg msg;
+inline sag_hand_tracker::SumOfGaussians sogToMsg(const ImageSoG& sog) {
+  sag_hand_tracker::SumOfGaussians msg;
   msg.width = static_cast<uint32_t>(sog.width);
   msg.height = static_cast<uint32_t>(sog.height);
   msg.gaussians.resize(sog.gaussians.size());

@@ -1,0 +1,238 @@
+// track_bag end to end: a synthetic multi-camera bag written in the test (the hand model's
+// Gaussians drawn as skin-coloured ellipses over a desk, after a few frames of empty desk) is
+// tracked from its first frame; every bad input gets a one-line error and a non-zero exit.
+#include <gtest/gtest.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <std_msgs/String.h>
+#include <sys/wait.h>
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+#include "sag_hand_tracker/csv.h"
+#include "sag_hand_tracker/ros/bag_output.h"
+#include "sag_hand_tracker/ros/conversions.h"
+#include "test_support/rendered_scene.h"
+
+using namespace sag_hand_tracker;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr int kBackgroundFrames = 3;
+constexpr int kHandFrames = 8;
+
+ros::Time frameTime(int frame) { return ros::Time(1000, 0) + ros::Duration(0.04 * frame); }
+
+Pose truthAt(const HandModel& model, int hand_frame) {
+  Pose pose = sag_test::typicalPose(model);
+  pose.translation.x() += 0.003 * hand_frame;
+  pose.joints[4] += 0.03 * hand_frame;
+  return pose;
+}
+
+struct ToolRun {
+  int status = -1;
+  std::string out;
+  std::string err;
+};
+
+class TrackBagTool : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::random_device random;
+    dir_ = fs::temp_directory_path() / ("sag_track_bag_tool_" + std::to_string(random()));
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+
+  static std::string readAll(const std::string& file) {
+    std::ifstream in(file);
+    std::ostringstream text;
+    text << in.rdbuf();
+    return text.str();
+  }
+
+  ToolRun trackBag(const std::string& arguments) const {
+    const std::string command = std::string("'") + SAG_BIN_DIR + "/track_bag' " + arguments +
+                                " > '" + path("stdout.txt") + "' 2> '" + path("stderr.txt") + "'";
+    ToolRun run;
+    const int status = std::system(command.c_str());
+    run.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    run.out = readAll(path("stdout.txt"));
+    run.err = readAll(path("stderr.txt"));
+    return run;
+  }
+
+  std::string modelArgument() const {
+    return "--model '" + sag_test::modelPath("sag") + "' --background-frames " +
+           std::to_string(kBackgroundFrames);
+  }
+
+  // Runs track_bag on `bag` and expects exit 1 and exactly "track_bag: error: <bag>: <what>".
+  void expectError(const std::string& bag, const std::string& what) const {
+    const ToolRun run = trackBag("--bag '" + bag + "' --out '" + path("bad.csv") + "' " +
+                                 modelArgument() + " --quiet");
+    EXPECT_EQ(run.status, 1) << run.err;
+    EXPECT_EQ(run.err, "track_bag: error: " + bag + ": " + what + "\n");
+    EXPECT_FALSE(fs::exists(path("bad.csv"))) << "no CSV for a failed run";
+  }
+
+  fs::path dir_;
+};
+
+}  // namespace
+
+TEST_F(TrackBagTool, TrackBagTracksASyntheticBagFromItsFirstFrame) {
+  const HandModel model = loadHandModel(sag_test::modelPath("sag"));
+  const std::vector<Camera> cameras = sag_test::renderedRig();
+  {
+    BagWriter writer(path("scene.bag"));
+    writer.writeStaticTransforms("world", cameras, frameTime(0));
+    for (int frame = 0; frame < kBackgroundFrames + kHandFrames; ++frame) {
+      for (std::size_t i = 0; i < cameras.size(); ++i) {
+        const cv::Mat rgb = frame < kBackgroundFrames
+                                ? sag_test::desk(cameras[i])
+                                : sag_test::renderHand(
+                                      model, truthAt(model, frame - kBackgroundFrames), cameras[i]);
+        writer.writeCameraImage(cameras[i], rgb, frameTime(frame), i % 2 ? "bgr8" : "rgb8");
+      }
+    }
+  }
+  const ToolRun run = trackBag("--bag '" + path("scene.bag") + "' --out '" + path("track.csv") +
+                               "' " + modelArgument());
+  ASSERT_EQ(run.status, 0) << run.err << run.out;
+  EXPECT_NE(run.err.find("100% 11 frames"), std::string::npos) << run.err;  // progress bar
+  EXPECT_NE(run.out.find("frames:    11 (3 background, 8 tracked, 0 without a hand pose)"),
+            std::string::npos)
+      << run.out;
+  EXPECT_NE(run.out.find("cameras:   4 (cam0 cam1 cam2 cam3)"), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("frames/s (segmentation + optimisation over 8 frames"), std::string::npos)
+      << run.out;
+
+  const TrackingCsv csv = readTrackingCsv(path("track.csv"));
+  EXPECT_EQ(csv.parameter_names, model.parameterNames());
+  ASSERT_EQ(csv.rows.size(), static_cast<std::size_t>(kHandFrames));
+  double sum = 0.0;
+  for (int k = 0; k < kHandFrames; ++k) {
+    const TrackingCsvRow& row = csv.rows[k];
+    EXPECT_NEAR(row.stamp, frameTime(kBackgroundFrames + k).toSec(), 1e-6);
+    const auto truth = fingertips(model, truthAt(model, k));
+    double error = 0.0;
+    for (int f = 0; f < kNumFingers; ++f) error += (row.fingertips[f] - truth[f]).norm();
+    sum += error / kNumFingers;
+  }
+  // The tracker's accuracy is measured elsewhere; here: the rows are poses of this hand, in the
+  // bag's root frame.
+  EXPECT_LT(sum / kHandFrames, 0.03)
+      << "mean fingertip error " << 1000 * sum / kHandFrames << " mm";
+
+  // A camera subset, quietly.
+  const ToolRun subset = trackBag("--bag '" + path("scene.bag") + "' --out '" + path("subset.csv") +
+                                  "' " + modelArgument() + " --cameras 0,2,3 --quiet");
+  ASSERT_EQ(subset.status, 0) << subset.err;
+  EXPECT_EQ(subset.err, "");
+  EXPECT_NE(subset.out.find("cameras:   3 (cam0 cam2 cam3)"), std::string::npos) << subset.out;
+}
+
+TEST_F(TrackBagTool, TrackBagReportsAnEmptyResult) {
+  // Only the desk: nothing to track is an error, not a silently empty CSV.
+  const std::vector<Camera> cameras = sag_test::renderedRig();
+  {
+    BagWriter writer(path("desk.bag"));
+    writer.writeStaticTransforms("world", cameras, frameTime(0));
+    for (int frame = 0; frame < 5; ++frame) {
+      for (const Camera& camera : cameras) {
+        writer.writeCameraImage(camera, sag_test::desk(camera), frameTime(frame));
+      }
+    }
+  }
+  const ToolRun run = trackBag("--bag '" + path("desk.bag") + "' --out '" + path("desk.csv") +
+                               "' " + modelArgument() + " --quiet");
+  EXPECT_EQ(run.status, 1);
+  EXPECT_EQ(run.err,
+            "track_bag: error: no frame was tracked: the hand was not found in the 2 "
+            "frames after the 3 background frames (" +
+                path("desk.csv") + " holds only the header)\n");
+  EXPECT_TRUE(readTrackingCsv(path("desk.csv")).rows.empty());
+}
+
+TEST_F(TrackBagTool, TrackBagRejectsBadInputs) {
+  const std::vector<Camera> cameras = sag_test::renderedRig();
+  // A bag of 2 frames where `edit` may change or drop each image and camera_info.
+  auto bag = [&](const std::string& name, auto edit, bool with_tf = true) {
+    BagWriter writer(path(name));
+    if (with_tf) writer.writeStaticTransforms("world", cameras, frameTime(0));
+    for (int frame = 0; frame < 2; ++frame) {
+      for (std::size_t i = 0; i < 3; ++i) {
+        std_msgs::Header header;
+        header.stamp = frameTime(frame);
+        header.frame_id = opticalFrame(cameras[i].name);
+        sensor_msgs::Image image = toImageMsg(sag_test::desk(cameras[i]), header);
+        sensor_msgs::CameraInfo info = toCameraInfo(cameras[i]);
+        info.header = header;
+        bool write_image = true, write_info = true;
+        edit(static_cast<int>(i), &image, &info, &write_image, &write_info);
+        if (write_image) writer.write(imageTopicOf(cameras[i]), header.stamp, image);
+        if (write_info) writer.write(cameraInfoTopicOf(cameras[i]), header.stamp, info);
+      }
+    }
+    return path(name);
+  };
+
+  expectError(path("absent.bag"), "bag file does not exist");
+  { BagWriter empty(path("empty.bag")); }
+  expectError(path("empty.bag"), "the bag is empty: no frames");
+  {
+    BagWriter writer(path("chatter.bag"));
+    std_msgs::String text;
+    writer.write("/chatter", frameTime(0), text);
+  }
+  expectError(path("chatter.bag"),
+              "no image topics (/cam<i>/image_raw) in the bag; it has: /chatter");
+  expectError(bag("noinfo.bag", [](int i, sensor_msgs::Image*, sensor_msgs::CameraInfo*, bool*,
+                                   bool* write_info) { *write_info = i != 2; }),
+              "camera cam2 has no camera_info (no messages on /cam2/camera_info)");
+  expectError(bag(
+                  "notf.bag",
+                  [](int, sensor_msgs::Image*, sensor_msgs::CameraInfo*, bool*, bool*) {}, false),
+              "missing extrinsics for camera cam0: the bag has no /tf_static");
+  expectError(bag("mono.bag",
+                  [](int i, sensor_msgs::Image* image, sensor_msgs::CameraInfo*, bool*, bool*) {
+                    if (i != 1) return;
+                    image->encoding = "mono8";
+                    image->step = image->width;
+                    image->data.resize(image->step * image->height);
+                  }),
+              "/cam1/image_raw at 1000.000000: mono image (encoding 'mono8'): the tracker needs "
+              "colour images, rgb8 or bgr8");
+  expectError(bag("rgba.bag",
+                  [](int i, sensor_msgs::Image* image, sensor_msgs::CameraInfo*, bool*, bool*) {
+                    if (i == 0) image->encoding = "rgba8";
+                  }),
+              "/cam0/image_raw at 1000.000000: unsupported image encoding 'rgba8' (expected rgb8 "
+              "or bgr8)");
+  expectError(bag("size.bag",
+                  [](int i, sensor_msgs::Image*, sensor_msgs::CameraInfo* info, bool*, bool*) {
+                    if (i == 2) info->width = 640;
+                  }),
+              "/cam2/image_raw at 1000.000000: image is 320x240 but its camera_info says 640x240");
+}
+
+TEST_F(TrackBagTool, TrackBagUsageErrors) {
+  ToolRun run = trackBag("--out x.csv");
+  EXPECT_EQ(run.status, 2);
+  EXPECT_EQ(run.err, "track_bag: --bag is required\nRun 'track_bag --help' for the options.\n");
+  run = trackBag("--bag a.bag --out x.csv --cameras 1,1");
+  EXPECT_EQ(run.status, 2);
+  run = trackBag("--help");
+  EXPECT_EQ(run.status, 0);
+  EXPECT_NE(run.out.find("Usage: track_bag --bag IN.bag --out OUT.csv"), std::string::npos);
+  run = trackBag("--bag a.bag --out '" + path("x.csv") + "' --model '" + path("nope.yaml") + "'");
+  EXPECT_EQ(run.status, 1);
+  EXPECT_NE(run.err.find("nope.yaml"), std::string::npos) << run.err;
+}

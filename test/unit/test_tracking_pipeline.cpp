@@ -1,0 +1,141 @@
+#include <gtest/gtest.h>
+
+#include "sag_hand_tracker/tracking_pipeline.h"
+#include "test_support/rendered_scene.h"
+
+using namespace sag_hand_tracker;
+using namespace sag_test;
+
+namespace {
+
+FrameSet makeSet(int frame, const std::vector<cv::Mat>& images) {
+  FrameSet set;
+  set.stamp_ns = 1000000000LL + 40000000LL * frame;
+  for (std::size_t i = 0; i < images.size(); ++i) {
+    if (!images[i].empty()) set.images.push_back({static_cast<int>(i), images[i]});
+  }
+  return set;
+}
+
+std::vector<cv::Mat> deskImages(const std::vector<Camera>& cameras) {
+  std::vector<cv::Mat> images;
+  for (const Camera& camera : cameras) images.push_back(desk(camera));
+  return images;
+}
+
+std::vector<cv::Mat> handImages(const HandModel& model, const Pose& pose,
+                                const std::vector<Camera>& cameras) {
+  std::vector<cv::Mat> images;
+  for (const Camera& camera : cameras) images.push_back(renderHand(model, pose, camera));
+  return images;
+}
+
+double meanFingertipError(const std::array<Eigen::Vector3d, kNumFingers>& a,
+                          const std::array<Eigen::Vector3d, kNumFingers>& b) {
+  double sum = 0.0;
+  for (int f = 0; f < kNumFingers; ++f) sum += (a[f] - b[f]).norm();
+  return sum / kNumFingers;
+}
+
+template <typename Action>
+std::string errorOf(Action action) {
+  try {
+    action();
+  } catch (const InputError& error) {
+    return error.what();
+  }
+  return "no InputError";
+}
+
+}  // namespace
+
+TEST(Pipeline, PipelineLearnsTheBackgroundThenTracks) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = renderedRig();
+  PipelineParams params;
+  params.background_frames = 2;
+  TrackingPipeline pipeline(model, cameras, params);
+  EXPECT_EQ(pipeline.params().segmentation.background.frames, 2);
+
+  for (int frame = 0; frame < 2; ++frame) {
+    const ProcessedFrame processed = pipeline.process(makeSet(frame, deskImages(cameras)));
+    EXPECT_TRUE(processed.background);
+    EXPECT_FALSE(processed.result.has_pose);
+    EXPECT_EQ(processed.result.status, TrackStatus::kWaiting);
+    EXPECT_EQ(processed.image_gaussians, 0);
+  }
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_EQ(pipeline.segmenter(i).backgroundFrameCount(), 2);
+    EXPECT_TRUE(pipeline.segmenter(i).backgroundReady());
+    EXPECT_EQ(pipeline.segmenter(i).effectiveMode(), SegmentationMode::plate);
+  }
+
+  // The first frame with the hand: found without an initial pose.
+  const Pose truth = typicalPose(model);
+  const ProcessedFrame first = pipeline.process(makeSet(2, handImages(model, truth, cameras)));
+  EXPECT_FALSE(first.background);
+  ASSERT_TRUE(first.result.has_pose);
+  EXPECT_EQ(first.result.status, TrackStatus::kStarted);
+  EXPECT_EQ(first.result.num_cameras, 4);
+  EXPECT_NEAR(first.result.stamp, 1.08, 1e-9);
+  EXPECT_GT(first.image_gaussians, 40);
+  EXPECT_GT(first.segmentation_seconds, 0.0);
+  EXPECT_GT(first.tracking_seconds, 0.0);
+  EXPECT_LT(meanFingertipError(first.result.fingertips, fingertips(model, truth)), 0.03);
+
+  // A set with a camera missing is tracked with the cameras present.
+  Pose moved = truth;
+  moved.translation.x() += 0.004;
+  std::vector<cv::Mat> three = handImages(model, moved, cameras);
+  three[1] = cv::Mat();
+  const ProcessedFrame next = pipeline.process(makeSet(3, three));
+  ASSERT_TRUE(next.result.has_pose);
+  EXPECT_EQ(next.result.status, TrackStatus::kTracking);
+  EXPECT_EQ(next.result.num_cameras, 3);
+  EXPECT_LT(meanFingertipError(next.result.fingertips, fingertips(model, moved)), 0.03);
+  EXPECT_EQ(pipeline.setsSeen(), 4);
+
+  pipeline.reset();
+  EXPECT_EQ(pipeline.setsSeen(), 0);
+  EXPECT_EQ(pipeline.segmenter(0).backgroundFrameCount(), 0);
+  EXPECT_TRUE(pipeline.process(makeSet(4, deskImages(cameras))).background);
+}
+
+TEST(Pipeline, PipelineWithoutBackgroundFramesTracksFromTheFirstSet) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = renderedRig();
+  PipelineParams params;
+  params.background_frames = 0;
+  TrackingPipeline pipeline(model, cameras, params);
+  EXPECT_EQ(pipeline.segmenter(0).effectiveMode(), SegmentationMode::skin);
+  const Pose truth = typicalPose(model);
+  const ProcessedFrame processed = pipeline.process(makeSet(0, handImages(model, truth, cameras)));
+  EXPECT_FALSE(processed.background);
+  ASSERT_TRUE(processed.result.has_pose);
+  EXPECT_LT(meanFingertipError(processed.result.fingertips, fingertips(model, truth)), 0.03);
+}
+
+TEST(Pipeline, PipelineRejectsBadInput) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  std::vector<Camera> cameras = renderedRig();
+  TrackingPipeline pipeline(model, cameras, PipelineParams());
+
+  FrameSet unknown = makeSet(0, {desk(cameras[0])});
+  unknown.images[0].camera = 7;
+  EXPECT_EQ(errorOf([&] { pipeline.process(unknown); }),
+            "image of unknown camera index 7 (4 cameras)");
+  const FrameSet small = makeSet(0, {cv::Mat(120, 160, CV_8UC3, cv::Scalar(1, 2, 3))});
+  EXPECT_EQ(errorOf([&] { pipeline.process(small); }),
+            "camera 'cam0': image is 160x120 but its calibration says 320x240");
+  EXPECT_EQ(pipeline.setsSeen(), 0);
+
+  PipelineParams negative;
+  negative.background_frames = -1;
+  EXPECT_EQ(errorOf([&] { TrackingPipeline(model, cameras, negative); }),
+            "background_frames must be >= 0, got -1");
+  EXPECT_EQ(errorOf([&] { TrackingPipeline(model, {cameras[0]}, PipelineParams()); }),
+            "the tracker starts from at least 2 cameras that see the hand, but there are 1");
+  cameras[2].K(0, 0) = 0.0;
+  EXPECT_NE(errorOf([&] { TrackingPipeline(model, cameras, PipelineParams()); }).find("cam2"),
+            std::string::npos);
+}
