@@ -1,0 +1,193 @@
+// render_bag end to end: the bag holds exactly the interface track_bag reads (through BagReader),
+// the ground truth in the bag and in the CSV agree with each other and with the studio sequence
+// recomputed here, and bad input gets a one-line error and a non-zero exit.
+#include <geometry_msgs/PoseArray.h>
+#include <gtest/gtest.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/JointState.h>
+#include <sys/wait.h>
+
+#include <filesystem>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <random>
+#include <sstream>
+
+#include "sag_hand_tracker/calibration.h"
+#include "sag_hand_tracker/csv.h"
+#include "sag_hand_tracker/hand_model.h"
+#include "sag_hand_tracker/ros/bag_input.h"
+#include "sag_hand_tracker/studio/motion.h"
+#include "sag_hand_tracker/studio/sequence.h"
+
+using namespace sag_hand_tracker;
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kConfig = std::string(SAG_SOURCE_DIR) + "/config";
+
+struct ToolRun {
+  int status = -1;
+  std::string out;
+  std::string err;
+};
+
+class RenderBagTool : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::random_device random;
+    dir_ = fs::temp_directory_path() / ("sag_render_bag_tool_" + std::to_string(random()));
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+
+  static std::string readAll(const std::string& file) {
+    std::ifstream in(file);
+    std::ostringstream text;
+    text << in.rdbuf();
+    return text.str();
+  }
+
+  ToolRun renderBag(const std::string& arguments) const {
+    const std::string command = std::string("'") + SAG_BIN_DIR + "/render_bag' --config-dir '" +
+                                kConfig + "' " + arguments + " > '" + path("stdout.txt") +
+                                "' 2> '" + path("stderr.txt") + "'";
+    ToolRun run;
+    const int status = std::system(command.c_str());
+    run.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    run.out = readAll(path("stdout.txt"));
+    run.err = readAll(path("stderr.txt"));
+    return run;
+  }
+
+  fs::path dir_;
+};
+
+}  // namespace
+
+TEST_F(RenderBagTool, WritesTheTrackBagInterfaceWithAgreeingGroundTruth) {
+  constexpr int kFrames = 14;  // 10 empty + 4 with the hand
+  const ToolRun run = renderBag("--sequence pinch --rig dexter5 --frames 14 --seed 3 --out '" +
+                                path("p.bag") + "' --gt-csv '" + path("p.csv") + "' --preview '" +
+                                path("p.png") + "' --preview-frame 12 --start-stamp 1000");
+  ASSERT_EQ(run.status, 0) << run.err;
+  EXPECT_NE(run.err.find("frames/s"), std::string::npos) << run.err;
+
+  // The images: what track_bag reads, through the same reader.
+  const CameraRig rig = loadCameraRig(kConfig + "/rigs/dexter5/rig.yaml");
+  BagReader reader(path("p.bag"));
+  ASSERT_EQ(reader.cameras().size(), 5u);
+  EXPECT_EQ(reader.rootFrame(), "world");
+  for (size_t c = 0; c < 5; ++c) {
+    EXPECT_EQ(reader.cameras()[c].name, rig.cameras[c].name);
+    EXPECT_LT((reader.cameras()[c].K - rig.cameras[c].K).norm(), 1e-9);
+    EXPECT_LT(
+        (reader.cameras()[c].world_to_camera.matrix() - rig.cameras[c].world_to_camera.matrix())
+            .norm(),
+        1e-6);
+  }
+  std::vector<std::int64_t> stamps;
+  FrameSet set;
+  while (reader.next(&set)) {
+    ASSERT_EQ(set.images.size(), 5u) << "stamp " << set.stamp_ns;
+    for (const CameraImage& image : set.images) {
+      EXPECT_EQ(image.rgb.cols, 320);
+      EXPECT_EQ(image.rgb.rows, 240);
+    }
+    stamps.push_back(set.stamp_ns);
+  }
+  ASSERT_EQ(stamps.size(), static_cast<size_t>(kFrames));
+  for (int k = 0; k < kFrames; ++k) {
+    EXPECT_EQ(stamps[k], 1000000000000LL + 40000000LL * k);  // 1000 s + k / 25 fps, exactly
+  }
+
+  // Ground truth in the bag, for the frames with the hand (10..13).
+  rosbag::Bag bag(path("p.bag"));
+  std::vector<sensor_msgs::JointState> joints;
+  std::vector<geometry_msgs::PoseArray> tips;
+  for (const rosbag::MessageInstance& m : rosbag::View(bag)) {
+    if (m.getTopic() == "/ground_truth/joint_states") {
+      joints.push_back(*m.instantiate<sensor_msgs::JointState>());
+      EXPECT_EQ(m.getTime(), joints.back().header.stamp);
+    } else if (m.getTopic() == "/ground_truth/fingertips") {
+      tips.push_back(*m.instantiate<geometry_msgs::PoseArray>());
+    }
+  }
+  const HandModel model = loadHandModel(resolveModelPath("sag", kConfig));
+  ASSERT_EQ(joints.size(), 4u);
+  ASSERT_EQ(tips.size(), 4u);
+  const TrackingCsv csv = readTrackingCsv(path("p.csv"));
+  EXPECT_EQ(csv.parameter_names, model.parameterNames());
+  ASSERT_EQ(csv.rows.size(), 4u);
+
+  // The same sequence, recomputed here.
+  const studio::StudioSequence sequence(
+      model, studio::loadMotion(kConfig + "/motions/pinch.yaml", model, 3),
+      studio::SequenceParams());
+  for (int i = 0; i < 4; ++i) {
+    SCOPED_TRACE("hand frame " + std::to_string(i));
+    const studio::StudioFrame truth = sequence.frame(10 + i);
+    EXPECT_EQ(static_cast<std::int64_t>(joints[i].header.stamp.toNSec()), stamps[10 + i]);
+    EXPECT_EQ(tips[i].header.stamp, joints[i].header.stamp);
+    EXPECT_EQ(joints[i].header.frame_id, "world");
+    EXPECT_EQ(tips[i].header.frame_id, "world");
+    EXPECT_EQ(joints[i].name, model.parameterNames());
+    ASSERT_EQ(joints[i].position.size(), 26u);
+    ASSERT_EQ(tips[i].poses.size(), 5u);
+    const auto& row = csv.rows[i];
+    EXPECT_NEAR(row.stamp, joints[i].header.stamp.toSec(), 1e-6);
+    EXPECT_EQ(row.energy, 0.0);
+    const PoseVector parameters = truth.pose.toVector();
+    for (int p = 0; p < 26; ++p) {
+      EXPECT_NEAR(joints[i].position[p], parameters[p], 1e-12);
+      EXPECT_NEAR(row.parameters[p], joints[i].position[p], 1e-8);
+    }
+    for (int f = 0; f < 5; ++f) {
+      const auto& position = tips[i].poses[f].position;
+      const Eigen::Vector3d tip(position.x, position.y, position.z);
+      EXPECT_LT((tip - truth.fingertips[f]).norm(), 1e-12);
+      EXPECT_LT((row.fingertips[f] - tip).norm(), 1e-8);
+    }
+  }
+
+  const cv::Mat sheet = cv::imread(path("p.png"));
+  EXPECT_EQ(sheet.cols, 960);
+  EXPECT_EQ(sheet.rows, 480);
+}
+
+TEST_F(RenderBagTool, BadInputGetsAOneLineErrorAndNonZeroExit) {
+  const std::string out = " --out '" + path("x.bag") + "'";
+  struct Case {
+    std::string arguments;
+    int status;
+    std::string message;
+  };
+  std::ofstream(path("bad_motion.yaml"))
+      << "keyframes:\n  - {time: 0, position: [0, 0, 0.15], joints: {index_pip_flex: 130}}\n";
+  const std::vector<Case> cases{
+      {"--sequence nosuch" + out, 1, "motion nosuch: cannot open the file"},
+      {"--sequence pinch --rig nosuchrig" + out, 1, "no camera rig 'nosuchrig'"},
+      {"--sequence '" + path("bad_motion.yaml") + "'" + out, 1, "outside its limits"},
+      {"--sequence pinch --model '" + path("none.yaml") + "'" + out, 1, "none.yaml"},
+      {"--sequence pinch --frames 5 --preview-frame 7 --preview '" + path("x.png") + "'" + out, 1,
+       "--preview-frame 7 is past the last frame 4"},
+      {"--sequence pinch", 2, "--out is required"},
+      {"--out x.bag", 2, "--sequence is required"},
+      {"--sequence pinch --fps 0" + out, 2, "--fps must be in (0, 1000]"},
+      {"--sequence pinch --frames two" + out, 2, "--frames needs a number, not 'two'"},
+      {"--sequence pinch --colour red" + out, 2, "unknown argument '--colour'"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.arguments);
+    const ToolRun run = renderBag(c.arguments + " --quiet");
+    EXPECT_EQ(run.status, c.status);
+    EXPECT_NE(run.err.find(c.message), std::string::npos) << run.err;
+    if (c.status == 1) {
+      EXPECT_EQ(run.err.find("render_bag: error: "), 0u) << run.err;
+      EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
+    }
+  }
+}
