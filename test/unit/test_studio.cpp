@@ -8,6 +8,7 @@
 #include <opencv2/core.hpp>
 #include <random>
 
+#include "sag_hand_tracker/calibration.h"
 #include "sag_hand_tracker/colour.h"
 #include "sag_hand_tracker/hand_model.h"
 #include "sag_hand_tracker/kinematics.h"
@@ -17,7 +18,6 @@
 #include "sag_hand_tracker/studio/primitives.h"
 #include "sag_hand_tracker/studio/renderer.h"
 #include "sag_hand_tracker/studio/sequence.h"
-#include "studio_test_support.h"
 
 using namespace sag_hand_tracker;
 using namespace sag_hand_tracker::studio;
@@ -34,7 +34,7 @@ const HandModel& handModel() {
 
 const std::vector<Camera>& dexter5() {
   static const std::vector<Camera> cameras =
-      studio_test::readRig(kSourceDir + "/config/rigs/dexter5/rig.yaml");
+      loadCameraRig(kSourceDir + "/config/rigs/dexter5/rig.yaml").cameras;
   return cameras;
 }
 
@@ -607,6 +607,25 @@ TEST(StudioMotion, BuiltinSequencesParseStayInLimitsAndInView) {
   for (const auto& [name, speed] : mean_speed) {
     if (name != "random") EXPECT_GT(mean_speed["random"], speed) << name;
   }
+}
+
+TEST(StudioMotion, SixtyFramesPerSecondSamplesTheSameMotion) {
+  SequenceParams at25, at60;
+  at60.fps = 60.0;
+  const StudioSequence a(handModel(), builtinMotion("fingerwave", 1), at25);
+  const StudioSequence b(handModel(), builtinMotion("fingerwave", 1), at60);
+  EXPECT_EQ(a.frameCount(), 300);
+  EXPECT_EQ(b.frameCount(), 720);
+  EXPECT_DOUBLE_EQ(b.frame(60).time, 1.0);
+  EXPECT_EQ((a.frame(25).pose.toVector() - b.frame(60).pose.toVector()).norm(), 0.0);
+  EXPECT_FALSE(b.frame(9).hand_present);  // the empty frames are frames, not seconds
+  EXPECT_TRUE(b.frame(10).hand_present);
+  SequenceParams bad;
+  bad.fps = 0.0;
+  EXPECT_THROW(StudioSequence(handModel(), builtinMotion("fingerwave", 1), bad), InputError);
+  bad = SequenceParams();
+  bad.motion_blur_samples = 0;
+  EXPECT_THROW(StudioSequence(handModel(), builtinMotion("fingerwave", 1), bad), InputError);
 }
 
 TEST(StudioMotion, InterpolationPassesThroughKeyframesAndHolds) {
