@@ -8,6 +8,9 @@ namespace sag_hand_tracker {
 // RGB in [0, 255] to HSV (h degrees, s and v in [0, 1]).
 Hsv rgbToHsv(double r, double g, double b);
 
+// HSV (h degrees, s and v in [0, 1]) to RGB in [0, 1], for display.
+Eigen::Vector3d hsvToRgb(const Hsv& hsv);
+
 // Radii of the scaled HSV distance: colours further apart than 1 in this metric are dissimilar.
 struct ColourSimilarityParams {
   double hue_radius_deg = 40.0;

@@ -27,6 +27,34 @@ Hsv rgbToHsv(double r, double g, double b) {
   return Hsv(hue, saturation, max);
 }
 
+Eigen::Vector3d hsvToRgb(const Hsv& hsv) {
+  const double h = std::fmod(std::fmod(hsv[0], 360.0) + 360.0, 360.0) / 60.0;
+  const double s = std::clamp(hsv[1], 0.0, 1.0), v = std::clamp(hsv[2], 0.0, 1.0);
+  const double c = v * s, x = c * (1.0 - std::fabs(std::fmod(h, 2.0) - 1.0)), m = v - c;
+  Eigen::Vector3d rgb;
+  switch (static_cast<int>(h)) {
+    case 0:
+      rgb << c, x, 0;
+      break;
+    case 1:
+      rgb << x, c, 0;
+      break;
+    case 2:
+      rgb << 0, c, x;
+      break;
+    case 3:
+      rgb << 0, x, c;
+      break;
+    case 4:
+      rgb << x, 0, c;
+      break;
+    default:
+      rgb << c, 0, x;
+      break;
+  }
+  return rgb + Eigen::Vector3d::Constant(m);
+}
+
 double wendland(double r) {
   if (r >= 1.0) return 0.0;
   const double one_minus = 1.0 - r;

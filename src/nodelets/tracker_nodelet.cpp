@@ -41,6 +41,7 @@
 #include <mutex>
 #include <opencv2/imgproc.hpp>
 
+#include "sag_hand_tracker/ros/conversions.h"
 #include "sag_hand_tracker/ros/sog_conversions.h"
 #include "sag_hand_tracker/TrackerConfig.h"
 #include "sag_hand_tracker/TrackingStatus.h"
@@ -363,7 +364,9 @@ class TrackerNodelet : public nodelet::Nodelet {
       return false;
     }
     try {
-      observation->camera = ros_util::cameraFromInfo(*info, cam, transform.transform);
+      observation->camera = fromCameraInfo(*info, cam);
+      // tf gives the pose of the optical frame in the root frame; the camera wants root -> camera.
+      observation->camera.world_to_camera = toIsometry(transform.transform).inverse();
       validateCamera(observation->camera);
       observation->sog = ros_util::sogFromMsg(msg);
       undistortImageSoG(observation->camera, &observation->sog);
@@ -430,7 +433,7 @@ class TrackerNodelet : public nodelet::Nodelet {
       m.scale.x = 2.0 * sigma[0];
       m.scale.y = 2.0 * sigma[1];
       m.scale.z = 2.0 * sigma[2];
-      const Eigen::Vector3d rgb = ros_util::hsvToRgb(model_.gaussians[g].hsv);
+      const Eigen::Vector3d rgb = hsvToRgb(model_.gaussians[g].hsv);
       m.color.r = static_cast<float>(rgb[0]);
       m.color.g = static_cast<float>(rgb[1]);
       m.color.b = static_cast<float>(rgb[2]);
@@ -513,7 +516,7 @@ class TrackerNodelet : public nodelet::Nodelet {
         const Eigen::Vector2d axes = eig.eigenvalues().cwiseMax(0.0).cwiseSqrt();
         const double angle =
             std::atan2(eig.eigenvectors()(1, 1), eig.eigenvectors()(0, 1)) * 180.0 / M_PI;
-        const Eigen::Vector3d rgb = ros_util::hsvToRgb(model_.gaussians[g].hsv) * 255.0;
+        const Eigen::Vector3d rgb = hsvToRgb(model_.gaussians[g].hsv) * 255.0;
         if (!p.mean.allFinite() || !axes.allFinite()) continue;
         cv::ellipse(cv->image, cv::Point2d(p.mean.x(), p.mean.y()),
                     cv::Size2d(axes[1], axes[0]), angle, 0, 360,

@@ -31,3 +31,11 @@ TEST(Colour, HueIsCircular) {
   EXPECT_DOUBLE_EQ(colourSimilarity(a, a, params), 1.0);
   EXPECT_DOUBLE_EQ(colourSimilarity(Hsv(20, 0.6, 0.7), Hsv(200, 0.6, 0.7), params), 0.0);
 }
+
+TEST(Colour, HsvToRgbInvertsRgbToHsv) {
+  for (const Eigen::Vector3d rgb : {Eigen::Vector3d(200, 150, 120), Eigen::Vector3d(10, 240, 30),
+                                    Eigen::Vector3d(90, 20, 250), Eigen::Vector3d(128, 128, 128)}) {
+    const Eigen::Vector3d back = hsvToRgb(rgbToHsv(rgb[0], rgb[1], rgb[2])) * 255.0;
+    EXPECT_LT((back - rgb).norm(), 1e-9) << rgb.transpose();
+  }
+}
