@@ -28,7 +28,12 @@ struct TrackerParams {
   int min_foreground_gaussians = 8;
   int min_cameras_for_start = 2;
   // Iterations spent on each start hypothesis.
-  int start_iterations = 30;
+  int start_iterations = 40;
+  // Every this many tracked frames, the start routine runs as well and replaces the tracked pose
+  // when it finds a clearly better one (energy higher by `redetect_margin`); 0 disables it. This
+  // recovers tracks that converged to a wrong but stable pose, which the similarity cannot flag.
+  int redetect_interval = 25;
+  double redetect_margin = 0.005;
   // The track counts as lost when the normalised similarity drops below `lost_similarity`, or
   // below `lost_ratio` times its running average over the recent tracked frames.
   double lost_similarity = 0.15;
@@ -71,6 +76,7 @@ class HandTracker {
   std::optional<Pose> current_;
   bool lost_ = false;
   double typical_similarity_ = 0.0;  // running average while tracking (0: none yet)
+  int frames_since_start_ = 0;
   bool looksLost(double similarity) const;
 };
 

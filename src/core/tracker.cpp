@@ -9,7 +9,9 @@ namespace {
 
 // Palm-frame point that the foreground centroid is taken to be (the middle of the hand).
 const Eigen::Vector3d kHandCentreInPalm(0.065, 0.0, 0.0);
-constexpr int kHypothesesKept = 4;
+constexpr size_t kCoarseKept = 24;
+constexpr int kCoarseIterations = 8;
+constexpr size_t kHypothesesKept = 4;
 
 // The foreground centroid of one camera, as a ray in the root frame.
 struct Ray {
@@ -17,17 +19,15 @@ struct Ray {
   Eigen::Vector3d direction;
 };
 
-// Orientation hypotheses: the fingers along 14 directions (axes and diagonals), each with 4 rolls
-// of the palm about them.
+// Orientation hypotheses: the fingers along the 26 directions of a cube's faces, edges and
+// corners, each with 8 rolls of the palm about them (208 orientations, <= 45 degrees apart).
 std::vector<Eigen::Matrix3d> orientationHypotheses() {
   std::vector<Eigen::Vector3d> directions;
-  for (int axis = 0; axis < 3; ++axis) {
-    directions.push_back(Eigen::Vector3d::Unit(axis));
-    directions.push_back(-Eigen::Vector3d::Unit(axis));
-  }
-  for (int sx : {-1, 1}) {
-    for (int sy : {-1, 1}) {
-      for (int sz : {-1, 1}) directions.push_back(Eigen::Vector3d(sx, sy, sz).normalized());
+  for (int x = -1; x <= 1; ++x) {
+    for (int y = -1; y <= 1; ++y) {
+      for (int z = -1; z <= 1; ++z) {
+        if (x != 0 || y != 0 || z != 0) directions.push_back(Eigen::Vector3d(x, y, z).normalized());
+      }
     }
   }
   std::vector<Eigen::Matrix3d> rotations;
@@ -35,8 +35,8 @@ std::vector<Eigen::Matrix3d> orientationHypotheses() {
     const Eigen::Vector3d helper =
         std::fabs(x.z()) < 0.9 ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d::UnitX();
     const Eigen::Vector3d z0 = (helper - helper.dot(x) * x).normalized();
-    for (int roll = 0; roll < 4; ++roll) {
-      const Eigen::Vector3d z = Eigen::AngleAxisd(roll * M_PI / 2.0, x) * z0;
+    for (int roll = 0; roll < 8; ++roll) {
+      const Eigen::Vector3d z = Eigen::AngleAxisd(roll * M_PI / 4.0, x) * z0;
       Eigen::Matrix3d rotation;
       rotation.col(0) = x;
       rotation.col(1) = z.cross(x);
@@ -90,6 +90,7 @@ void HandTracker::reset() {
   current_.reset();
   lost_ = false;
   typical_similarity_ = 0.0;
+  frames_since_start_ = 0;
 }
 
 bool HandTracker::looksLost(double similarity) const {
@@ -126,29 +127,38 @@ std::optional<OptimizationResult> HandTracker::startFromHypotheses(
     return std::nullopt;
   }
 
-  // Score every orientation hypothesis of an open hand there; refine the best few.
-  struct Scored {
-    double energy;
-    Pose pose;
-  };
-  std::vector<Scored> scored;
+  // Score every orientation hypothesis of an open hand there, then refine in two stages: a few
+  // iterations for the best `kCoarseKept`, all `start_iterations` for the best `kHypothesesKept`
+  // of those. A raw hypothesis' energy says little until its translation has settled.
+  std::vector<OptimizationResult> candidates;
   for (const Eigen::Matrix3d& rotation : orientationHypotheses()) {
-    const Pose pose = neutralPose(model_, centre - rotation * kHandCentreInPalm, rotation);
-    scored.push_back({energy.evaluate(pose), pose});
+    OptimizationResult candidate;
+    candidate.pose = neutralPose(model_, centre - rotation * kHandCentreInPalm, rotation);
+    candidate.energy = energy.evaluate(candidate.pose);
+    candidates.push_back(candidate);
   }
-  if (current_) scored.push_back({energy.evaluate(*current_), *current_});
-  const size_t kept = std::min<size_t>(kHypothesesKept, scored.size());
-  std::partial_sort(scored.begin(), scored.begin() + kept, scored.end(),
-                    [](const Scored& a, const Scored& b) { return a.energy > b.energy; });
-
-  OptimizerParams start_params = params_.optimizer;
-  start_params.iterations = params_.start_iterations;
-  std::optional<OptimizationResult> best;
-  for (size_t i = 0; i < kept; ++i) {
-    const OptimizationResult result = optimizePose(energy, scored[i].pose, start_params);
-    if (!best || result.energy > best->energy) best = result;
+  if (current_) candidates.push_back({*current_, energy.evaluate(*current_), 1});
+  auto keep_best = [&candidates](size_t count) {
+    count = std::min(count, candidates.size());
+    std::partial_sort(candidates.begin(), candidates.begin() + count, candidates.end(),
+                      [](const OptimizationResult& a, const OptimizationResult& b) {
+                        return a.energy > b.energy;
+                      });
+    candidates.resize(count);
+  };
+  OptimizerParams stage_params = params_.optimizer;
+  keep_best(kCoarseKept);
+  stage_params.iterations = kCoarseIterations;
+  for (OptimizationResult& candidate : candidates) {
+    candidate = optimizePose(energy, candidate.pose, stage_params);
   }
-  return best;
+  keep_best(kHypothesesKept);
+  stage_params.iterations = params_.start_iterations;
+  for (OptimizationResult& candidate : candidates) {
+    candidate = optimizePose(energy, candidate.pose, stage_params);
+  }
+  keep_best(1);
+  return candidates.front();
 }
 
 FrameResult HandTracker::update(const std::vector<CameraObservation>& observations, double stamp) {
@@ -166,13 +176,19 @@ FrameResult HandTracker::update(const std::vector<CameraObservation>& observatio
     optimized = optimizePose(energy, start, params_.optimizer);
     EnergyTerms terms;
     energy.evaluate(optimized->pose, nullptr, &terms);
-    if (looksLost(terms.similarity)) {
-      // The track looks lost: try the start routine on this frame and keep the better one.
+    const bool redetect = params_.redetect_interval > 0 &&
+                          frames_since_start_ + 1 >= params_.redetect_interval;
+    const bool lost = looksLost(terms.similarity);
+    if (lost || redetect) {
+      // Try the start routine on this frame and keep its result if it is better (clearly better
+      // for a periodic re-detection, so that the track does not jitter between near-equal poses).
+      const double margin = lost ? 0.0 : params_.redetect_margin;
       const std::optional<OptimizationResult> restart = startFromHypotheses(energy, observations);
-      if (restart && restart->energy > optimized->energy) {
+      if (restart && restart->energy > optimized->energy + margin) {
         optimized = restart;
         started = true;
       }
+      if (redetect) frames_since_start_ = 0;
     }
   } else {
     optimized = startFromHypotheses(energy, observations);
@@ -199,6 +215,7 @@ FrameResult HandTracker::update(const std::vector<CameraObservation>& observatio
   result.status =
       lost_ ? TrackStatus::kLost : (started ? TrackStatus::kStarted : TrackStatus::kTracking);
 
+  frames_since_start_ = started ? 0 : frames_since_start_ + 1;
   // A (re)start breaks the motion history: do not extrapolate across it.
   previous_ = started ? std::optional<Pose>() : current_;
   current_ = optimized->pose;
