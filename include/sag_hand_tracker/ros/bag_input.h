@@ -1,0 +1,81 @@
+// Streamed reading of a multi-camera bag without a ROS master (rosbag_storage).
+//
+// A bag is a complete input (DESIGN.md section 6) when it holds, for cameras i = 0..N-1:
+//   /cam<i>/image_raw    sensor_msgs/Image, rgb8 or bgr8
+//   /cam<i>/camera_info  sensor_msgs/CameraInfo (the first message is the calibration)
+//   /tf_static           tf2_msgs/TFMessage: root -> cam<i>_optical_frame (or the camera_info's
+//                        frame_id), directly or through intermediate frames
+// Images are grouped into frame sets by identical header stamps. Reading is streamed: the bag's
+// index is read when it opens, then one image at a time; at most a few sets are held while a set
+// waits for its late images.
+//
+// Decode time is measured separately from processing: BagReader::next() does all the reading,
+// deserialising and colour conversion, and accumulates its own time in statistics().
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "sag_hand_tracker/camera.h"
+#include "sag_hand_tracker/frame_set.h"
+
+namespace sag_hand_tracker {
+
+struct BagReaderOptions {
+  // Camera ids (the i of cam<i>) to read; empty = every camera in the bag. Sets are then made of
+  // these cameras only, in this order of ids (sorted).
+  std::vector<int> cameras;
+  // The frame the extrinsics are expressed in; empty = the root of the tf tree that holds the
+  // cameras (which must then be one tree).
+  std::string root_frame;
+  // At most this many incomplete sets wait for late images; the oldest is then yielded as it is.
+  int max_pending_sets = 8;
+};
+
+struct BagReaderStatistics {
+  std::uint64_t image_messages = 0;   // image messages of the selected cameras in the bag
+  std::uint64_t images_read = 0;      // image messages read so far
+  std::uint64_t sets = 0;             // sets yielded so far
+  std::uint64_t incomplete_sets = 0;  // yielded sets without every selected camera
+  std::uint64_t dropped_images = 0;   // duplicates, or stamps older than a set already yielded
+  double decode_seconds = 0.0;        // time spent in next(): reading, deserialising, converting
+};
+
+class BagReader {
+ public:
+  // Opens the bag, finds the cameras, reads their calibration and extrinsics and checks the first
+  // image of every camera. Throws InputError with a one-line message naming the bag and the
+  // problem: missing or unreadable bag, empty bag (no frames), no /cam<i>/image_raw topic, an
+  // unknown camera in options.cameras, a camera without camera_info, missing extrinsics, a wrong
+  // message type, an unsupported (for example mono) encoding, or an image whose size differs from
+  // its camera_info.
+  explicit BagReader(const std::string& path, const BagReaderOptions& options = {});
+  ~BagReader();
+  BagReader(const BagReader&) = delete;
+  BagReader& operator=(const BagReader&) = delete;
+
+  const std::string& path() const;
+  const std::string& rootFrame() const;
+  // The selected cameras ("cam<i>"), with their calibration and world_to_camera (root frame ->
+  // optical frame). CameraImage::camera indexes this list.
+  const std::vector<Camera>& cameras() const;
+  // The id i of each selected camera, parallel to cameras().
+  const std::vector<int>& cameraIds() const;
+
+  // The next frame set, in stamp order; false when the bag is exhausted. Throws InputError (naming
+  // the topic and stamp) for an image with an unsupported encoding or a size that disagrees with
+  // its camera_info.
+  bool next(FrameSet* set);
+
+  const BagReaderStatistics& statistics() const;
+  // Fraction of the image messages read so far, in [0, 1], for progress reports.
+  double progress() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace sag_hand_tracker

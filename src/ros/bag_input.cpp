@@ -1,0 +1,408 @@
+#include "sag_hand_tracker/ros/bag_input.h"
+
+#include <ros/exception.h>
+#include <rosbag/bag.h>
+#include <rosbag/exceptions.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <tf2_msgs/TFMessage.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <limits>
+#include <map>
+#include <regex>
+#include <set>
+#include <sstream>
+
+#include "sag_hand_tracker/calibration.h"
+#include "sag_hand_tracker/ros/conversions.h"
+#include "sag_hand_tracker/types.h"
+
+namespace sag_hand_tracker {
+namespace {
+
+const char* const kImageType = "sensor_msgs/Image";
+const char* const kCameraInfoType = "sensor_msgs/CameraInfo";
+const char* const kTfType = "tf2_msgs/TFMessage";
+const char* const kTfStaticTopic = "/tf_static";
+
+std::string imageTopic(int id) { return "/cam" + std::to_string(id) + "/image_raw"; }
+std::string cameraInfoTopic(int id) { return "/cam" + std::to_string(id) + "/camera_info"; }
+std::string cameraName(int id) { return "cam" + std::to_string(id); }
+
+std::string stripSlash(const std::string& frame) {
+  return !frame.empty() && frame.front() == '/' ? frame.substr(1) : frame;
+}
+
+std::string formatStamp(std::int64_t stamp_ns) {
+  char buffer[48];
+  std::snprintf(buffer, sizeof(buffer), "%.6f", static_cast<double>(stamp_ns) * 1e-9);
+  return buffer;
+}
+
+std::string joinIds(const std::vector<int>& ids) {
+  std::string text;
+  for (int id : ids) text += (text.empty() ? "" : " ") + std::to_string(id);
+  return text;
+}
+
+struct ParentLink {
+  std::string parent;
+  Eigen::Isometry3d parent_to_child;  // tf: the pose of the child frame in the parent frame
+};
+
+}  // namespace
+
+struct BagReader::Impl {
+  struct PendingSet {
+    std::vector<CameraImage> images;  // sorted by camera index
+  };
+
+  std::string path;
+  BagReaderOptions options;
+  rosbag::Bag bag;
+  std::string root_frame;
+  std::vector<Camera> cameras;
+  std::vector<int> ids;
+  std::vector<std::string> optical_frames;
+  std::map<std::string, int> topic_to_camera;
+
+  std::unique_ptr<rosbag::View> view;
+  rosbag::View::iterator it;
+  rosbag::View::iterator end;
+  std::map<std::int64_t, PendingSet> pending;
+  std::vector<std::int64_t> last_stamp;  // per camera, newest stamp seen
+  bool yielded_any = false;
+  std::int64_t last_yielded = 0;
+  BagReaderStatistics stats;
+
+  [[noreturn]] void fail(const std::string& problem) const {
+    throw InputError(path + ": " + problem);
+  }
+
+  void open();
+  std::vector<int> discoverCameras();
+  void readCameraInfo();
+  void readExtrinsics();
+  void checkFirstImages();
+  cv::Mat decode(const sensor_msgs::Image& image, int camera, const std::string& topic) const;
+  bool frontIsFinal() const;
+  bool step(FrameSet* set);
+};
+
+void BagReader::Impl::open() {
+  std::error_code error;
+  if (!std::filesystem::exists(path, error)) fail("bag file does not exist");
+  if (std::filesystem::is_directory(path, error)) fail("is a directory, not a bag file");
+  try {
+    bag.open(path, rosbag::bagmode::Read);
+  } catch (const rosbag::BagException& exception) {
+    fail(std::string("cannot read the bag: ") + exception.what());
+  }
+  rosbag::View all(bag);
+  if (all.size() == 0) fail("the bag is empty: no frames");
+
+  const std::vector<int> found = discoverCameras();
+  if (options.cameras.empty()) {
+    ids = found;
+  } else {
+    std::set<int> wanted(options.cameras.begin(), options.cameras.end());
+    for (int id : wanted) {
+      if (!std::binary_search(found.begin(), found.end(), id)) {
+        fail("camera " + std::to_string(id) + " (" + imageTopic(id) +
+             ") is not in the bag (cameras: " + joinIds(found) + ")");
+      }
+    }
+    ids.assign(wanted.begin(), wanted.end());
+  }
+  cameras.resize(ids.size());
+  optical_frames.resize(ids.size());
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    topic_to_camera[imageTopic(ids[i])] = static_cast<int>(i);
+  }
+  readCameraInfo();
+  readExtrinsics();
+
+  std::vector<std::string> topics;
+  for (int id : ids) topics.push_back(imageTopic(id));
+  view = std::make_unique<rosbag::View>(bag, rosbag::TopicQuery(topics));
+  stats.image_messages = view->size();
+  if (stats.image_messages == 0) fail("no frames: the image topics hold no messages");
+  checkFirstImages();
+  it = view->begin();
+  end = view->end();
+  last_stamp.assign(ids.size(), std::numeric_limits<std::int64_t>::min());
+}
+
+std::vector<int> BagReader::Impl::discoverCameras() {
+  static const std::regex image_topic("^/?cam([0-9]+)/image_raw$");
+  rosbag::View all(bag);
+  std::set<int> found;
+  std::set<std::string> other_topics;
+  for (const rosbag::ConnectionInfo* connection : all.getConnections()) {
+    std::smatch match;
+    if (std::regex_match(connection->topic, match, image_topic)) {
+      if (connection->datatype != kImageType) {
+        fail(connection->topic + " has type " + connection->datatype + ", expected " + kImageType);
+      }
+      found.insert(std::stoi(match[1].str()));
+    } else {
+      other_topics.insert(connection->topic);
+    }
+  }
+  if (found.empty()) {
+    std::string topics;
+    for (const std::string& topic : other_topics) topics += (topics.empty() ? "" : ", ") + topic;
+    fail("no image topics (/cam<i>/image_raw) in the bag; it has: " + topics);
+  }
+  return std::vector<int>(found.begin(), found.end());
+}
+
+void BagReader::Impl::readCameraInfo() {
+  std::vector<std::string> topics;
+  std::map<std::string, int> info_to_camera;
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    topics.push_back(cameraInfoTopic(ids[i]));
+    info_to_camera[topics.back()] = static_cast<int>(i);
+  }
+  rosbag::View infos(bag, rosbag::TopicQuery(topics));
+  for (const rosbag::ConnectionInfo* connection : infos.getConnections()) {
+    if (connection->datatype != kCameraInfoType) {
+      fail(connection->topic + " has type " + connection->datatype + ", expected " +
+           kCameraInfoType);
+    }
+  }
+  std::vector<bool> have(ids.size(), false);
+  std::size_t missing = ids.size();
+  for (const rosbag::MessageInstance& message : infos) {
+    const int camera = info_to_camera.at(message.getTopic());
+    if (have[camera]) continue;
+    const sensor_msgs::CameraInfo::ConstPtr info = message.instantiate<sensor_msgs::CameraInfo>();
+    if (!info) fail(message.getTopic() + " does not hold sensor_msgs/CameraInfo");
+    try {
+      cameras[camera] = fromCameraInfo(*info, cameraName(ids[camera]));
+    } catch (const InputError& error) {
+      fail(std::string(error.what()) + " (" + message.getTopic() + ")");
+    }
+    const std::string frame = stripSlash(info->header.frame_id);
+    optical_frames[camera] = frame.empty() ? opticalFrame(cameraName(ids[camera])) : frame;
+    have[camera] = true;
+    if (--missing == 0) break;
+  }
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    if (!have[i]) {
+      fail("camera " + cameraName(ids[i]) + " has no camera_info (no messages on " +
+           cameraInfoTopic(ids[i]) + ")");
+    }
+  }
+}
+
+void BagReader::Impl::readExtrinsics() {
+  std::map<std::string, ParentLink> links;  // child frame -> its parent
+  rosbag::View tf_view(bag, rosbag::TopicQuery(kTfStaticTopic));
+  for (const rosbag::ConnectionInfo* connection : tf_view.getConnections()) {
+    if (connection->datatype != kTfType) {
+      fail(std::string(kTfStaticTopic) + " has type " + connection->datatype + ", expected " +
+           kTfType);
+    }
+  }
+  const bool has_tf_static = tf_view.size() > 0;
+  for (const rosbag::MessageInstance& message : tf_view) {
+    const tf2_msgs::TFMessage::ConstPtr tf = message.instantiate<tf2_msgs::TFMessage>();
+    if (!tf) fail(std::string(kTfStaticTopic) + " does not hold tf2_msgs/TFMessage");
+    for (const geometry_msgs::TransformStamped& transform : tf->transforms) {
+      const std::string parent = stripSlash(transform.header.frame_id);
+      const std::string child = stripSlash(transform.child_frame_id);
+      try {
+        links[child] = ParentLink{parent, toIsometry(transform.transform)};
+      } catch (const InputError& error) {
+        fail(std::string(kTfStaticTopic) + " " + parent + " -> " + child + ": " + error.what());
+      }
+    }
+  }
+
+  std::vector<std::string> tops(ids.size());
+  std::vector<Eigen::Isometry3d> top_to_camera(ids.size(), Eigen::Isometry3d::Identity());
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    const std::string& frame = optical_frames[i];
+    const std::string missing = "missing extrinsics for camera " + cameraName(ids[i]) + ": ";
+    if (!has_tf_static) fail(missing + "the bag has no " + kTfStaticTopic);
+    if (frame != options.root_frame && links.find(frame) == links.end()) {
+      fail(missing + "no transform to '" + frame + "' in " + kTfStaticTopic);
+    }
+    std::string current = frame;
+    Eigen::Isometry3d current_to_camera = Eigen::Isometry3d::Identity();
+    std::set<std::string> visited{current};
+    while (current != options.root_frame) {
+      const auto link = links.find(current);
+      if (link == links.end()) break;
+      current_to_camera = link->second.parent_to_child * current_to_camera;
+      current = link->second.parent;
+      if (!visited.insert(current).second) {
+        fail(std::string(kTfStaticTopic) + " has a cycle through '" + current + "'");
+      }
+    }
+    if (!options.root_frame.empty() && current != options.root_frame) {
+      fail(missing + "no " + kTfStaticTopic + " chain from '" + options.root_frame + "' to '" +
+           frame + "' (its tree's root is '" + current + "')");
+    }
+    tops[i] = current;
+    top_to_camera[i] = current_to_camera;
+  }
+  for (std::size_t i = 1; i < ids.size(); ++i) {
+    if (tops[i] != tops[0]) {
+      fail("the cameras are in different tf trees: " + cameraName(ids[0]) + " under '" + tops[0] +
+           "', " + cameraName(ids[i]) + " under '" + tops[i] + "'");
+    }
+  }
+  root_frame = tops[0];
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    cameras[i].world_to_camera = top_to_camera[i].inverse();
+  }
+}
+
+cv::Mat BagReader::Impl::decode(const sensor_msgs::Image& image, int camera,
+                                const std::string& topic) const {
+  const std::string where = topic + " at " + formatStamp(image.header.stamp.toNSec()) + ": ";
+  const Camera& calibration = cameras[camera];
+  if (isSupportedEncoding(image.encoding) &&
+      (static_cast<int>(image.width) != calibration.width ||
+       static_cast<int>(image.height) != calibration.height)) {
+    fail(where + "image is " + std::to_string(image.width) + "x" + std::to_string(image.height) +
+         " but its camera_info says " + std::to_string(calibration.width) + "x" +
+         std::to_string(calibration.height));
+  }
+  try {
+    return toRgbMat(image);
+  } catch (const InputError& error) {
+    fail(where + error.what());
+  }
+}
+
+void BagReader::Impl::checkFirstImages() {
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    rosbag::View first(bag, rosbag::TopicQuery(imageTopic(ids[i])));
+    const auto message = first.begin();
+    if (message == first.end()) continue;  // this camera delivers nothing; the others do
+    const sensor_msgs::Image::ConstPtr image = message->instantiate<sensor_msgs::Image>();
+    if (!image) fail(imageTopic(ids[i]) + " does not hold sensor_msgs/Image");
+    decode(*image, static_cast<int>(i), imageTopic(ids[i]));
+  }
+}
+
+bool BagReader::Impl::frontIsFinal() const {
+  const auto& [stamp, set] = *pending.begin();
+  if (set.images.size() == ids.size()) return true;
+  std::size_t next_image = 0;
+  for (std::size_t camera = 0; camera < ids.size(); ++camera) {
+    if (next_image < set.images.size() &&
+        set.images[next_image].camera == static_cast<int>(camera)) {
+      ++next_image;
+      continue;
+    }
+    // Stamps of one camera only grow: once it has delivered a newer image, it skipped this set.
+    if (last_stamp[camera] <= stamp) return false;
+  }
+  return true;
+}
+
+bool BagReader::Impl::step(FrameSet* set) {
+  while (true) {
+    if (!pending.empty() &&
+        (frontIsFinal() || static_cast<int>(pending.size()) > options.max_pending_sets ||
+         it == end)) {
+      auto front = pending.begin();
+      set->stamp_ns = front->first;
+      set->images = std::move(front->second.images);
+      pending.erase(front);
+      yielded_any = true;
+      last_yielded = set->stamp_ns;
+      ++stats.sets;
+      if (set->images.size() < ids.size()) ++stats.incomplete_sets;
+      return true;
+    }
+    if (it == end) return false;
+
+    const rosbag::MessageInstance& message = *it;
+    const std::string topic = message.getTopic();
+    const sensor_msgs::Image::ConstPtr image = message.instantiate<sensor_msgs::Image>();
+    ++it;
+    if (!image) fail(topic + " does not hold sensor_msgs/Image");
+    ++stats.images_read;
+    const int camera = topic_to_camera.at(topic);
+    const std::int64_t stamp = static_cast<std::int64_t>(image->header.stamp.toNSec());
+    if (stamp == 0) {
+      fail(topic + ": image with a zero header stamp (sets are made by header stamps)");
+    }
+    if (yielded_any && stamp <= last_yielded) {
+      ++stats.dropped_images;  // too late: its set is gone
+      continue;
+    }
+    PendingSet& target = pending[stamp];
+    auto position =
+        std::lower_bound(target.images.begin(), target.images.end(), camera,
+                         [](const CameraImage& image, int index) { return image.camera < index; });
+    if (position != target.images.end() && position->camera == camera) {
+      ++stats.dropped_images;  // a second image of this camera with the same stamp
+      continue;
+    }
+    CameraImage decoded;
+    decoded.camera = camera;
+    decoded.rgb = decode(*image, camera, topic);
+    target.images.insert(position, std::move(decoded));
+    last_stamp[camera] = std::max(last_stamp[camera], stamp);
+  }
+}
+
+BagReader::BagReader(const std::string& path, const BagReaderOptions& options)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->path = path;
+  impl_->options = options;
+  impl_->options.max_pending_sets = std::max(1, options.max_pending_sets);
+  try {
+    impl_->open();
+  } catch (const InputError&) {
+    throw;
+  } catch (const rosbag::BagException& exception) {
+    impl_->fail(std::string("cannot read the bag: ") + exception.what());
+  } catch (const ros::Exception& exception) {
+    impl_->fail(std::string("cannot read the bag: ") + exception.what());
+  }
+}
+
+BagReader::~BagReader() = default;
+
+const std::string& BagReader::path() const { return impl_->path; }
+const std::string& BagReader::rootFrame() const { return impl_->root_frame; }
+const std::vector<Camera>& BagReader::cameras() const { return impl_->cameras; }
+const std::vector<int>& BagReader::cameraIds() const { return impl_->ids; }
+const BagReaderStatistics& BagReader::statistics() const { return impl_->stats; }
+
+double BagReader::progress() const {
+  const BagReaderStatistics& stats = impl_->stats;
+  if (stats.image_messages == 0) return 1.0;
+  return std::min(1.0, static_cast<double>(stats.images_read) / stats.image_messages);
+}
+
+bool BagReader::next(FrameSet* set) {
+  const auto start = std::chrono::steady_clock::now();
+  bool more = false;
+  try {
+    more = impl_->step(set);
+  } catch (const InputError&) {
+    throw;
+  } catch (const rosbag::BagException& exception) {
+    impl_->fail(std::string("cannot read the bag: ") + exception.what());
+  } catch (const ros::Exception& exception) {
+    impl_->fail(std::string("cannot read the bag: ") + exception.what());
+  }
+  impl_->stats.decode_seconds +=
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return more;
+}
+
+}  // namespace sag_hand_tracker

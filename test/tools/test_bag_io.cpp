@@ -1,0 +1,549 @@
+// Bag input and output: a small 3-camera bag is written in the test, read back, and every bad
+// input gets its one-line message.
+#include <gtest/gtest.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <std_msgs/String.h>
+#include <tf2_msgs/TFMessage.h>
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "sag_hand_tracker/calibration.h"
+#include "sag_hand_tracker/ros/bag_input.h"
+#include "sag_hand_tracker/ros/bag_output.h"
+#include "sag_hand_tracker/ros/conversions.h"
+#include "sag_hand_tracker/types.h"
+
+using namespace sag_hand_tracker;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr int kWidth = 32;
+constexpr int kHeight = 24;
+
+Camera makeCamera(int id) {
+  Camera camera;
+  camera.name = "cam" + std::to_string(id);
+  camera.width = kWidth;
+  camera.height = kHeight;
+  camera.K << 40.0 + id, 0.0, 16.0, 0.0, 41.0 + id, 12.0, 0.0, 0.0, 1.0;
+  camera.distortion = {0.01 * id, 0.0, 0.0, 0.0, 0.0};
+  // Cameras on a circle around the origin, looking at it (optical z towards the origin).
+  const double angle = 2.0 * M_PI * id / 3.0;
+  const Eigen::Vector3d centre(0.8 * std::cos(angle), 0.8 * std::sin(angle), 0.5);
+  const Eigen::Vector3d z = (-centre).normalized();
+  const Eigen::Vector3d x = z.cross(Eigen::Vector3d::UnitZ()).normalized();
+  const Eigen::Vector3d y = z.cross(x);
+  Eigen::Isometry3d root_to_optical = Eigen::Isometry3d::Identity();
+  root_to_optical.linear() << x, y, z;
+  root_to_optical.translation() = centre;
+  camera.world_to_camera = root_to_optical.inverse();
+  return camera;
+}
+
+cv::Mat makeImage(int camera, int frame) {
+  cv::Mat rgb(kHeight, kWidth, CV_8UC3);
+  for (int y = 0; y < kHeight; ++y) {
+    for (int x = 0; x < kWidth; ++x) {
+      rgb.at<cv::Vec3b>(y, x) =
+          cv::Vec3b(static_cast<uchar>(10 * camera + x), static_cast<uchar>(5 * frame + y),
+                    static_cast<uchar>(200 - x - camera));
+    }
+  }
+  return rgb;
+}
+
+ros::Time frameTime(int frame) { return ros::Time(100, 0) + ros::Duration(0.04 * frame); }
+
+bool sameImage(const cv::Mat& a, const cv::Mat& b) {
+  return a.size() == b.size() && a.type() == b.type() && cv::norm(a, b, cv::NORM_INF) == 0.0;
+}
+
+class BagFiles : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::random_device random;
+    dir_ = fs::temp_directory_path() / ("sag_bag_test_" + std::to_string(random()));
+    fs::create_directories(dir_);
+    for (int id = 0; id < 3; ++id) cameras_.push_back(makeCamera(id));
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+
+  // Runs `action`, expects an InputError, and returns its message.
+  template <typename Action>
+  static std::string errorOf(Action action) {
+    try {
+      action();
+    } catch (const InputError& error) {
+      return error.what();
+    }
+    ADD_FAILURE() << "no InputError thrown";
+    return "";
+  }
+
+  // Opens the bag and reads it to the end; returns the error message.
+  static std::string readError(const std::string& bag, const BagReaderOptions& options = {}) {
+    return errorOf([&] {
+      BagReader reader(bag, options);
+      FrameSet set;
+      while (reader.next(&set)) {
+      }
+    });
+  }
+
+  // The standard test bag: 4 frames of 3 cameras; cam1 misses frame 2; cam2 is bgr8.
+  std::string writeGoodBag(const std::string& name) const {
+    BagWriter writer(path(name));
+    writer.writeStaticTransforms("world", cameras_, frameTime(0));
+    for (int frame = 0; frame < 4; ++frame) {
+      for (int id = 0; id < 3; ++id) {
+        if (frame == 2 && id == 1) continue;
+        writer.writeCameraImage(cameras_[id], makeImage(id, frame), frameTime(frame),
+                                id == 2 ? "bgr8" : "rgb8");
+      }
+    }
+    writer.close();
+    return path(name);
+  }
+
+  // A bag of 2 frames of the 3 cameras where `edit` may change each image message and camera_info
+  // before it is written, or return false to leave it out.
+  template <typename Edit>
+  std::string writeEditedBag(const std::string& name, Edit edit, bool with_tf = true) const {
+    BagWriter writer(path(name));
+    if (with_tf) writer.writeStaticTransforms("world", cameras_, frameTime(0));
+    for (int frame = 0; frame < 2; ++frame) {
+      for (int id = 0; id < 3; ++id) {
+        std_msgs::Header header;
+        header.stamp = frameTime(frame);
+        header.frame_id = opticalFrame(cameras_[id].name);
+        sensor_msgs::Image image = toImageMsg(makeImage(id, frame), header);
+        sensor_msgs::CameraInfo info = toCameraInfo(cameras_[id]);
+        info.header = header;
+        bool write_image = true, write_info = true;
+        edit(frame, id, &image, &info, &write_image, &write_info);
+        if (write_image) writer.write(imageTopicOf(cameras_[id]), header.stamp, image);
+        if (write_info) writer.write(cameraInfoTopicOf(cameras_[id]), header.stamp, info);
+      }
+    }
+    return path(name);
+  }
+
+  fs::path dir_;
+  std::vector<Camera> cameras_;
+};
+
+}  // namespace
+
+TEST_F(BagFiles, BagRoundTrip) {
+  const std::string bag = writeGoodBag("good.bag");
+  BagReader reader(bag);
+  EXPECT_EQ(reader.rootFrame(), "world");
+  EXPECT_EQ(reader.cameraIds(), (std::vector<int>{0, 1, 2}));
+  ASSERT_EQ(reader.cameras().size(), 3u);
+  for (int id = 0; id < 3; ++id) {
+    const Camera& camera = reader.cameras()[id];
+    EXPECT_EQ(camera.name, cameras_[id].name);
+    EXPECT_EQ(camera.width, kWidth);
+    EXPECT_EQ(camera.height, kHeight);
+    EXPECT_TRUE(camera.K.isApprox(cameras_[id].K, 1e-12));
+    EXPECT_EQ(camera.distortion, cameras_[id].distortion);
+    EXPECT_TRUE(
+        camera.world_to_camera.matrix().isApprox(cameras_[id].world_to_camera.matrix(), 1e-9))
+        << camera.name;
+  }
+  EXPECT_EQ(reader.statistics().image_messages, 11u);
+
+  FrameSet set;
+  for (int frame = 0; frame < 4; ++frame) {
+    ASSERT_TRUE(reader.next(&set)) << frame;
+    EXPECT_EQ(set.stamp_ns, static_cast<std::int64_t>(frameTime(frame).toNSec()));
+    EXPECT_NEAR(set.stamp(), frameTime(frame).toSec(), 1e-9);
+    std::vector<int> expected_cameras =
+        frame == 2 ? std::vector<int>{0, 2} : std::vector<int>{0, 1, 2};
+    ASSERT_EQ(set.images.size(), expected_cameras.size());
+    for (std::size_t k = 0; k < set.images.size(); ++k) {
+      EXPECT_EQ(set.images[k].camera, expected_cameras[k]);
+      // bgr8 (cam2) comes back in RGB order, like rgb8.
+      EXPECT_TRUE(sameImage(set.images[k].rgb, makeImage(expected_cameras[k], frame)))
+          << "frame " << frame << " camera " << expected_cameras[k];
+    }
+  }
+  EXPECT_FALSE(reader.next(&set));
+  EXPECT_FALSE(reader.next(&set));
+  const BagReaderStatistics& stats = reader.statistics();
+  EXPECT_EQ(stats.sets, 4u);
+  EXPECT_EQ(stats.incomplete_sets, 1u);
+  EXPECT_EQ(stats.images_read, 11u);
+  EXPECT_EQ(stats.dropped_images, 0u);
+  EXPECT_GT(stats.decode_seconds, 0.0);
+  EXPECT_DOUBLE_EQ(reader.progress(), 1.0);
+}
+
+TEST_F(BagFiles, BagGroupsInterleavedImagesByHeaderStamp) {
+  // Recorded out of step: cam2's image of frame k arrives after cam0's image of frame k + 1, and
+  // a duplicate and a hopelessly late image are dropped.
+  BagWriter writer(path("interleaved.bag"));
+  writer.writeStaticTransforms("world", cameras_, frameTime(0));
+  ros::Time record = frameTime(0);
+  auto put = [&](int id, int frame) {
+    std_msgs::Header header;
+    header.stamp = frameTime(frame);
+    header.frame_id = opticalFrame(cameras_[id].name);
+    sensor_msgs::CameraInfo info = toCameraInfo(cameras_[id]);
+    info.header = header;
+    record += ros::Duration(0.001);
+    writer.write(imageTopicOf(cameras_[id]), record, toImageMsg(makeImage(id, frame), header));
+    writer.write(cameraInfoTopicOf(cameras_[id]), record, info);
+  };
+  put(0, 0);
+  put(1, 0);
+  put(0, 1);
+  put(2, 0);
+  put(1, 1);
+  put(1, 1);  // duplicate
+  put(0, 2);
+  put(2, 1);
+  put(1, 2);
+  put(2, 2);
+  put(2, 0);  // late: frame 0 is long gone
+  writer.close();
+
+  BagReader reader(path("interleaved.bag"));
+  FrameSet set;
+  for (int frame = 0; frame < 3; ++frame) {
+    ASSERT_TRUE(reader.next(&set));
+    EXPECT_EQ(set.stamp_ns, static_cast<std::int64_t>(frameTime(frame).toNSec()));
+    ASSERT_EQ(set.images.size(), 3u) << frame;
+    for (int id = 0; id < 3; ++id) {
+      EXPECT_EQ(set.images[id].camera, id);
+      EXPECT_TRUE(sameImage(set.images[id].rgb, makeImage(id, frame)));
+    }
+  }
+  EXPECT_FALSE(reader.next(&set));
+  EXPECT_EQ(reader.statistics().dropped_images, 2u);
+  EXPECT_EQ(reader.statistics().incomplete_sets, 0u);
+}
+
+TEST_F(BagFiles, BagStreamsWithBoundedPendingSets) {
+  // cam1 stops after frame 0: each later set waits for at most max_pending_sets newer sets, then
+  // goes out with the cameras present, in stamp order, long before the end of the bag.
+  constexpr int kFrames = 12;
+  {
+    BagWriter writer(path("dead.bag"));
+    writer.writeStaticTransforms("world", cameras_, frameTime(0));
+    for (int frame = 0; frame < kFrames; ++frame) {
+      for (int id = 0; id < 3; ++id) {
+        if (id == 1 && frame > 0) continue;
+        writer.writeCameraImage(cameras_[id], makeImage(id, frame), frameTime(frame));
+      }
+    }
+  }
+  BagReaderOptions options;
+  options.max_pending_sets = 2;
+  BagReader reader(path("dead.bag"), options);
+  FrameSet set;
+  for (int frame = 0; frame < kFrames; ++frame) {
+    ASSERT_TRUE(reader.next(&set));
+    EXPECT_EQ(set.stamp_ns, static_cast<std::int64_t>(frameTime(frame).toNSec()));
+    EXPECT_EQ(set.images.size(), frame == 0 ? 3u : 2u);
+    // Streamed: set k is out once at most max_pending_sets + 1 newer sets have been read.
+    const std::uint64_t images_up_to_frame = 3 + 2 * (frame + options.max_pending_sets + 1);
+    EXPECT_LE(reader.statistics().images_read, images_up_to_frame) << frame;
+  }
+  EXPECT_FALSE(reader.next(&set));
+  EXPECT_EQ(reader.statistics().incomplete_sets, static_cast<std::uint64_t>(kFrames - 1));
+}
+
+TEST_F(BagFiles, BagCameraSubset) {
+  const std::string bag = writeGoodBag("good.bag");
+  BagReaderOptions options;
+  options.cameras = {2, 0};
+  BagReader reader(bag, options);
+  EXPECT_EQ(reader.cameraIds(), (std::vector<int>{0, 2}));
+  ASSERT_EQ(reader.cameras().size(), 2u);
+  EXPECT_EQ(reader.cameras()[1].name, "cam2");
+  EXPECT_EQ(reader.statistics().image_messages, 8u);
+  FrameSet set;
+  int sets = 0;
+  while (reader.next(&set)) {
+    ASSERT_EQ(set.images.size(), 2u);  // cam1's gap does not matter here
+    EXPECT_EQ(set.images[1].camera, 1);
+    EXPECT_TRUE(sameImage(set.images[1].rgb, makeImage(2, sets)));
+    ++sets;
+  }
+  EXPECT_EQ(sets, 4);
+  EXPECT_EQ(reader.statistics().incomplete_sets, 0u);
+
+  options.cameras = {0, 5};
+  EXPECT_NE(readError(bag, options)
+                .find("camera 5 (/cam5/image_raw) is not in the bag (cameras: "
+                      "0 1 2)"),
+            std::string::npos);
+}
+
+TEST_F(BagFiles, BagComposesTfChains) {
+  // world -> rig -> mount<i> -> cam<i>_optical_frame, in two tf messages.
+  const std::string bag = writeEditedBag(
+      "chain.bag", [](int, int, sensor_msgs::Image*, sensor_msgs::CameraInfo*, bool*, bool*) {},
+      false);
+  Eigen::Isometry3d world_to_rig = Eigen::Isometry3d::Identity();
+  world_to_rig.linear() = Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  world_to_rig.translation() = Eigen::Vector3d(0.1, 0.2, 0.3);
+  {
+    rosbag::Bag raw;
+    raw.open(bag, rosbag::bagmode::Append);
+    tf2_msgs::TFMessage first, second;
+    auto link = [](const std::string& parent, const std::string& child,
+                   const Eigen::Isometry3d& pose) {
+      geometry_msgs::TransformStamped transform;
+      transform.header.frame_id = parent;
+      transform.child_frame_id = child;
+      transform.transform = toTransformMsg(pose);
+      return transform;
+    };
+    first.transforms.push_back(link("world", "rig", world_to_rig));
+    for (int id = 0; id < 3; ++id) {
+      // Pose of the camera in the rig frame, split at an arbitrary mount frame.
+      const Eigen::Isometry3d rig_to_optical =
+          world_to_rig.inverse() * cameras_[id].world_to_camera.inverse();
+      Eigen::Isometry3d rig_to_mount = Eigen::Isometry3d::Identity();
+      rig_to_mount.translation() = Eigen::Vector3d(0.05 * id, 0.0, 1.0);
+      const std::string mount = "mount" + std::to_string(id);
+      first.transforms.push_back(link("/rig", mount, rig_to_mount));
+      second.transforms.push_back(
+          link(mount, opticalFrame(cameras_[id].name), rig_to_mount.inverse() * rig_to_optical));
+    }
+    raw.write("/tf_static", frameTime(0), first);
+    raw.write("/tf_static", frameTime(0), second);
+  }
+  BagReader reader(bag);
+  EXPECT_EQ(reader.rootFrame(), "world");
+  for (int id = 0; id < 3; ++id) {
+    EXPECT_TRUE(reader.cameras()[id].world_to_camera.matrix().isApprox(
+        cameras_[id].world_to_camera.matrix(), 1e-9));
+  }
+  BagReaderOptions in_rig;
+  in_rig.root_frame = "rig";
+  BagReader rig_reader(bag, in_rig);
+  EXPECT_EQ(rig_reader.rootFrame(), "rig");
+  for (int id = 0; id < 3; ++id) {
+    EXPECT_TRUE(rig_reader.cameras()[id].world_to_camera.matrix().isApprox(
+        (cameras_[id].world_to_camera * world_to_rig).matrix(), 1e-9));
+  }
+  BagReaderOptions elsewhere;
+  elsewhere.root_frame = "table";
+  EXPECT_NE(readError(bag, elsewhere)
+                .find("missing extrinsics for camera cam0: no /tf_static chain from 'table' to "
+                      "'cam0_optical_frame' (its tree's root is 'world')"),
+            std::string::npos);
+}
+
+TEST_F(BagFiles, BagErrorMissingBag) {
+  const std::string message = readError(path("absent.bag"));
+  EXPECT_EQ(message, path("absent.bag") + ": bag file does not exist");
+}
+
+TEST_F(BagFiles, BagErrorUnreadableBag) {
+  std::ofstream(path("text.bag")) << "this is not a bag\n";
+  const std::string message = readError(path("text.bag"));
+  EXPECT_EQ(message.rfind(path("text.bag") + ": cannot read the bag: ", 0), 0u) << message;
+  EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+}
+
+TEST_F(BagFiles, BagErrorNoFrames) {
+  { BagWriter writer(path("empty.bag")); }
+  EXPECT_EQ(readError(path("empty.bag")), path("empty.bag") + ": the bag is empty: no frames");
+}
+
+TEST_F(BagFiles, BagErrorNoImageTopics) {
+  {
+    BagWriter writer(path("noimages.bag"));
+    writer.writeStaticTransforms("world", cameras_, frameTime(0));
+    std_msgs::String text;
+    text.data = "hello";
+    writer.write("/chatter", frameTime(0), text);
+    writer.write("/camera/image", frameTime(0), toImageMsg(makeImage(0, 0), std_msgs::Header()));
+  }
+  EXPECT_EQ(readError(path("noimages.bag")),
+            path("noimages.bag") +
+                ": no image topics (/cam<i>/image_raw) in the bag; it has: /camera/image, "
+                "/chatter, /tf_static");
+}
+
+TEST_F(BagFiles, BagErrorCameraWithoutCameraInfo) {
+  const std::string bag =
+      writeEditedBag("noinfo.bag", [](int, int id, sensor_msgs::Image*, sensor_msgs::CameraInfo*,
+                                      bool*, bool* write_info) { *write_info = id != 1; });
+  EXPECT_EQ(readError(bag),
+            bag + ": camera cam1 has no camera_info (no messages on /cam1/camera_info)");
+  BagReaderOptions without_cam1;
+  without_cam1.cameras = {0, 2};
+  EXPECT_NO_THROW(BagReader(bag, without_cam1));
+}
+
+TEST_F(BagFiles, BagErrorMissingExtrinsics) {
+  const std::string no_tf = writeEditedBag(
+      "notf.bag", [](int, int, sensor_msgs::Image*, sensor_msgs::CameraInfo*, bool*, bool*) {},
+      false);
+  EXPECT_EQ(readError(no_tf), no_tf +
+                                  ": missing extrinsics for camera cam0: the bag has no "
+                                  "/tf_static");
+
+  {
+    BagWriter writer(path("partial.bag"));
+    writer.writeStaticTransforms("world", {cameras_[0], cameras_[2]}, frameTime(0));
+    for (int id = 0; id < 3; ++id) {
+      writer.writeCameraImage(cameras_[id], makeImage(id, 0), frameTime(0));
+    }
+  }
+  EXPECT_EQ(readError(path("partial.bag")),
+            path("partial.bag") +
+                ": missing extrinsics for camera cam1: no transform to 'cam1_optical_frame' in "
+                "/tf_static");
+
+  {
+    BagWriter writer(path("trees.bag"));
+    writer.writeStaticTransforms("world", {cameras_[0], cameras_[1]}, frameTime(0));
+    writer.writeStaticTransforms("table", {cameras_[2]}, frameTime(0));
+    for (int id = 0; id < 3; ++id) {
+      writer.writeCameraImage(cameras_[id], makeImage(id, 0), frameTime(0));
+    }
+  }
+  EXPECT_EQ(readError(path("trees.bag")),
+            path("trees.bag") +
+                ": the cameras are in different tf trees: cam0 under 'world', cam2 under 'table'");
+}
+
+TEST_F(BagFiles, BagErrorMonoImages) {
+  const std::string bag = writeEditedBag("mono.bag", [](int, int id, sensor_msgs::Image* image,
+                                                        sensor_msgs::CameraInfo*, bool*, bool*) {
+    if (id != 2) return;
+    image->encoding = "mono8";
+    image->step = image->width;
+    image->data.resize(image->step * image->height);
+  });
+  EXPECT_EQ(readError(bag), bag +
+                                ": /cam2/image_raw at 100.000000: mono image (encoding 'mono8'): "
+                                "the tracker needs colour images, rgb8 or bgr8");
+}
+
+TEST_F(BagFiles, BagErrorUnsupportedEncoding) {
+  const std::string bag = writeEditedBag("yuv.bag", [](int frame, int id, sensor_msgs::Image* image,
+                                                       sensor_msgs::CameraInfo*, bool*, bool*) {
+    if (id == 0 && frame == 1) image->encoding = "yuv422";
+  });
+  // The first images are fine: the error comes while reading, at the bad image.
+  BagReader reader(bag);
+  FrameSet set;
+  EXPECT_TRUE(reader.next(&set));
+  EXPECT_EQ(errorOf([&] { reader.next(&set); }),
+            bag +
+                ": /cam0/image_raw at 100.040000: unsupported image encoding 'yuv422' "
+                "(expected rgb8 or bgr8)");
+}
+
+TEST_F(BagFiles, BagErrorImageSizeDisagreesWithCameraInfo) {
+  const std::string bag = writeEditedBag(
+      "size.bag",
+      [](int, int id, sensor_msgs::Image*, sensor_msgs::CameraInfo* info, bool*, bool*) {
+        if (id != 1) return;
+        info->width = 64;
+        info->height = 48;
+      });
+  EXPECT_EQ(readError(bag), bag +
+                                ": /cam1/image_raw at 100.000000: image is 32x24 but its "
+                                "camera_info says 64x48");
+}
+
+TEST_F(BagFiles, BagErrorBadCameraInfo) {
+  const std::string bag = writeEditedBag(
+      "uncalibrated.bag",
+      [](int, int id, sensor_msgs::Image*, sensor_msgs::CameraInfo* info, bool*, bool*) {
+        if (id == 1) info->K = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+      });
+  const std::string message = readError(bag);
+  EXPECT_EQ(
+      message.rfind(bag + ": camera 'cam1': camera_info has a zero or negative focal length", 0),
+      0u)
+      << message;
+  EXPECT_NE(message.find("(/cam1/camera_info)"), std::string::npos) << message;
+}
+
+TEST_F(BagFiles, BagErrorWrongMessageType) {
+  {
+    BagWriter writer(path("type.bag"));
+    writer.writeStaticTransforms("world", cameras_, frameTime(0));
+    std_msgs::String text;
+    writer.write("/cam0/image_raw", frameTime(0), text);
+  }
+  EXPECT_EQ(readError(path("type.bag")), path("type.bag") +
+                                             ": /cam0/image_raw has type std_msgs/String, expected "
+                                             "sensor_msgs/Image");
+}
+
+TEST(BagConversions, BagCameraInfoRoundTrip) {
+  Camera camera = makeCamera(1);
+  camera.distortion = {0.1, -0.2, 0.001, 0.002, 0.03, 0.004, 0.005, 0.006};
+  const sensor_msgs::CameraInfo info = toCameraInfo(camera);
+  EXPECT_EQ(info.header.frame_id, "cam1_optical_frame");
+  EXPECT_EQ(info.distortion_model, "rational_polynomial");
+  EXPECT_DOUBLE_EQ(info.P[3], 0.0);
+  EXPECT_DOUBLE_EQ(info.P[0], camera.K(0, 0));
+  const Camera back = fromCameraInfo(info);
+  EXPECT_EQ(back.name, "cam1");
+  EXPECT_EQ(back.width, camera.width);
+  EXPECT_TRUE(back.K.isApprox(camera.K, 0.0));
+  EXPECT_EQ(back.distortion, camera.distortion);
+  EXPECT_EQ(fromCameraInfo(info, "left").name, "left");
+
+  sensor_msgs::CameraInfo binned = info;
+  binned.binning_x = 2;
+  EXPECT_THROW(fromCameraInfo(binned), InputError);
+  sensor_msgs::CameraInfo fisheye = info;
+  fisheye.distortion_model = "equidistant";
+  fisheye.D.resize(4);
+  EXPECT_THROW(fromCameraInfo(fisheye), InputError);
+}
+
+TEST(BagConversions, BagImageAndTransformConversions) {
+  const cv::Mat rgb = makeImage(1, 3);
+  std_msgs::Header header;
+  header.frame_id = "cam1_optical_frame";
+  sensor_msgs::Image message = toImageMsg(rgb, header);
+  EXPECT_EQ(message.encoding, "rgb8");
+  EXPECT_EQ(message.step, 3u * kWidth);
+  EXPECT_EQ(message.data[0], rgb.at<cv::Vec3b>(0, 0)[0]);
+  EXPECT_TRUE(sameImage(toRgbMat(message), rgb));
+  // A padded bgr8 row layout.
+  sensor_msgs::Image bgr = message;
+  bgr.encoding = "bgr8";
+  bgr.step = 3 * kWidth + 4;
+  bgr.data.assign(bgr.step * kHeight, 0);
+  for (int y = 0; y < kHeight; ++y) {
+    for (int x = 0; x < kWidth; ++x) {
+      const cv::Vec3b pixel = rgb.at<cv::Vec3b>(y, x);
+      for (int c = 0; c < 3; ++c) bgr.data[y * bgr.step + 3 * x + c] = pixel[2 - c];
+    }
+  }
+  EXPECT_TRUE(sameImage(toRgbMat(bgr), rgb));
+  sensor_msgs::Image truncated = message;
+  truncated.data.resize(10);
+  EXPECT_THROW(toRgbMat(truncated), InputError);
+  EXPECT_THROW(toImageMsg(cv::Mat(4, 4, CV_8UC1), header), std::invalid_argument);
+
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = Eigen::AngleAxisd(2.5, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  pose.translation() = Eigen::Vector3d(-1, 0.5, 2);
+  EXPECT_TRUE(toIsometry(toTransformMsg(pose)).matrix().isApprox(pose.matrix(), 1e-12));
+  geometry_msgs::Transform bad = toTransformMsg(pose);
+  bad.rotation.w *= 2.0;
+  EXPECT_THROW(toIsometry(bad), InputError);
+  EXPECT_EQ(cameraNameFromFrame("/cam4_optical_frame"), "cam4");
+  EXPECT_EQ(cameraNameFromFrame("left_camera"), "left_camera");
+}

@@ -1,0 +1,239 @@
+// The track_bag loop with a stand-in tracking call: command line, sets in, CSV rows, progress and
+// summary out.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <random>
+#include <sstream>
+
+#include "sag_hand_tracker/csv.h"
+#include "sag_hand_tracker/ros/bag_output.h"
+#include "sag_hand_tracker/ros/track_bag_runner.h"
+
+using namespace sag_hand_tracker;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::vector<std::string> names26() {
+  std::vector<std::string> names;
+  for (int i = 0; i < kNumDof; ++i) names.push_back("p" + std::to_string(i));
+  return names;
+}
+
+Camera smallCamera(int id) {
+  Camera camera;
+  camera.name = "cam" + std::to_string(id);
+  camera.width = 8;
+  camera.height = 6;
+  camera.K << 10, 0, 4, 0, 10, 3, 0, 0, 1;
+  Eigen::Isometry3d root_to_optical = Eigen::Isometry3d::Identity();
+  root_to_optical.translation() = Eigen::Vector3d(0.3 * id, 0.0, -1.0);
+  camera.world_to_camera = root_to_optical.inverse();
+  return camera;
+}
+
+ros::Time frameTime(int frame) { return ros::Time(50, 0) + ros::Duration(0.04 * frame); }
+
+class TrackBagRun : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::random_device random;
+    dir_ = fs::temp_directory_path() / ("sag_track_bag_test_" + std::to_string(random()));
+    fs::create_directories(dir_);
+    // 6 frames of 3 cameras; cam2 misses frame 4. The red channel of every pixel is the frame
+    // number times 10, the green the camera id.
+    std::vector<Camera> cameras{smallCamera(0), smallCamera(1), smallCamera(2)};
+    BagWriter writer(path("in.bag"));
+    writer.writeStaticTransforms("world", cameras, frameTime(0));
+    for (int frame = 0; frame < 6; ++frame) {
+      for (int id = 0; id < 3; ++id) {
+        if (frame == 4 && id == 2) continue;
+        cv::Mat rgb(6, 8, CV_8UC3, cv::Scalar(10 * frame, id, 0));
+        writer.writeCameraImage(cameras[id], rgb, frameTime(frame), "bgr8");
+      }
+    }
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+
+  fs::path dir_;
+};
+
+// Frames 0-1 are background; then a pose whose x is the red value of the first image / 1000,
+// no pose for the incomplete set, frame 3 lost and frame 5 restarted.
+ProcessedFrame standIn(const FrameSet& set) {
+  ProcessedFrame processed;
+  const int frame = static_cast<int>(std::lround((set.stamp() - 50.0) / 0.04));
+  if (frame < 2) {
+    processed.background = true;
+    return processed;
+  }
+  FrameResult& result = processed.result;
+  result.stamp = set.stamp();
+  result.num_cameras = static_cast<int>(set.images.size());
+  processed.image_gaussians = 7;
+  processed.segmentation_seconds = 0.001;
+  processed.tracking_seconds = 0.002;
+  if (set.images.size() < 3) {
+    result.status = TrackStatus::kWaiting;
+    return processed;
+  }
+  result.has_pose = true;
+  result.status = frame == 3 ? TrackStatus::kLost : TrackStatus::kTracking;
+  result.restarted = frame == 5;
+  result.pose.translation.x() = set.images[0].rgb.at<cv::Vec3b>(0, 0)[0] / 1000.0;
+  result.pose.joints[19] = 0.25;
+  for (int finger = 0; finger < kNumFingers; ++finger) {
+    result.fingertips[finger] =
+        Eigen::Vector3d(finger, set.images[2].rgb.at<cv::Vec3b>(0, 0)[1], 0);
+  }
+  result.energy.total = 0.5 + frame;
+  return processed;
+}
+
+}  // namespace
+
+TEST(TrackBagArguments, TrackBagParsesEveryOption) {
+  const TrackBagOptions options = parseTrackBagArguments(
+      {"--bag", "in.bag", "--out", "out.csv", "--model", "sog", "--iterations", "25", "--cameras",
+       "0,2,4", "--background-frames", "0", "--hand", "left", "--step-control", "fixed",
+       "--root-frame", "table", "--quiet"});
+  EXPECT_EQ(options.bag, "in.bag");
+  EXPECT_EQ(options.out, "out.csv");
+  EXPECT_EQ(options.model, "sog");
+  EXPECT_EQ(options.iterations, 25);
+  EXPECT_EQ(options.cameras, (std::vector<int>{0, 2, 4}));
+  EXPECT_EQ(options.background_frames, 0);
+  EXPECT_EQ(options.hand, Handedness::kLeft);
+  EXPECT_EQ(options.step_control, "fixed");
+  EXPECT_EQ(options.root_frame, "table");
+  EXPECT_TRUE(options.quiet);
+
+  const TrackBagOptions defaults = parseTrackBagArguments({"--out", "o.csv", "--bag", "b.bag"});
+  EXPECT_EQ(defaults.model, "sag");
+  EXPECT_EQ(defaults.iterations, 10);
+  EXPECT_EQ(defaults.background_frames, 10);
+  EXPECT_EQ(defaults.hand, Handedness::kRight);
+  EXPECT_TRUE(defaults.cameras.empty());
+  EXPECT_FALSE(defaults.quiet);
+  EXPECT_TRUE(parseTrackBagArguments({"--help"}).help);
+}
+
+TEST(TrackBagArguments, TrackBagRejectsBadArguments) {
+  auto message = [](const std::vector<std::string>& args) -> std::string {
+    try {
+      parseTrackBagArguments(args);
+    } catch (const UsageError& error) {
+      return error.what();
+    }
+    return "no error";
+  };
+  const std::vector<std::string> base{"--bag", "b.bag", "--out", "o.csv"};
+  auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args = base;
+    args.insert(args.end(), extra.begin(), extra.end());
+    return args;
+  };
+  EXPECT_EQ(message({"--out", "o.csv"}), "--bag is required");
+  EXPECT_EQ(message({"--bag", "b.bag"}), "--out is required");
+  EXPECT_EQ(message(with({"--iterations", "0"})), "--iterations expects an integer >= 1, got '0'");
+  EXPECT_EQ(message(with({"--iterations", "ten"})),
+            "--iterations expects an integer >= 1, got 'ten'");
+  EXPECT_EQ(message(with({"--cameras", "0,x"})), "--cameras expects an integer >= 0, got 'x'");
+  EXPECT_EQ(message(with({"--cameras", "1,1"})), "--cameras lists camera 1 twice");
+  EXPECT_EQ(message(with({"--cameras", "1,"})),
+            "--cameras expects camera numbers like 0,2,4, got '1,'");
+  EXPECT_EQ(message(with({"--hand", "both"})), "--hand expects left or right, got 'both'");
+  EXPECT_EQ(message(with({"--step-control", "newton"})),
+            "--step-control expects rprop or fixed, got 'newton'");
+  EXPECT_EQ(message(with({"--background-frames", "-1"})),
+            "--background-frames expects an integer >= 0, got '-1'");
+  EXPECT_EQ(message(with({"--model"})), "--model needs a value");
+  EXPECT_EQ(message({"--bag", "--out", "o.csv"}), "--bag needs a value");
+  EXPECT_EQ(message(with({"--frobnicate"})), "unknown argument '--frobnicate'");
+  EXPECT_NE(trackBagUsage().find("--background-frames N"), std::string::npos);
+}
+
+TEST_F(TrackBagRun, TrackBagWritesRowsAndCountsFrames) {
+  BagReader reader(path("in.bag"));
+  std::ostringstream progress_text;
+  ProgressBar progress(progress_text, false);
+  TrackBagSummary summary;
+  {
+    TrackingCsvWriter csv(path("out.csv"), names26());
+    summary = runTrackBag(reader, standIn, csv, &progress);
+  }
+  EXPECT_EQ(summary.frames, 6);
+  EXPECT_EQ(summary.background_frames, 2);
+  EXPECT_EQ(summary.tracked_frames, 3);
+  EXPECT_EQ(summary.waiting_frames, 1);
+  EXPECT_EQ(summary.lost_frames, 1);
+  EXPECT_EQ(summary.restarted_frames, 1);
+  EXPECT_EQ(summary.incomplete_sets, 1);
+  EXPECT_EQ(summary.image_gaussians, 28);
+  EXPECT_NEAR(summary.segmentation_seconds, 0.004, 1e-12);
+  EXPECT_NEAR(summary.tracking_seconds, 0.008, 1e-12);
+  EXPECT_GT(summary.decode_seconds, 0.0);
+  EXPECT_GT(summary.pipeline_seconds, 0.0);
+  EXPECT_NEAR(summary.pipelineFps(), 4.0 / summary.pipeline_seconds, 1e-9);
+  EXPECT_EQ(summary.cameras, (std::vector<std::string>{"cam0", "cam1", "cam2"}));
+  EXPECT_FALSE(summary.interrupted);
+
+  const TrackingCsv csv = readTrackingCsv(path("out.csv"));
+  EXPECT_EQ(csv.parameter_names, names26());
+  ASSERT_EQ(csv.rows.size(), 3u);
+  const int frames[] = {2, 3, 5};
+  for (int k = 0; k < 3; ++k) {
+    const TrackingCsvRow& row = csv.rows[k];
+    EXPECT_NEAR(row.stamp, frameTime(frames[k]).toSec(), 1e-6);
+    EXPECT_NEAR(row.parameters[0], 10 * frames[k] / 1000.0, 1e-9);  // bgr8 read back as RGB
+    EXPECT_NEAR(row.parameters[25], 0.25, 1e-9);
+    EXPECT_NEAR(row.fingertips[3].x(), 3.0, 1e-9);
+    EXPECT_NEAR(row.fingertips[3].y(), 2.0, 1e-9);  // the image of cam2
+    EXPECT_NEAR(row.energy, 0.5 + frames[k], 1e-9);
+  }
+  const std::string text = progress_text.str();
+  EXPECT_NE(text.find("frame 1, 3 cameras, background"), std::string::npos) << text;
+  EXPECT_NE(text.find("100% 6 frames"), std::string::npos) << text;
+
+  const std::string report = formatSummary(summary);
+  EXPECT_NE(report.find("frames:    6 (2 background, 3 tracked, 1 without a hand pose), 1 with a "
+                        "camera missing"),
+            std::string::npos)
+      << report;
+  EXPECT_NE(report.find("cameras:   3 (cam0 cam1 cam2)"), std::string::npos) << report;
+  EXPECT_NE(report.find("over 4 frames, decode excluded); per frame: segmentation 1.00 ms, "
+                        "optimisation 2.00 ms"),
+            std::string::npos)
+      << report;
+  EXPECT_NE(report.find("lost in 1 frames, restarted in 1 frames"), std::string::npos) << report;
+  EXPECT_NE(report.find("3 rows in " + path("out.csv")), std::string::npos) << report;
+}
+
+TEST_F(TrackBagRun, TrackBagStopsWhenInterrupted) {
+  BagReader reader(path("in.bag"));
+  std::atomic<bool> stop{false};
+  int calls = 0;
+  TrackingCsvWriter csv(path("out.csv"), names26());
+  const TrackBagSummary summary = runTrackBag(
+      reader,
+      [&](const FrameSet& set) {
+        if (++calls == 3) stop = true;
+        return standIn(set);
+      },
+      csv, nullptr, &stop);
+  EXPECT_TRUE(summary.interrupted);
+  EXPECT_EQ(summary.frames, 3);
+  EXPECT_EQ(readTrackingCsv(path("out.csv")).rows.size(), 1u);
+  EXPECT_NE(formatSummary(summary).find("(interrupted)"), std::string::npos);
+}
+
+TEST_F(TrackBagRun, TrackBagPassesTrackingErrorsOn) {
+  BagReader reader(path("in.bag"));
+  TrackingCsvWriter csv(path("out.csv"), names26());
+  EXPECT_THROW(
+      runTrackBag(
+          reader, [](const FrameSet&) -> ProcessedFrame { throw InputError("bad"); }, csv, nullptr),
+      InputError);
+}
