@@ -49,7 +49,7 @@ cv::Mat fitFrame(const cv::Mat& in, int width, int height);
 cv::Mat toBgr8(const cv::Mat& in);
 
 struct SourceOptions {
-  int width = 0;       // requested from devices (0 = the device's default)
+  int width = 0;  // requested from devices (0 = the device's default)
   int height = 0;
   double fps = 0.0;    // requested from devices (0 = the device's default)
   std::string fourcc;  // pixel format requested from devices, e.g. "MJPG" ("" = default)

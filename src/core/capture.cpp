@@ -76,7 +76,8 @@ class FolderSource : public FrameSource {
   std::size_t current_ = static_cast<std::size_t>(-1);
 };
 
-// --- cv::VideoCapture: devices and video files ----------------------------------------------------
+// --- cv::VideoCapture: devices and video files
+// ----------------------------------------------------
 
 class CaptureSource : public FrameSource {
  public:
@@ -106,8 +107,8 @@ class CaptureSource : public FrameSource {
       problem_ = "cannot read the video again from its start";
       return GrabResult::finished;
     }
-    problem_ = "end of the video after " + std::to_string(frames_since_open_) +
-               " frames (loop is off)";
+    problem_ =
+        "end of the video after " + std::to_string(frames_since_open_) + " frames (loop is off)";
     return GrabResult::finished;
   }
 
@@ -191,8 +192,8 @@ std::string describeSource(const SourceSpec& spec) {
 }
 
 bool isImageFileName(const std::string& name) {
-  static const char* const kExtensions[] = {".png", ".jpg", ".jpeg", ".bmp", ".ppm",
-                                            ".pgm", ".pnm", ".tif", ".tiff", ".webp"};
+  static const char* const kExtensions[] = {".png", ".jpg", ".jpeg", ".bmp",  ".ppm",
+                                            ".pgm", ".pnm", ".tif",  ".tiff", ".webp"};
   const std::string extension = lower(fs::path(name).extension().string());
   return std::any_of(std::begin(kExtensions), std::end(kExtensions),
                      [&](const char* known) { return extension == known; });
@@ -253,8 +254,7 @@ cv::Mat toBgr8(const cv::Mat& in) {
   }
 }
 
-std::unique_ptr<FrameSource> openFrameSource(const SourceSpec& spec,
-                                             const SourceOptions& options) {
+std::unique_ptr<FrameSource> openFrameSource(const SourceSpec& spec, const SourceOptions& options) {
   const std::string what = describeSource(spec);
   if (spec.kind == SourceKind::image_folder) {
     std::vector<std::string> files = listImageFiles(spec.path);
@@ -282,12 +282,14 @@ std::unique_ptr<FrameSource> openFrameSource(const SourceSpec& spec,
   return source;
 }
 
-// --- MultiCapture ---------------------------------------------------------------------------------
+// --- MultiCapture
+// ---------------------------------------------------------------------------------
 
 MultiCapture::MultiCapture(std::vector<std::string> names,
-                           std::vector<std::unique_ptr<FrameSource>> sources, int width,
-                           int height, int max_failures)
-    : width_(std::max(0, width)), height_(std::max(0, height)),
+                           std::vector<std::unique_ptr<FrameSource>> sources, int width, int height,
+                           int max_failures)
+    : width_(std::max(0, width)),
+      height_(std::max(0, height)),
       max_failures_(std::max(1, max_failures)) {
   if (names.size() != sources.size()) {
     throw std::invalid_argument("MultiCapture: one name per source");

@@ -142,8 +142,9 @@ TEST_F(CaptureFiles, ListsImagesSortedAndSkipsOthers) {
   EXPECT_EQ(files[3], (folder / "b.png").string());
 
   EXPECT_TRUE(listImageFiles(makeFolder("empty", 0)).empty());
-  EXPECT_NE(errorOf([&] { listImageFiles(path("missing")); }).find("'" + path("missing") +
-                                                                     "' does not exist"),
+  EXPECT_NE(errorOf([&] {
+              listImageFiles(path("missing"));
+            }).find("'" + path("missing") + "' does not exist"),
             std::string::npos);
   EXPECT_NE(errorOf([&] { listImageFiles((folder / "b.png").string()); }).find("is not a folder"),
             std::string::npos);
@@ -187,16 +188,18 @@ TEST_F(CaptureFiles, OpeningReportsTheSource) {
   EXPECT_EQ(errorOf([&] { openFrameSource(parseSourceSpec("dir:" + path("nope")), options); }),
             "image folder '" + path("nope") + "' does not exist");
   const std::string empty = makeFolder("empty", 0);
-  EXPECT_NE(errorOf([&] { openFrameSource(parseSourceSpec("dir:" + empty), options); })
-                .find("image folder '" + empty + "' holds no image files"),
+  EXPECT_NE(errorOf([&] {
+              openFrameSource(parseSourceSpec("dir:" + empty), options);
+            }).find("image folder '" + empty + "' holds no image files"),
             std::string::npos);
   EXPECT_EQ(errorOf([&] { openFrameSource(parseSourceSpec(path("none.avi")), options); }),
             "video file '" + path("none.avi") + "' does not exist");
   EXPECT_EQ(errorOf([&] { openFrameSource(parseSourceSpec("/dev/video_sag_none"), options); }),
             "V4L2 device /dev/video_sag_none does not exist");
   std::ofstream(path("garbage.avi")) << "not a video";
-  EXPECT_NE(errorOf([&] { openFrameSource(parseSourceSpec(path("garbage.avi")), options); })
-                .find("cannot be opened"),
+  EXPECT_NE(errorOf([&] {
+              openFrameSource(parseSourceSpec(path("garbage.avi")), options);
+            }).find("cannot be opened"),
             std::string::npos);
 }
 
@@ -292,7 +295,7 @@ TEST_F(CaptureFiles, MultiCaptureCarriesOnWithoutFinishedAndMissingCameras) {
     ASSERT_EQ(frames.size(), 3u);
     EXPECT_TRUE(frames[1].empty());
     ASSERT_FALSE(frames[2].empty());
-    EXPECT_EQ(frames[2].size(), cv::Size(16, 12));  // resized
+    EXPECT_EQ(frames[2].size(), cv::Size(16, 12));                          // resized
     EXPECT_EQ(frames[2].at<cv::Vec3b>(3, 3), cv::Vec3b(255, 10 * set, 0));  // RGB order
     const std::vector<CaptureEvent> events = capture.takeEvents();
     if (set < 2) {
