@@ -9,6 +9,8 @@
 // Private parameters:
 //   sources (list, required): per camera "0" / 0 (V4L2 index), "/dev/video0", a video file, or
 //     "dir:/path" (an image folder, read in sorted file name order)
+//   num_cameras (-1): when >= 0, the number of entries sources must have (a launch file's
+//     check that its camera count and its source list agree)
 //   camera_names (list, default cam0..cam<N-1>)
 //   camera_info_urls (list, one per camera, "" = none): package:// or file:// calibration
 //     (camera_info_manager). A camera without a url gets its intrinsics from rig_file when the
@@ -73,6 +75,12 @@ class CameraDriverNodelet : public nodelet::Nodelet {
       return;
     }
     const int count = static_cast<int>(sources.size());
+    const int expected = pnh.param("num_cameras", -1);
+    if (expected >= 0 && expected != count) {
+      NODELET_FATAL("num_cameras is %d but ~sources lists %d cameras; the driver does nothing",
+                    expected, count);
+      return;
+    }
     if (!readStringList(pnh, "camera_names", &names)) return;
     if (names.empty()) {
       for (int i = 0; i < count; ++i) names.push_back("cam" + std::to_string(i));
