@@ -53,7 +53,6 @@ class CameraDriverNodelet : public nodelet::Nodelet {
   struct Output {
     std::string name;
     std::string frame_id;
-    std::string source;  // as given
     image_transport::CameraPublisher publisher;
     std::unique_ptr<camera_info_manager::CameraInfoManager> info_manager;
     bool info_size_warned = false;
@@ -150,7 +149,6 @@ class CameraDriverNodelet : public nodelet::Nodelet {
       Output& out = outputs_[i];
       out.name = names[i];
       out.frame_id = opticalFrame(names[i]);
-      out.source = sources[i];
       out.publisher = it.advertiseCamera(names[i] + "/image_raw", 2);
       out.info_manager = std::make_unique<camera_info_manager::CameraInfoManager>(
           ros::NodeHandle(nh, names[i]), names[i], urls[i]);
