@@ -49,6 +49,10 @@ class SegmentationNodelet : public nodelet::Nodelet {
     loadBackgroundFile();
 
     auto connect = [this](const ros::SingleSubscriberPublisher&) { updateSubscription(); };
+    // Held while sog_pub_ is assigned: a subscriber that is already there (the tracker in the
+    // same manager) makes the connect callback run on another thread, possibly before advertise()
+    // returns; it would then see no subscribers and never subscribe the camera.
+    std::lock_guard<std::mutex> lock(subscription_mutex_);
     sog_pub_ = nh.advertise<SumOfGaussians>("sog", 5, connect, connect);
   }
 
