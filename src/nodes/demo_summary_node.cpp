@@ -172,7 +172,7 @@ class DemoSummary {
 
   void report() {
     long sets = 0, complete = 0, with_status = 0, with_joints = 0, hand_sets = 0,
-         hand_without_joints = 0;
+         hand_without_joints = 0, hand_unprocessed = 0;
     std::vector<double> latencies, errors;
     std::map<std::string, std::vector<double>> per_sequence;
     std::map<std::string, long> statuses;
@@ -190,6 +190,7 @@ class DemoSummary {
       if (set.ground_truth) {
         ++hand_sets;
         if (!set.joint_state) ++hand_without_joints;
+        if (!set.status) ++hand_unprocessed;
       }
       if (set.ground_truth && set.fingertips && set.tips.size() == set.truth.size() &&
           !set.tips.empty()) {
@@ -219,17 +220,19 @@ class DemoSummary {
                   complete, num_cameras_, sets / seconds);
     out << line;
     std::snprintf(line, sizeof line,
-                  "tracker: %ld sets processed (status), %ld dropped (no status); %ld joint "
-                  "states, %.2f /s; restarts %ld\n",
-                  with_status, sets - with_status, with_joints, with_joints / seconds, restarts_);
+                  "tracker: %ld sets processed (a status), %ld not (%ld with the hand in view; "
+                  "the others: empty frames, e.g. the segmentation's background-plate frames); "
+                  "%ld joint states, %.2f /s; restarts %ld\n",
+                  with_status, sets - with_status, hand_unprocessed, with_joints,
+                  with_joints / seconds, restarts_);
     out << line;
     out << "status counts:";
     for (const auto& [name, count] : statuses) out << " " << name << " " << count;
     out << "\n";
     std::snprintf(line, sizeof line,
-                  "sets without a joint state: %ld of %ld (of them with the hand in view: %ld of "
-                  "%ld; the rest are the studio's empty frames)\n",
-                  sets - with_joints, sets, hand_without_joints, hand_sets);
+                  "DROPPED sets (hand in view, no joint state): %ld of %ld; sets without a joint "
+                  "state in all: %ld of %ld (the rest: the studio's empty frames)\n",
+                  hand_without_joints, hand_sets, sets - with_joints, sets);
     out << line;
     std::snprintf(line, sizeof line,
                   "fingertip error vs ground truth: mean %.1f mm, median %.1f mm, 95th pct %.1f "
@@ -256,9 +259,10 @@ class DemoSummary {
       std::ofstream file(summary_file_);
       file << "seconds: " << seconds << "\ncameras: " << num_cameras_ << "\nsets: " << sets
            << "\ncomplete_sets: " << complete << "\nprocessed_sets: " << with_status
-           << "\ndropped_sets: " << sets - with_status << "\njoint_states: " << with_joints
+           << "\nunprocessed_sets: " << sets - with_status
+           << "\nunprocessed_sets_with_hand: " << hand_unprocessed << "\njoint_states: " << with_joints
            << "\njoint_state_rate: " << with_joints / seconds
-           << "\nhand_sets_without_joint_state: " << hand_without_joints
+           << "\ndropped_sets: " << hand_without_joints
            << "\nhand_sets: " << hand_sets << "\nrestarts: " << restarts_
            << "\nmean_fingertip_error_mm: " << mean(errors)
            << "\nmedian_fingertip_error_mm: " << percentile(errors, 50)
