@@ -15,7 +15,8 @@
 //          last one (without loop)
 // Private parameters:
 //   rig ("dexter5"): a built-in rig name, a directory with rig.yaml or a rig file
-//   sequences (list, default all seven built-in motions): motion names or motion files, played
+//   sequences (list, or a string of names separated by spaces or commas; default all seven
+//     built-in motions): motion names or motion files, played
 //     in order; each starts with empty_frames frames of the empty studio (the tracker loses the
 //     hand there and starts again by itself when it reappears)
 //   loop (false): start again with the first sequence after the last
@@ -43,6 +44,8 @@
 #include <pluginlib/class_list_macros.hpp>
 
 #include <XmlRpcValue.h>
+#include <algorithm>
+#include <sstream>
 #include <chrono>
 #include <memory>
 #include <optional>
@@ -150,6 +153,14 @@ class StudioDriverNodelet : public nodelet::Nodelet {
     out->clear();
     XmlRpc::XmlRpcValue value;
     if (!pnh.getParam(key, value)) return true;
+    if (value.getType() == XmlRpc::XmlRpcValue::TypeString) {
+      // "pinch random" or "pinch,random" (rosrun's _sequences:=... cannot give a list)
+      std::string text = static_cast<std::string>(value);
+      std::replace(text.begin(), text.end(), ',', ' ');
+      std::istringstream words(text);
+      for (std::string word; words >> word;) out->push_back(word);
+      return true;
+    }
     if (value.getType() != XmlRpc::XmlRpcValue::TypeArray) {
       NODELET_FATAL("parameter ~%s must be a list of names; the studio does nothing", key.c_str());
       return false;
@@ -211,7 +222,7 @@ class StudioDriverNodelet : public nodelet::Nodelet {
     if (!started_) {
       const double waited = (ros::WallTime::now() - wait_start_).toSec();
       if (!subscribersReady() && waited < wait_for_subscribers_) return;
-      if (!subscribersReady()) {
+      if (wait_for_subscribers_ > 0 && !subscribersReady()) {
         NODELET_WARN("studio: not every camera has a subscriber after %.1f s; starting anyway",
                      waited);
       }
