@@ -1,10 +1,12 @@
 // Bag input and output: a small 3-camera bag is written in the test, read back, and every bad
 // input gets its one-line message.
 #include <gtest/gtest.h>
+
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <std_msgs/String.h>
 #include <tf2_msgs/TFMessage.h>
+#include "test_support/temp_files.h"
 
 #include <filesystem>
 #include <fstream>
@@ -62,33 +64,16 @@ bool sameImage(const cv::Mat& a, const cv::Mat& b) {
   return a.size() == b.size() && a.type() == b.type() && cv::norm(a, b, cv::NORM_INF) == 0.0;
 }
 
-class BagFiles : public ::testing::Test {
+class BagFiles : public sag_test::TempDirTest {
  protected:
   void SetUp() override {
-    std::random_device random;
-    dir_ = fs::temp_directory_path() / ("sag_bag_test_" + std::to_string(random()));
-    fs::create_directories(dir_);
+    TempDirTest::SetUp();
     for (int id = 0; id < 3; ++id) cameras_.push_back(makeCamera(id));
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  std::string path(const std::string& name) const { return (dir_ / name).string(); }
-
-  // Runs `action`, expects an InputError, and returns its message.
-  template <typename Action>
-  static std::string errorOf(Action action) {
-    try {
-      action();
-    } catch (const InputError& error) {
-      return error.what();
-    }
-    ADD_FAILURE() << "no InputError thrown";
-    return "";
   }
 
   // Opens the bag and reads it to the end; returns the error message.
   static std::string readError(const std::string& bag, const BagReaderOptions& options = {}) {
-    return errorOf([&] {
+    return sag_test::inputErrorOf([&] {
       BagReader reader(bag, options);
       FrameSet set;
       while (reader.next(&set)) {
@@ -134,7 +119,6 @@ class BagFiles : public ::testing::Test {
     return path(name);
   }
 
-  fs::path dir_;
   std::vector<Camera> cameras_;
 };
 
@@ -443,7 +427,7 @@ TEST_F(BagFiles, BagErrorUnsupportedEncoding) {
   BagReader reader(bag);
   FrameSet set;
   EXPECT_TRUE(reader.next(&set));
-  EXPECT_EQ(errorOf([&] { reader.next(&set); }),
+  EXPECT_EQ(sag_test::inputErrorOf([&] { reader.next(&set); }),
             bag +
                 ": /cam0/image_raw at 100.040000: unsupported image encoding 'yuv422' "
                 "(expected rgb8 or bgr8)");

@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include "test_support/temp_files.h"
+
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -12,35 +14,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-class CalibrationFiles : public ::testing::Test {
- protected:
-  void SetUp() override {
-    std::random_device random;
-    dir_ = fs::temp_directory_path() / ("sag_calibration_test_" + std::to_string(random()));
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  std::string write(const std::string& name, const std::string& text) const {
-    const fs::path path = dir_ / name;
-    std::ofstream(path) << text;
-    return path.string();
-  }
-
-  // Runs `action`, expects an InputError, and returns its message.
-  template <typename Action>
-  static std::string errorOf(Action action) {
-    try {
-      action();
-    } catch (const InputError& error) {
-      return error.what();
-    }
-    ADD_FAILURE() << "no InputError thrown";
-    return "";
-  }
-
-  fs::path dir_;
-};
+class CalibrationFiles : public sag_test::TempDirTest {};
 
 Camera exampleCamera(const std::string& name) {
   Camera camera;
@@ -191,10 +165,10 @@ cameras:
 
 TEST_F(CalibrationFiles, CalibrationErrorMissingFile) {
   const std::string path = (dir_ / "absent.yaml").string();
-  const std::string message = errorOf([&] { loadCameraCalibration(path); });
+  const std::string message = sag_test::inputErrorOf([&] { loadCameraCalibration(path); });
   EXPECT_NE(message.find(path), std::string::npos) << message;
   EXPECT_NE(message.find("does not exist"), std::string::npos) << message;
-  EXPECT_NE(errorOf([&] { loadCameraRig(path); }).find("rig file does not exist"),
+  EXPECT_NE(sag_test::inputErrorOf([&] { loadCameraRig(path); }).find("rig file does not exist"),
             std::string::npos);
 }
 
@@ -202,7 +176,7 @@ TEST_F(CalibrationFiles, CalibrationErrorMalformedYamlNamesTheLine) {
   const std::string path =
       write("bad.yaml",
             replaced(kValidCalibration, "camera_name: narrow_stereo", "camera_name: [unclosed"));
-  const std::string message = errorOf([&] { loadCameraCalibration(path); });
+  const std::string message = sag_test::inputErrorOf([&] { loadCameraCalibration(path); });
   EXPECT_EQ(message.rfind(path + ":", 0), 0u) << message;
   EXPECT_NE(message.find("malformed YAML"), std::string::npos) << message;
   // The parser reports where it gave up: on or after line 3, where the list opens.
@@ -213,14 +187,14 @@ TEST_F(CalibrationFiles, CalibrationErrorMalformedYamlNamesTheLine) {
 TEST_F(CalibrationFiles, CalibrationErrorMissingKey) {
   const std::string no_width =
       write("a.yaml", replaced(kValidCalibration, "image_width: 320\n", ""));
-  EXPECT_NE(errorOf([&] {
+  EXPECT_NE(sag_test::inputErrorOf([&] {
               loadCameraCalibration(no_width);
             }).find(no_width + ":1: missing key 'image_width'"),
             std::string::npos);
   const std::string no_data = write(
       "b.yaml",
       replaced(kValidCalibration, "  data: [300.5, 0, 160.25, 0, 301, 119.75, 0, 0, 1]\n", ""));
-  const std::string message = errorOf([&] { loadCameraCalibration(no_data); });
+  const std::string message = sag_test::inputErrorOf([&] { loadCameraCalibration(no_data); });
   EXPECT_NE(message.find("missing key 'camera_matrix.data'"), std::string::npos) << message;
   EXPECT_EQ(message.rfind(no_data + ":5:", 0), 0u) << message;
 }
@@ -229,7 +203,7 @@ TEST_F(CalibrationFiles, CalibrationErrorZeroFocalLength) {
   const std::string path = write(
       "f.yaml", replaced(kValidCalibration, "data: [300.5, 0, 160.25, 0, 301, 119.75, 0, 0, 1]",
                          "data: [0, 0, 160.25, 0, 301, 119.75, 0, 0, 1]"));
-  const std::string message = errorOf([&] { loadCameraCalibration(path); });
+  const std::string message = sag_test::inputErrorOf([&] { loadCameraCalibration(path); });
   EXPECT_NE(message.find(path), std::string::npos) << message;
   EXPECT_NE(message.find("zero or negative focal length"), std::string::npos) << message;
 }
@@ -238,24 +212,27 @@ TEST_F(CalibrationFiles, CalibrationErrorBadValues) {
   const std::string wrong_count = write(
       "w.yaml", replaced(kValidCalibration, "data: [300.5, 0, 160.25, 0, 301, 119.75, 0, 0, 1]",
                          "data: [300.5, 0, 160.25, 0, 301, 119.75, 0, 0]"));
-  EXPECT_NE(errorOf([&] { loadCameraCalibration(wrong_count); }).find("has 8 values for 3x3"),
+  EXPECT_NE(sag_test::inputErrorOf([&] {
+              loadCameraCalibration(wrong_count);
+            }).find("has 8 values for 3x3"),
             std::string::npos);
   const std::string not_number =
       write("n.yaml", replaced(kValidCalibration, "image_height: 240", "image_height: tall"));
-  EXPECT_NE(errorOf([&] {
+  EXPECT_NE(sag_test::inputErrorOf([&] {
               loadCameraCalibration(not_number);
             }).find(":2: 'image_height' must be an integer"),
             std::string::npos);
   const std::string fisheye = write(
       "e.yaml",
       replaced(kValidCalibration, "distortion_model: plumb_bob", "distortion_model: equidistant"));
-  EXPECT_NE(errorOf([&] {
+  EXPECT_NE(sag_test::inputErrorOf([&] {
               loadCameraCalibration(fisheye);
             }).find("unsupported distortion_model 'equidistant'"),
             std::string::npos);
   const std::string empty = write("empty.yaml", "");
-  EXPECT_NE(errorOf([&] { loadCameraCalibration(empty); }).find("expected a YAML map"),
-            std::string::npos);
+  EXPECT_NE(
+      sag_test::inputErrorOf([&] { loadCameraCalibration(empty); }).find("expected a YAML map"),
+      std::string::npos);
 }
 
 TEST_F(CalibrationFiles, CalibrationErrorNonUnitQuaternion) {
@@ -267,7 +244,7 @@ cameras:
     translation: [1, 2, 3]
     rotation: [0, 0, 0.5, 0.5]
 )");
-  const std::string message = errorOf([&] { loadCameraRig(rig); });
+  const std::string message = sag_test::inputErrorOf([&] { loadCameraRig(rig); });
   EXPECT_EQ(message.rfind(rig + ":6: 'cameras[0].rotation' is not a unit quaternion", 0), 0u)
       << message;
 }
@@ -281,7 +258,7 @@ cameras:
     translation: [0, 0, 0]
     rotation: [0, 0, 0, 1]
 )");
-  std::string message = errorOf([&] { loadCameraRig(missing_calibration); });
+  std::string message = sag_test::inputErrorOf([&] { loadCameraRig(missing_calibration); });
   EXPECT_NE(message.find(missing_calibration + ":4: calibration file"), std::string::npos)
       << message;
   EXPECT_NE(message.find("nowhere.yaml' of camera 'cam0' does not exist"), std::string::npos)
@@ -293,29 +270,33 @@ cameras:
     calibration: c.yaml
     rotation: [0, 0, 0, 1]
 )");
-  message = errorOf([&] { loadCameraRig(no_translation); });
+  message = sag_test::inputErrorOf([&] { loadCameraRig(no_translation); });
   EXPECT_NE(message.find("missing key 'cameras[0].translation'"), std::string::npos) << message;
 
   const std::string no_root = write("r3.yaml", "cameras: []\n");
-  EXPECT_NE(errorOf([&] { loadCameraRig(no_root); }).find("missing key 'root_frame'"),
-            std::string::npos);
+  EXPECT_NE(
+      sag_test::inputErrorOf([&] { loadCameraRig(no_root); }).find("missing key 'root_frame'"),
+      std::string::npos);
   const std::string no_cameras = write("r4.yaml", "root_frame: world\ncameras: []\n");
-  EXPECT_NE(errorOf([&] { loadCameraRig(no_cameras); }).find("'cameras' must be a non-empty list"),
+  EXPECT_NE(sag_test::inputErrorOf([&] {
+              loadCameraRig(no_cameras);
+            }).find("'cameras' must be a non-empty list"),
             std::string::npos);
   const std::string twice = write("r5.yaml", R"(root_frame: world
 cameras:
   - {name: cam0, calibration: c.yaml, translation: [0, 0, 0], rotation: [0, 0, 0, 1]}
   - {name: cam0, calibration: c.yaml, translation: [0, 0, 1], rotation: [0, 0, 0, 1]}
 )");
-  EXPECT_NE(errorOf([&] { loadCameraRig(twice); }).find(":4: camera 'cam0' appears twice"),
-            std::string::npos);
+  EXPECT_NE(
+      sag_test::inputErrorOf([&] { loadCameraRig(twice); }).find(":4: camera 'cam0' appears twice"),
+      std::string::npos);
   // An error inside a camera's calibration file names that file.
   const std::string bad = write("bad.yaml", "image_width: 320\n");
   const std::string bad_calibration = write("r6.yaml", R"(root_frame: world
 cameras:
   - {name: cam0, calibration: bad.yaml, translation: [0, 0, 0], rotation: [0, 0, 0, 1]}
 )");
-  message = errorOf([&] { loadCameraRig(bad_calibration); });
+  message = sag_test::inputErrorOf([&] { loadCameraRig(bad_calibration); });
   EXPECT_NE(message.find((dir_ / "bad.yaml").string() + ":1: missing key 'image_height'"),
             std::string::npos)
       << message;

@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include "test_support/temp_files.h"
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -16,28 +18,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-template <typename Action>
-std::string errorOf(Action action) {
-  try {
-    action();
-  } catch (const InputError& error) {
-    return error.what();
-  }
-  ADD_FAILURE() << "no InputError thrown";
-  return "";
-}
-
-class CaptureFiles : public ::testing::Test {
+class CaptureFiles : public sag_test::TempDirTest {
  protected:
-  void SetUp() override {
-    std::random_device random;
-    dir_ = fs::temp_directory_path() / ("sag_capture_test_" + std::to_string(random()));
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  std::string path(const std::string& name) const { return (dir_ / name).string(); }
-
   // A folder of `count` BGR images "<i>.png" (zero-padded), image i filled with (B, G, R) =
   // (0, 10 * i, 255).
   std::string makeFolder(const std::string& name, int count, cv::Size size = {16, 12}) const {
@@ -50,8 +32,6 @@ class CaptureFiles : public ::testing::Test {
     }
     return folder.string();
   }
-
-  fs::path dir_;
 };
 
 // Green channel of pixel (0, 0) of an RGB frame: the image index * 10 in makeFolder's images.
@@ -112,9 +92,11 @@ TEST(SourceSpec, ParsesDevicesFilesAndFolders) {
 }
 
 TEST(SourceSpec, RejectsEmptySources) {
-  EXPECT_NE(errorOf([] { parseSourceSpec(""); }).find("empty camera source"), std::string::npos);
-  EXPECT_NE(errorOf([] { parseSourceSpec("  "); }).find("empty camera source"), std::string::npos);
-  EXPECT_NE(errorOf([] { parseSourceSpec("dir: "); }).find("no folder after 'dir:'"),
+  EXPECT_NE(sag_test::inputErrorOf([] { parseSourceSpec(""); }).find("empty camera source"),
+            std::string::npos);
+  EXPECT_NE(sag_test::inputErrorOf([] { parseSourceSpec("  "); }).find("empty camera source"),
+            std::string::npos);
+  EXPECT_NE(sag_test::inputErrorOf([] { parseSourceSpec("dir: "); }).find("no folder after 'dir:'"),
             std::string::npos);
 }
 
@@ -142,11 +124,13 @@ TEST_F(CaptureFiles, ListsImagesSortedAndSkipsOthers) {
   EXPECT_EQ(files[3], (folder / "b.png").string());
 
   EXPECT_TRUE(listImageFiles(makeFolder("empty", 0)).empty());
-  EXPECT_NE(errorOf([&] {
+  EXPECT_NE(sag_test::inputErrorOf([&] {
               listImageFiles(path("missing"));
             }).find("'" + path("missing") + "' does not exist"),
             std::string::npos);
-  EXPECT_NE(errorOf([&] { listImageFiles((folder / "b.png").string()); }).find("is not a folder"),
+  EXPECT_NE(sag_test::inputErrorOf([&] {
+              listImageFiles((folder / "b.png").string());
+            }).find("is not a folder"),
             std::string::npos);
 }
 
@@ -185,19 +169,22 @@ TEST(ToBgr8, ConvertsGreyColourAndDeepImages) {
 
 TEST_F(CaptureFiles, OpeningReportsTheSource) {
   SourceOptions options;
-  EXPECT_EQ(errorOf([&] { openFrameSource(parseSourceSpec("dir:" + path("nope")), options); }),
+  EXPECT_EQ(sag_test::inputErrorOf(
+                [&] { openFrameSource(parseSourceSpec("dir:" + path("nope")), options); }),
             "image folder '" + path("nope") + "' does not exist");
   const std::string empty = makeFolder("empty", 0);
-  EXPECT_NE(errorOf([&] {
+  EXPECT_NE(sag_test::inputErrorOf([&] {
               openFrameSource(parseSourceSpec("dir:" + empty), options);
             }).find("image folder '" + empty + "' holds no image files"),
             std::string::npos);
-  EXPECT_EQ(errorOf([&] { openFrameSource(parseSourceSpec(path("none.avi")), options); }),
-            "video file '" + path("none.avi") + "' does not exist");
-  EXPECT_EQ(errorOf([&] { openFrameSource(parseSourceSpec("/dev/video_sag_none"), options); }),
+  EXPECT_EQ(
+      sag_test::inputErrorOf([&] { openFrameSource(parseSourceSpec(path("none.avi")), options); }),
+      "video file '" + path("none.avi") + "' does not exist");
+  EXPECT_EQ(sag_test::inputErrorOf(
+                [&] { openFrameSource(parseSourceSpec("/dev/video_sag_none"), options); }),
             "V4L2 device /dev/video_sag_none does not exist");
   std::ofstream(path("garbage.avi")) << "not a video";
-  EXPECT_NE(errorOf([&] {
+  EXPECT_NE(sag_test::inputErrorOf([&] {
               openFrameSource(parseSourceSpec(path("garbage.avi")), options);
             }).find("cannot be opened"),
             std::string::npos);

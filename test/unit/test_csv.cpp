@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include "test_support/temp_files.h"
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -13,39 +15,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-class CsvFiles : public ::testing::Test {
- protected:
-  void SetUp() override {
-    std::random_device random;
-    dir_ = fs::temp_directory_path() / ("sag_csv_test_" + std::to_string(random()));
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  std::string path(const std::string& name) const { return (dir_ / name).string(); }
-  std::string write(const std::string& name, const std::string& text) const {
-    std::ofstream(path(name)) << text;
-    return path(name);
-  }
-  static std::string readAll(const std::string& file) {
-    std::ifstream in(file);
-    std::ostringstream text;
-    text << in.rdbuf();
-    return text.str();
-  }
-  template <typename Action>
-  static std::string errorOf(Action action) {
-    try {
-      action();
-    } catch (const InputError& error) {
-      return error.what();
-    }
-    ADD_FAILURE() << "no InputError thrown";
-    return "";
-  }
-
-  fs::path dir_;
-};
+class CsvFiles : public sag_test::TempDirTest {};
 
 TrackingCsvRow exampleRow(double stamp, int num_parameters) {
   TrackingCsvRow row;
@@ -126,13 +96,14 @@ TEST_F(CsvFiles, CsvRejectsWrongParameterCount) {
 }
 
 TEST_F(CsvFiles, CsvErrors) {
-  EXPECT_NE(errorOf([&] {
+  EXPECT_NE(sag_test::inputErrorOf([&] {
               TrackingCsvWriter(path("no/such/dir/x.csv"), {"a"});
             }).find("cannot create the CSV file"),
             std::string::npos);
-  EXPECT_NE(errorOf([&] { readTrackingCsv(path("absent.csv")); }).find("cannot open"),
-            std::string::npos);
-  EXPECT_NE(errorOf([&] {
+  EXPECT_NE(
+      sag_test::inputErrorOf([&] { readTrackingCsv(path("absent.csv")); }).find("cannot open"),
+      std::string::npos);
+  EXPECT_NE(sag_test::inputErrorOf([&] {
               readTrackingCsv(write("h.csv", "stamp,x,energy\n"));
             }).find("h.csv:1: not a tracking CSV header"),
             std::string::npos);
@@ -143,11 +114,13 @@ TEST_F(CsvFiles, CsvErrors) {
   }
   std::string text = readAll(path("good.csv"));
   const std::string short_row = write("short.csv", text + "2.0,1,2\n");
-  EXPECT_NE(errorOf([&] { readTrackingCsv(short_row); }).find("short.csv:3: 3 fields, expected 18"),
+  EXPECT_NE(sag_test::inputErrorOf([&] {
+              readTrackingCsv(short_row);
+            }).find("short.csv:3: 3 fields, expected 18"),
             std::string::npos);
   const std::size_t last_comma = text.rfind(',');
   const std::string bad_number = write("bad.csv", text.substr(0, last_comma) + ",0.5x\n");
-  EXPECT_NE(errorOf([&] {
+  EXPECT_NE(sag_test::inputErrorOf([&] {
               readTrackingCsv(bad_number);
             }).find("bad.csv:2: column 'energy' is not a number: '0.5x'"),
             std::string::npos);

@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include "sag_hand_tracker/metrics.h"
+
 #include <random>
 
 #include "sag_hand_tracker/optimizer.h"
@@ -11,10 +13,7 @@ using namespace sag_test;
 namespace {
 
 double meanFingertipError(const HandModel& model, const Pose& a, const Pose& b) {
-  const auto ta = fingertips(model, a), tb = fingertips(model, b);
-  double sum = 0.0;
-  for (int f = 0; f < kNumFingers; ++f) sum += (ta[f] - tb[f]).norm();
-  return sum / kNumFingers;
+  return sag_hand_tracker::meanFingertipError(fingertips(model, a), fingertips(model, b));
 }
 
 // The known pose perturbed by at least 10 degrees on every joint (sign random, kept inside the

@@ -1,21 +1,14 @@
 #include <gtest/gtest.h>
 
+#include "sag_hand_tracker/metrics.h"
+
 #include "sag_hand_tracker/tracker.h"
 #include "test_support/synthetic_scene.h"
 
 using namespace sag_hand_tracker;
 using namespace sag_test;
 
-namespace {
-
-double meanFingertipError(const std::array<Eigen::Vector3d, kNumFingers>& a,
-                          const std::array<Eigen::Vector3d, kNumFingers>& b) {
-  double sum = 0.0;
-  for (int f = 0; f < kNumFingers; ++f) sum += (a[f] - b[f]).norm();
-  return sum / kNumFingers;
-}
-
-}  // namespace
+namespace {}  // namespace
 
 TEST(Tracker, WaitsWhileNoCameraSeesTheHand) {
   const HandModel model = loadHandModel(modelPath("sag"));

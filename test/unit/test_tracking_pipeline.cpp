@@ -1,5 +1,9 @@
 #include <gtest/gtest.h>
 
+#include "sag_hand_tracker/metrics.h"
+
+#include "test_support/temp_files.h"
+
 #include "sag_hand_tracker/tracking_pipeline.h"
 #include "test_support/rendered_scene.h"
 
@@ -28,23 +32,6 @@ std::vector<cv::Mat> handImages(const HandModel& model, const Pose& pose,
   std::vector<cv::Mat> images;
   for (const Camera& camera : cameras) images.push_back(renderHand(model, pose, camera));
   return images;
-}
-
-double meanFingertipError(const std::array<Eigen::Vector3d, kNumFingers>& a,
-                          const std::array<Eigen::Vector3d, kNumFingers>& b) {
-  double sum = 0.0;
-  for (int f = 0; f < kNumFingers; ++f) sum += (a[f] - b[f]).norm();
-  return sum / kNumFingers;
-}
-
-template <typename Action>
-std::string errorOf(Action action) {
-  try {
-    action();
-  } catch (const InputError& error) {
-    return error.what();
-  }
-  return "no InputError";
 }
 
 }  // namespace
@@ -122,20 +109,23 @@ TEST(Pipeline, PipelineRejectsBadInput) {
 
   FrameSet unknown = makeSet(0, {desk(cameras[0])});
   unknown.images[0].camera = 7;
-  EXPECT_EQ(errorOf([&] { pipeline.process(unknown); }),
+  EXPECT_EQ(sag_test::inputErrorOf([&] { pipeline.process(unknown); }),
             "image of unknown camera index 7 (4 cameras)");
   const FrameSet small = makeSet(0, {cv::Mat(120, 160, CV_8UC3, cv::Scalar(1, 2, 3))});
-  EXPECT_EQ(errorOf([&] { pipeline.process(small); }),
+  EXPECT_EQ(sag_test::inputErrorOf([&] { pipeline.process(small); }),
             "camera 'cam0': image is 160x120 but its calibration says 320x240");
   EXPECT_EQ(pipeline.setsSeen(), 0);
 
   PipelineParams negative;
   negative.background_frames = -1;
-  EXPECT_EQ(errorOf([&] { TrackingPipeline(model, cameras, negative); }),
+  EXPECT_EQ(sag_test::inputErrorOf([&] { TrackingPipeline(model, cameras, negative); }),
             "background_frames must be >= 0, got -1");
-  EXPECT_EQ(errorOf([&] { TrackingPipeline(model, {cameras[0]}, PipelineParams()); }),
-            "the tracker starts from at least 2 cameras that see the hand, but there are 1");
+  EXPECT_EQ(
+      sag_test::inputErrorOf([&] { TrackingPipeline(model, {cameras[0]}, PipelineParams()); }),
+      "the tracker starts from at least 2 cameras that see the hand, but there are 1");
   cameras[2].K(0, 0) = 0.0;
-  EXPECT_NE(errorOf([&] { TrackingPipeline(model, cameras, PipelineParams()); }).find("cam2"),
+  EXPECT_NE(sag_test::inputErrorOf([&] {
+              TrackingPipeline(model, cameras, PipelineParams());
+            }).find("cam2"),
             std::string::npos);
 }

@@ -1,0 +1,54 @@
+// Test helpers for tests that write files: a fresh temporary folder per test, and the message of
+// the InputError an action throws.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <string>
+
+#include "sag_hand_tracker/types.h"
+
+namespace sag_test {
+
+class TempDirTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::random_device random;
+    dir_ = std::filesystem::temp_directory_path() /
+           ("sag_test_" + std::to_string(random()) + std::to_string(random()));
+    std::filesystem::create_directories(dir_);
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+  std::string write(const std::string& name, const std::string& text) const {
+    std::ofstream(path(name)) << text;
+    return path(name);
+  }
+  static std::string readAll(const std::string& file) {
+    std::ifstream in(file);
+    std::ostringstream text;
+    text << in.rdbuf();
+    return text.str();
+  }
+
+  std::filesystem::path dir_;
+};
+
+// Runs `action`, expects a sag_hand_tracker::InputError, and returns its message.
+template <typename Action>
+std::string inputErrorOf(Action action) {
+  try {
+    action();
+  } catch (const sag_hand_tracker::InputError& error) {
+    return error.what();
+  }
+  ADD_FAILURE() << "no InputError thrown";
+  return "";
+}
+
+}  // namespace sag_test
