@@ -58,7 +58,7 @@ double number(const std::map<std::string, std::string>& row, const std::string& 
   return it == row.end() ? std::nan("") : std::stod(it->second);
 }
 
-class BenchmarkRun : public ::testing::Test {
+class BenchmarkTool : public ::testing::Test {
  protected:
   void SetUp() override {
     std::random_device random;
@@ -125,7 +125,7 @@ TEST(BenchmarkErrors, BenchmarkCountsFramesWithoutAPoseAsFailures) {
   EXPECT_EQ(none.percent_below[4], 0.0);
 }
 
-TEST_F(BenchmarkRun, BenchmarkMatchesRowsToTheGroundTruthByStamp) {
+TEST_F(BenchmarkTool, BenchmarkMatchesRowsToTheGroundTruthByStamp) {
   // A ground truth of three frames and a track that has the first and the last only.
   const std::vector<std::string> names{"p"};
   {
@@ -150,7 +150,7 @@ TEST_F(BenchmarkRun, BenchmarkMatchesRowsToTheGroundTruthByStamp) {
   EXPECT_NEAR(errors.errors_mm[2], 12.0, 1e-6);
 }
 
-TEST_F(BenchmarkRun, BenchmarkShortRunWritesTablesCsvAndPlots) {
+TEST_F(BenchmarkTool, BenchmarkShortRunWritesTablesCsvAndPlots) {
   std::ostringstream log;
   const BenchmarkResults results = runBenchmark(options(), log);
 
@@ -229,7 +229,7 @@ TEST_F(BenchmarkRun, BenchmarkShortRunWritesTablesCsvAndPlots) {
   EXPECT_EQ(number(rows12[0], "frames"), 2.0);
 }
 
-TEST_F(BenchmarkRun, BenchmarkCameraCountsCoverEveryCombination) {
+TEST_F(BenchmarkTool, BenchmarkCameraCountsCoverEveryCombination) {
   std::ostringstream log;
   const BenchmarkResults results =
       runBenchmark(options("--camera-counts --frames 14 --models sag,sog"), log);
@@ -258,7 +258,7 @@ TEST_F(BenchmarkRun, BenchmarkCameraCountsCoverEveryCombination) {
   EXPECT_NE(log.str().find("cameras [52/52]"), std::string::npos) << log.str();
 }
 
-TEST_F(BenchmarkRun, BenchmarkGroundTruthCsvAgreesWithTheBag) {
+TEST_F(BenchmarkTool, BenchmarkGroundTruthCsvAgreesWithTheBag) {
   std::ostringstream log;
   runBenchmark(options("--frames 20 --models sag --no-plots"), log);
   const TrackingCsv csv = readTrackingCsv((dir_ / "bags" / "fingerwave_gt.csv").string());
@@ -279,6 +279,8 @@ TEST_F(BenchmarkRun, BenchmarkGroundTruthCsvAgreesWithTheBag) {
       const auto& p = tips[i].poses[f].position;
       EXPECT_LT((csv.rows[i].fingertips[f] - Eigen::Vector3d(p.x, p.y, p.z)).norm(), 1e-8);
     }
-    if (i > 0) EXPECT_GT(csv.rows[i].stamp, csv.rows[i - 1].stamp);
+    if (i > 0) {
+      EXPECT_GT(csv.rows[i].stamp, csv.rows[i - 1].stamp);
+    }
   }
 }
