@@ -468,8 +468,15 @@ void writePlots(const std::string& dir, const BenchmarkResults& results,
       }
       series.push_back(line);
     }
+    // An unlabelled series without points that widens the x axis by one camera on each side,
+    // so that the ticks fall on whole numbers of cameras.
+    PlotSeries range;
+    range.x = {combinations_per_count.begin()->first - 1.0,
+               combinations_per_count.rbegin()->first + 1.0};
+    range.y = {kNaN, kNaN};
+    series.push_back(range);
     writePng(dir + "/camera_counts.png",
-             linePlot(series, "Fingertip error against the number of cameras (mean, sd bars)",
+             linePlot(series, "Fingertip error vs number of cameras (mean, sd bars)",
                       "number of cameras", "error (mm)", 700, 420));
   }
 }
