@@ -46,7 +46,7 @@ test: build
 	cd $(WS) && catkin_test_results build/test_results
 
 demo: build
-	source $(WS)/devel/setup.bash && rosrun sag_hand_tracker demo
+	source $(WS)/devel/setup.bash && $(ROOT)/scripts/demo
 
 clean:
 	rm -rf $(WS)

@@ -516,11 +516,11 @@ class TrackerNodelet : public nodelet::Nodelet {
         const Eigen::Vector2d axes = eig.eigenvalues().cwiseMax(0.0).cwiseSqrt();
         const double angle =
             std::atan2(eig.eigenvectors()(1, 1), eig.eigenvectors()(0, 1)) * 180.0 / M_PI;
-        const Eigen::Vector3d rgb = hsvToRgb(model_.gaussians[g].hsv) * 255.0;
         if (!p.mean.allFinite() || !axes.allFinite()) continue;
+        // Cyan, not the model's (skin) colour, which would vanish on the hand.
         cv::ellipse(cv->image, cv::Point2d(p.mean.x(), p.mean.y()),
-                    cv::Size2d(axes[1], axes[0]), angle, 0, 360,
-                    cv::Scalar(rgb[2], rgb[1], rgb[0]), 1, cv::LINE_AA);
+                    cv::Size2d(axes[1], axes[0]), angle, 0, 360, cv::Scalar(255, 255, 0), 1,
+                    cv::LINE_AA);
       }
       input.overlay_pub.publish(cv->toImageMsg());
     }

@@ -1,0 +1,301 @@
+// demo_summary_node: the headless demo's report. Watches the camera sets, the tracker's outputs and
+// the studio's ground truth, matches them by stamp, and after `duration` seconds (or when the
+// studio has played its last sequence) prints a summary and shuts down (launch it with
+// required="true" and the whole launch ends with it).
+//
+// Topics: in: cam<i>/camera_info (i < num_cameras: one stamp per set), joint_states, fingertips,
+//   status (sag_hand_tracker/TrackingStatus), ground_truth/fingertips, studio/sequence.
+// Private parameters:
+//   num_cameras (5)
+//   duration (60 s of wall time from the first camera set; 0 = until the studio says "done")
+//   settle (1.0 s): after the end, how long to wait for the outputs of the sets still in flight
+//   summary_file (""): also write the figures there, as YAML
+// Latency: ros::WallTime::now() when the joint state arrives minus its header stamp (the image
+// stamp); meaningful with wall-clock stamps (no use_sim_time; the studio stamps with now()).
+#include <geometry_msgs/PoseArray.h>
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/JointState.h>
+#include <std_msgs/String.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "sag_hand_tracker/TrackingStatus.h"
+
+namespace {
+
+struct SetRecord {
+  int cameras = 0;
+  bool status = false;
+  std::string status_text;
+  bool joint_state = false;
+  bool fingertips = false;
+  bool ground_truth = false;
+  double latency = NAN;  // seconds, joint state
+  double error = NAN;    // mean fingertip error (m) when both are there
+  std::string sequence;
+  std::vector<double> tips, truth;  // 15 values each
+};
+
+double percentile(std::vector<double> values, double p) {
+  if (values.empty()) return NAN;
+  std::sort(values.begin(), values.end());
+  const double rank = p / 100.0 * (values.size() - 1);
+  const size_t lo = static_cast<size_t>(std::floor(rank));
+  const size_t hi = std::min(lo + 1, values.size() - 1);
+  return values[lo] + (rank - lo) * (values[hi] - values[lo]);
+}
+
+double mean(const std::vector<double>& values) {
+  if (values.empty()) return NAN;
+  double sum = 0.0;
+  for (double v : values) sum += v;
+  return sum / values.size();
+}
+
+std::vector<double> flatten(const geometry_msgs::PoseArray& msg) {
+  std::vector<double> out;
+  for (const auto& pose : msg.poses) {
+    out.push_back(pose.position.x);
+    out.push_back(pose.position.y);
+    out.push_back(pose.position.z);
+  }
+  return out;
+}
+
+class DemoSummary {
+ public:
+  DemoSummary() : pnh_("~") {
+    num_cameras_ = pnh_.param("num_cameras", 5);
+    duration_ = pnh_.param("duration", 60.0);
+    settle_ = pnh_.param("settle", 1.0);
+    summary_file_ = pnh_.param<std::string>("summary_file", "");
+    for (int i = 0; i < num_cameras_; ++i) {
+      subs_.push_back(nh_.subscribe<sensor_msgs::CameraInfo>(
+          "cam" + std::to_string(i) + "/camera_info", 20,
+          [this](const sensor_msgs::CameraInfo::ConstPtr& msg) { onCameraInfo(*msg); }));
+    }
+    subs_.push_back(nh_.subscribe<sensor_msgs::JointState>(
+        "joint_states", 20, [this](const sensor_msgs::JointState::ConstPtr& msg) {
+          const ros::WallTime now = ros::WallTime::now();
+          std::lock_guard<std::mutex> lock(mutex_);
+          SetRecord* set = find(msg->header.stamp);
+          if (!set) return;
+          set->joint_state = true;
+          set->latency = now.toSec() - msg->header.stamp.toSec();
+          ++joint_states_;
+        }));
+    subs_.push_back(nh_.subscribe<geometry_msgs::PoseArray>(
+        "fingertips", 20, [this](const geometry_msgs::PoseArray::ConstPtr& msg) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          SetRecord* set = find(msg->header.stamp);
+          if (!set) return;
+          set->fingertips = true;
+          set->tips = flatten(*msg);
+        }));
+    subs_.push_back(nh_.subscribe<geometry_msgs::PoseArray>(
+        "ground_truth/fingertips", 20, [this](const geometry_msgs::PoseArray::ConstPtr& msg) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          SetRecord* set = find(msg->header.stamp);
+          if (!set) return;
+          set->ground_truth = true;
+          set->truth = flatten(*msg);
+          set->sequence = sequence_;
+        }));
+    subs_.push_back(nh_.subscribe<sag_hand_tracker::TrackingStatus>(
+        "status", 20, [this](const sag_hand_tracker::TrackingStatus::ConstPtr& msg) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          SetRecord* set = find(msg->header.stamp);
+          if (!set) return;
+          set->status = true;
+          set->status_text = msg->status;
+          if (msg->restarted) ++restarts_;
+        }));
+    subs_.push_back(nh_.subscribe<std_msgs::String>(
+        "studio/sequence", 5, [this](const std_msgs::String::ConstPtr& msg) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          if (msg->data == "done") {
+            if (!ending_) {
+              ending_ = true;
+              end_wall_ = ros::WallTime::now();
+            }
+          } else {
+            sequence_ = msg->data;
+            if (std::find(sequences_.begin(), sequences_.end(), sequence_) == sequences_.end())
+              sequences_.push_back(sequence_);
+          }
+        }));
+    timer_ = nh_.createWallTimer(ros::WallDuration(0.1),
+                                 [this](const ros::WallTimerEvent&) { onTimer(); });
+    ROS_INFO("demo summary: watching %d cameras for %s", num_cameras_,
+             duration_ > 0 ? (std::to_string(duration_) + " s").c_str()
+                           : "the studio's sequences");
+  }
+
+ private:
+  // The record of a set (null for a stamp outside the window; outputs come after their set's
+  // camera_info, so they are matched to known sets only). Caller holds mutex_.
+  SetRecord* find(const ros::Time& stamp) {
+    auto it = sets_.find(stamp);
+    return it == sets_.end() ? nullptr : &it->second;
+  }
+
+  void onCameraInfo(const sensor_msgs::CameraInfo& msg) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (ending_) return;  // sets after the end are not counted
+    if (sets_.empty()) first_wall_ = ros::WallTime::now();
+    ++sets_[msg.header.stamp].cameras;
+  }
+
+  void onTimer() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const ros::WallTime now = ros::WallTime::now();
+    if (!ending_ && !sets_.empty() && duration_ > 0 && (now - first_wall_).toSec() >= duration_) {
+      ending_ = true;
+      end_wall_ = now;
+    }
+    if (ending_ && (now - end_wall_).toSec() >= settle_ && !reported_) {
+      reported_ = true;
+      report();
+      ros::shutdown();
+    }
+  }
+
+  void report() {
+    long sets = 0, complete = 0, with_status = 0, with_joints = 0, hand_sets = 0,
+         hand_without_joints = 0, hand_unprocessed = 0;
+    std::vector<double> latencies, errors;
+    std::map<std::string, std::vector<double>> per_sequence;
+    std::map<std::string, long> statuses;
+    for (auto& [stamp, set] : sets_) {
+      ++sets;
+      if (set.cameras >= num_cameras_) ++complete;
+      if (set.status) {
+        ++with_status;
+        ++statuses[set.status_text];
+      }
+      if (set.joint_state) {
+        ++with_joints;
+        latencies.push_back(set.latency * 1000.0);
+      }
+      if (set.ground_truth) {
+        ++hand_sets;
+        if (!set.joint_state) ++hand_without_joints;
+        if (!set.status) ++hand_unprocessed;
+      }
+      if (set.ground_truth && set.fingertips && set.tips.size() == set.truth.size() &&
+          !set.tips.empty()) {
+        double sum = 0.0;
+        const size_t tips = set.tips.size() / 3;
+        for (size_t t = 0; t < tips; ++t) {
+          const double dx = set.tips[3 * t] - set.truth[3 * t];
+          const double dy = set.tips[3 * t + 1] - set.truth[3 * t + 1];
+          const double dz = set.tips[3 * t + 2] - set.truth[3 * t + 2];
+          sum += std::sqrt(dx * dx + dy * dy + dz * dz);
+        }
+        set.error = sum / tips * 1000.0;
+        errors.push_back(set.error);
+        per_sequence[set.sequence].push_back(set.error);
+      }
+    }
+    const double seconds = std::max(1e-9, (end_wall_ - first_wall_).toSec());
+    std::ostringstream out;
+    char line[512];
+    out << "\n==================== sag_hand_tracker demo summary ====================\n";
+    std::snprintf(line, sizeof line,
+                  "run: %.1f s of wall time, %d cameras, sequences played: %zu\n", seconds,
+                  num_cameras_, sequences_.size());
+    out << line;
+    std::snprintf(line, sizeof line,
+                  "camera sets published: %ld (%ld with all %d cameras), %.2f sets/s\n", sets,
+                  complete, num_cameras_, sets / seconds);
+    out << line;
+    std::snprintf(line, sizeof line,
+                  "tracker: %ld sets processed (a status), %ld not (%ld with the hand in view; "
+                  "the others: empty frames, e.g. the segmentation's background-plate frames); "
+                  "%ld joint states, %.2f /s; restarts %ld\n",
+                  with_status, sets - with_status, hand_unprocessed, with_joints,
+                  with_joints / seconds, restarts_);
+    out << line;
+    out << "status counts:";
+    for (const auto& [name, count] : statuses) out << " " << name << " " << count;
+    out << "\n";
+    std::snprintf(line, sizeof line,
+                  "DROPPED sets (hand in view, no joint state): %ld of %ld; sets without a joint "
+                  "state in all: %ld of %ld (the rest: the studio's empty frames)\n",
+                  hand_without_joints, hand_sets, sets - with_joints, sets);
+    out << line;
+    std::snprintf(line, sizeof line,
+                  "fingertip error vs ground truth: mean %.1f mm, median %.1f mm, 95th pct %.1f "
+                  "mm over %zu sets\n",
+                  mean(errors), percentile(errors, 50), percentile(errors, 95), errors.size());
+    out << line;
+    for (const std::string& name : sequences_) {
+      const auto it = per_sequence.find(name);
+      if (it == per_sequence.end()) continue;
+      std::snprintf(line, sizeof line, "  %-12s mean %.1f mm over %zu sets\n", name.c_str(),
+                    mean(it->second), it->second.size());
+      out << line;
+    }
+    std::snprintf(line, sizeof line,
+                  "latency image stamp -> joint_states: median %.1f ms, 99th pct %.1f ms, max "
+                  "%.1f ms\n",
+                  percentile(latencies, 50), percentile(latencies, 99),
+                  latencies.empty() ? NAN : *std::max_element(latencies.begin(), latencies.end()));
+    out << line;
+    out << "=======================================================================\n";
+    std::printf("%s", out.str().c_str());
+    std::fflush(stdout);
+    if (!summary_file_.empty()) {
+      std::ofstream file(summary_file_);
+      file << "seconds: " << seconds << "\ncameras: " << num_cameras_ << "\nsets: " << sets
+           << "\ncomplete_sets: " << complete << "\nprocessed_sets: " << with_status
+           << "\nunprocessed_sets: " << sets - with_status
+           << "\nunprocessed_sets_with_hand: " << hand_unprocessed << "\njoint_states: " << with_joints
+           << "\njoint_state_rate: " << with_joints / seconds
+           << "\ndropped_sets: " << hand_without_joints
+           << "\nhand_sets: " << hand_sets << "\nrestarts: " << restarts_
+           << "\nmean_fingertip_error_mm: " << mean(errors)
+           << "\nmedian_fingertip_error_mm: " << percentile(errors, 50)
+           << "\nerror_sets: " << errors.size()
+           << "\nlatency_median_ms: " << percentile(latencies, 50)
+           << "\nlatency_p99_ms: " << percentile(latencies, 99) << "\n";
+      if (!file) ROS_ERROR("cannot write the summary to %s", summary_file_.c_str());
+    }
+  }
+
+  ros::NodeHandle nh_, pnh_;
+  int num_cameras_ = 5;
+  double duration_ = 60.0, settle_ = 1.0;
+  std::string summary_file_;
+  std::vector<ros::Subscriber> subs_;
+  ros::WallTimer timer_;
+
+  std::mutex mutex_;
+  std::map<ros::Time, SetRecord> sets_;
+  std::string sequence_;
+  std::vector<std::string> sequences_;
+  long joint_states_ = 0, restarts_ = 0;
+  bool ending_ = false, reported_ = false;
+  ros::WallTime first_wall_, end_wall_;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "demo_summary");
+  DemoSummary summary;
+  ros::AsyncSpinner spinner(2);
+  spinner.start();
+  ros::waitForShutdown();
+  return 0;
+}
