@@ -49,6 +49,11 @@ cv::Mat linePlot(const std::vector<PlotSeries>& series, const std::string& title
   if (!(y_max > y_min)) y_max = y_min + 1.0;
   y_max *= 1.05;
   const double plot_w = width - left - right, plot_h = height - top - bottom;
+  // Headroom for the legend box in the upper right, so that it does not hide the lines.
+  int labelled = 0;
+  for (const PlotSeries& s : series) labelled += s.label.empty() ? 0 : 1;
+  const double legend_px = labelled > 0 ? 12.0 + 20.0 * labelled : 0.0;
+  if (legend_px < 0.6 * plot_h) y_max = y_min + (y_max - y_min) * plot_h / (plot_h - legend_px);
   auto to_pixel = [&](double x, double y) {
     return cv::Point(static_cast<int>(left + (x - x_min) / (x_max - x_min) * plot_w),
                      static_cast<int>(top + plot_h - (y - y_min) / (y_max - y_min) * plot_h));
@@ -67,12 +72,12 @@ cv::Mat linePlot(const std::vector<PlotSeries>& series, const std::string& title
                 cv::LINE_AA);
   }
   cv::rectangle(image, cv::Point(left, top), cv::Point(width - right, top + plot_h), black, 1);
-  cv::putText(image, title, cv::Point(left, 25), font, 0.6, black, 1, cv::LINE_AA);
+  cv::putText(image, title, cv::Point(left, 20), font, 0.6, black, 1, cv::LINE_AA);
   cv::putText(image, x_label, cv::Point(left + plot_w / 2 - 40, height - 12), font, 0.5, black, 1,
               cv::LINE_AA);
-  cv::putText(image, y_label, cv::Point(5, 25), font, 0.5, black, 1, cv::LINE_AA);
+  // Above the y axis, below the title, so that the two do not overlap.
+  cv::putText(image, y_label, cv::Point(5, top - 6), font, 0.45, black, 1, cv::LINE_AA);
 
-  int legend_y = top + 18;
   for (const PlotSeries& s : series) {
     for (size_t i = 0; i < s.x.size(); ++i) {
       if (!std::isfinite(s.y[i])) continue;
@@ -86,6 +91,19 @@ cv::Mat linePlot(const std::vector<PlotSeries>& series, const std::string& title
         cv::circle(image, p, 4, s.colour, cv::FILLED, cv::LINE_AA);
       }
     }
+  }
+  // The legend on a white box over the lines; series without a label are left out of it.
+  if (labelled > 0) {
+    const int box_left = width - right - 178;
+    cv::rectangle(image, cv::Point(box_left, top + 3),
+                  cv::Point(width - right - 3, top + 8 + 20 * labelled),
+                  cv::Scalar(255, 255, 255), cv::FILLED);
+    cv::rectangle(image, cv::Point(box_left, top + 3),
+                  cv::Point(width - right - 3, top + 8 + 20 * labelled), grey, 1);
+  }
+  int legend_y = top + 20;
+  for (const PlotSeries& s : series) {
+    if (s.label.empty()) continue;
     cv::line(image, cv::Point(width - right - 170, legend_y - 5),
              cv::Point(width - right - 140, legend_y - 5), s.colour, 3);
     cv::putText(image, s.label, cv::Point(width - right - 132, legend_y), font, 0.5, black, 1,

@@ -4,9 +4,13 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <set>
 #include <sstream>
 
+#include <ros/package.h>
+
+#include "sag_hand_tracker/optimizer.h"
 #include "sag_hand_tracker/pose.h"
 #include "sag_hand_tracker/types.h"
 
@@ -237,6 +241,56 @@ TrackBagSummary runTrackBag(BagReader& reader, const TrackFrameFunction& track,
   }
   csv.close();
   return summary;
+}
+
+std::string trackBagModelPath(const std::string& name_or_path, const std::string& config_dir) {
+  if (name_or_path != "sag" && name_or_path != "sog") return name_or_path;
+  if (!config_dir.empty()) return resolveModelPath(name_or_path, config_dir);
+  const std::string package = ros::package::getPath("sag_hand_tracker");
+  if (package.empty()) {
+    throw InputError("cannot find the package sag_hand_tracker for the built-in model '" +
+                     name_or_path + "': source devel/setup.bash, or pass --model FILE");
+  }
+  return resolveModelPath(name_or_path, package + "/config");
+}
+
+PipelineParams trackBagPipelineParams(const TrackBagOptions& options) {
+  PipelineParams params;
+  params.tracker.optimizer.iterations = options.iterations;
+  params.tracker.optimizer.step_control = parseStepControl(options.step_control);
+  params.background_frames = options.background_frames;
+  return params;
+}
+
+// =================================================================================================
+// THE TRACKING CALL. One synchronized set of camera images in, one result out: the first
+// background_frames sets train each camera's background plate; every later set is segmented per
+// camera (image -> foreground image SoG, undistorted) and handed to HandTracker::update (automatic
+// start, warm-started optimisation, restart when lost). Everything else here is input and output.
+// =================================================================================================
+TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
+                         const std::atomic<bool>* stop) {
+  const HandModel model =
+      loadHandModel(trackBagModelPath(options.model, options.config_dir), options.hand);
+
+  BagReaderOptions reader_options;
+  reader_options.cameras = options.cameras;
+  reader_options.root_frame = options.root_frame;
+  BagReader reader(options.bag, reader_options);
+
+  TrackingPipeline pipeline(model, reader.cameras(), trackBagPipelineParams(options));
+
+  try {
+    TrackingCsvWriter csv(options.out, model.parameterNames());
+    return runTrackBag(
+        reader, [&pipeline](const FrameSet& set) { return pipeline.process(set); }, csv,
+        progress, stop);
+  } catch (...) {
+    // A run that failed half way leaves no CSV that could pass for a result.
+    std::error_code ignored;
+    std::filesystem::remove(options.out, ignored);
+    throw;
+  }
 }
 
 }  // namespace sag_hand_tracker

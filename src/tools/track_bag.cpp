@@ -6,24 +6,18 @@
 //
 // Exit status: 0 done; 1 bad input (one-line message on stderr) or no frame tracked; 2 bad
 // command line; 130 interrupted (the rows so far are in the CSV).
-#include <ros/package.h>
-
 #include <atomic>
 #include <csignal>
-#include <filesystem>
 #include <iostream>
 #include <string>
 #include <vector>
 
-#include "sag_hand_tracker/csv.h"
-#include "sag_hand_tracker/hand_model.h"
-#include "sag_hand_tracker/optimizer.h"
 #include "sag_hand_tracker/progress.h"
-#include "sag_hand_tracker/ros/bag_input.h"
 #include "sag_hand_tracker/ros/track_bag_runner.h"
-#include "sag_hand_tracker/tracking_pipeline.h"
 #include "sag_hand_tracker/types.h"
 
+// The work is trackBag (sag_ros: model, bag reader, TrackingPipeline, the loop, the CSV), which
+// the benchmark calls as well, so both measure the same tracker.
 namespace sag_hand_tracker {
 namespace {
 
@@ -31,59 +25,10 @@ std::atomic<bool> g_stop{false};
 
 void onSignal(int) { g_stop = true; }
 
-// The built-in models ("sag", "sog") live in the package's config folder.
-std::string modelPath(const std::string& name_or_path) {
-  if (name_or_path != "sag" && name_or_path != "sog") return name_or_path;
-  const std::string package = ros::package::getPath("sag_hand_tracker");
-  if (package.empty()) {
-    throw InputError("cannot find the package sag_hand_tracker for the built-in model '" +
-                     name_or_path + "': source devel/setup.bash, or pass --model FILE");
-  }
-  return resolveModelPath(name_or_path, package + "/config");
-}
-
-PipelineParams pipelineParams(const TrackBagOptions& options) {
-  PipelineParams params;
-  params.tracker.optimizer.iterations = options.iterations;
-  params.tracker.optimizer.step_control = parseStepControl(options.step_control);
-  params.background_frames = options.background_frames;
-  return params;
-}
-
-// =================================================================================================
-// THE TRACKING CALL. One synchronized set of camera images in, one result out: the first
-// --background-frames sets train each camera's background plate; every later set is segmented
-// per camera (image -> foreground image SoG, undistorted) and handed to HandTracker::update
-// (automatic start, warm-started optimisation, restart when lost). Everything else in this tool
-// is input and output. TrackingPipeline (core) is the same code the benchmark runs.
-// =================================================================================================
-ProcessedFrame trackFrameSet(TrackingPipeline& pipeline, const FrameSet& set) {
-  return pipeline.process(set);
-}
-
 int run(const TrackBagOptions& options) {
-  const HandModel model = loadHandModel(modelPath(options.model), options.hand);
-
-  BagReaderOptions reader_options;
-  reader_options.cameras = options.cameras;
-  reader_options.root_frame = options.root_frame;
-  BagReader reader(options.bag, reader_options);
-
-  TrackingPipeline pipeline(model, reader.cameras(), pipelineParams(options));
-
-  TrackBagSummary summary;
-  try {
-    TrackingCsvWriter csv(options.out, model.parameterNames());
-    ProgressBar progress(std::cerr, stderrIsTerminal());
-    summary = runTrackBag(
-        reader, [&pipeline](const FrameSet& set) { return trackFrameSet(pipeline, set); }, csv,
-        options.quiet ? nullptr : &progress, &g_stop);
-  } catch (...) {
-    // A run that failed half way leaves no CSV that could pass for a result.
-    std::error_code ignored;
-    std::filesystem::remove(options.out, ignored);
-    throw;
-  }
+  ProgressBar progress(std::cerr, stderrIsTerminal());
+  const TrackBagSummary summary =
+      trackBag(options, options.quiet ? nullptr : &progress, &g_stop);
   std::cout << formatSummary(summary) << std::flush;
 
   if (summary.interrupted) return 130;

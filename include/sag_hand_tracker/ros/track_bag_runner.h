@@ -1,7 +1,8 @@
 // The offline tracking loop of track_bag (and of anything else that tracks a bag the same way):
 // command line, reading sets from a bag, the per-set tracking call, the CSV, the progress bar and
-// the summary. The tracking itself is passed in (TrackingPipeline in the tool), so the loop is
-// tested without it.
+// the summary. The tracking itself is passed in to runTrackBag, so the loop is tested without it;
+// trackBag is the whole tool (model, bag reader, TrackingPipeline, loop, CSV), which track_bag's
+// main and the benchmark both call, so they run the same code.
 #pragma once
 
 #include <atomic>
@@ -16,6 +17,7 @@
 #include "sag_hand_tracker/hand_model.h"
 #include "sag_hand_tracker/progress.h"
 #include "sag_hand_tracker/ros/bag_input.h"
+#include "sag_hand_tracker/tracking_pipeline.h"
 
 namespace sag_hand_tracker {
 
@@ -37,6 +39,9 @@ struct TrackBagOptions {
   std::string root_frame;  // --root-frame FRAME (empty: the root of the bag's tf tree)
   bool quiet = false;      // --quiet: no progress bar
   bool help = false;       // --help
+  // Where the built-in models ("sag", "sog") are; empty: the package's config/ (found through
+  // ROS_PACKAGE_PATH). Not a command-line option of track_bag; the benchmark sets it.
+  std::string config_dir;
 };
 
 // Parses the arguments after the program name. Throws UsageError.
@@ -84,5 +89,19 @@ TrackBagSummary runTrackBag(BagReader& reader, const TrackFrameFunction& track,
 
 // The CSV row of a result with a pose.
 TrackingCsvRow toCsvRow(const FrameResult& result);
+
+// The file of a model given as "sag", "sog" (built-in, in `config_dir`, or the package's config/
+// when empty) or a path. Throws InputError if the package is needed and cannot be found.
+std::string trackBagModelPath(const std::string& name_or_path, const std::string& config_dir);
+
+// The pipeline parameters that the options set (iterations, step control, background frames).
+PipelineParams trackBagPipelineParams(const TrackBagOptions& options);
+
+// The whole of track_bag: loads the model, opens the bag (options.cameras, options.root_frame),
+// builds the TrackingPipeline and runs runTrackBag into the CSV options.out. `progress` and
+// `stop` may be null. A run that fails half way removes the CSV and rethrows (InputError for bad
+// input). The caller decides what no tracked frame or an interruption means.
+TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
+                         const std::atomic<bool>* stop = nullptr);
 
 }  // namespace sag_hand_tracker

@@ -1,0 +1,286 @@
+// The benchmark end to end on a short sequence: it renders with render_bag's code and tracks with
+// track_bag's code, its CSV has the issue's columns and sensible values, the camera-count
+// experiment covers every combination, the bags are reused, the ground truth in the CSV agrees
+// with the bag, and failed frames are counted as stated (benchmark.h).
+#include <geometry_msgs/PoseArray.h>
+#include <gtest/gtest.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <opencv2/imgcodecs.hpp>
+#include <random>
+#include <set>
+#include <sstream>
+
+#include "sag_hand_tracker/csv.h"
+#include "sag_hand_tracker/ros/benchmark.h"
+#include "sag_hand_tracker/types.h"
+
+using namespace sag_hand_tracker;
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kConfig = std::string(SAG_SOURCE_DIR) + "/config";
+
+std::vector<std::map<std::string, std::string>> readCsv(const std::string& path,
+                                                        std::vector<std::string>* header) {
+  std::ifstream in(path);
+  std::string line;
+  std::vector<std::map<std::string, std::string>> rows;
+  auto split = [](const std::string& text) {
+    std::vector<std::string> fields;
+    std::stringstream stream(text);
+    std::string field;
+    while (std::getline(stream, field, ',')) fields.push_back(field);
+    return fields;
+  };
+  if (!std::getline(in, line)) return rows;
+  *header = split(line);
+  while (std::getline(in, line)) {
+    const auto fields = split(line);
+    EXPECT_EQ(fields.size(), header->size()) << line;
+    std::map<std::string, std::string> row;
+    for (size_t i = 0; i < fields.size() && i < header->size(); ++i) row[(*header)[i]] = fields[i];
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+double number(const std::map<std::string, std::string>& row, const std::string& column) {
+  const auto it = row.find(column);
+  EXPECT_NE(it, row.end()) << column;
+  return it == row.end() ? std::nan("") : std::stod(it->second);
+}
+
+class BenchmarkTool : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::random_device random;
+    dir_ = fs::temp_directory_path() / ("sag_benchmark_" + std::to_string(random()));
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  BenchmarkOptions options(const std::string& extra = "") const {
+    std::vector<std::string> args{"--sequences", "fingerwave", "--frames", "40",
+                                  "--out-dir",   dir_.string(), "--config-dir", kConfig};
+    std::stringstream stream(extra);
+    std::string word;
+    while (stream >> word) args.push_back(word);
+    return parseBenchmarkArguments(args);
+  }
+
+  fs::path dir_;
+};
+
+}  // namespace
+
+TEST(BenchmarkArguments, BenchmarkParsesOptionsAndRejectsBadOnes) {
+  const BenchmarkOptions defaults = parseBenchmarkArguments({});
+  EXPECT_EQ(defaults.sequences, benchmarkSequences());
+  EXPECT_EQ(defaults.sequences.size(), 7u);
+  EXPECT_EQ(defaults.models, (std::vector<std::string>{"sag", "sog"}));
+  EXPECT_EQ(defaults.iterations, 10);
+  EXPECT_FALSE(defaults.camera_counts);
+  EXPECT_FALSE(defaults.rerender);
+
+  const BenchmarkOptions o = parseBenchmarkArguments(
+      {"--sequences", "pinch,random", "--camera-counts", "--frames", "50", "--csv", "x.csv",
+       "--iterations", "5", "--models", "sag", "--rerender", "--rig", "dexter5"});
+  EXPECT_EQ(o.sequences, (std::vector<std::string>{"pinch", "random"}));
+  EXPECT_TRUE(o.camera_counts);
+  EXPECT_EQ(o.frames, 50);
+  EXPECT_EQ(o.csv, "x.csv");
+  EXPECT_EQ(o.iterations, 5);
+  EXPECT_EQ(o.models, (std::vector<std::string>{"sag"}));
+  EXPECT_TRUE(o.rerender);
+
+  EXPECT_THROW(parseBenchmarkArguments({"--frames", "0"}), UsageError);
+  EXPECT_THROW(parseBenchmarkArguments({"--frames", "10"}), UsageError);  // no hand frame
+  EXPECT_THROW(parseBenchmarkArguments({"--sequences", "a,"}), UsageError);
+  EXPECT_THROW(parseBenchmarkArguments({"--models", "sag,sag"}), UsageError);
+  EXPECT_THROW(parseBenchmarkArguments({"--iterations"}), UsageError);
+  EXPECT_THROW(parseBenchmarkArguments({"--bogus"}), UsageError);
+}
+
+TEST(BenchmarkErrors, BenchmarkCountsFramesWithoutAPoseAsFailures) {
+  const double inf = std::numeric_limits<double>::infinity();
+  const ErrorStats stats = errorStats({10.0, inf, 30.0, 16.0});
+  EXPECT_EQ(stats.frames, 4);
+  EXPECT_EQ(stats.failed, 1);
+  EXPECT_NEAR(stats.mean_mm, 56.0 / 3.0, 1e-12);  // over the tracked frames
+  EXPECT_GT(stats.sd_mm, 0.0);
+  EXPECT_NEAR(stats.percent_below[0], 25.0, 1e-12);  // < 15 mm: 1 of 4 frames
+  EXPECT_NEAR(stats.percent_below[1], 50.0, 1e-12);  // < 20 mm: 2 of 4
+  EXPECT_NEAR(stats.percent_below[4], 75.0, 1e-12);  // < 45 mm: the failure never counts
+  const ErrorStats none = errorStats({inf, inf});
+  EXPECT_EQ(none.failed, 2);
+  EXPECT_TRUE(std::isnan(none.mean_mm));
+  EXPECT_EQ(none.percent_below[4], 0.0);
+}
+
+TEST_F(BenchmarkTool, BenchmarkMatchesRowsToTheGroundTruthByStamp) {
+  // A ground truth of three frames and a track that has the first and the last only.
+  const std::vector<std::string> names{"p"};
+  {
+    TrackingCsvWriter truth((dir_ / "gt.csv").string(), names);
+    TrackingCsvWriter track((dir_ / "track.csv").string(), names);
+    for (int k = 0; k < 3; ++k) {
+      TrackingCsvRow row;
+      row.stamp = 1000.0 + 0.04 * k;
+      for (auto& tip : row.fingertips) tip = Eigen::Vector3d(0.1 * k, 0.0, 0.5);
+      row.parameters = Eigen::VectorXd::Zero(1);
+      truth.write(row);
+      if (k == 1) continue;
+      for (auto& tip : row.fingertips) tip.x() += 0.012;  // 12 mm off
+      track.write(row);
+    }
+  }
+  const RunErrors errors =
+      matchToGroundTruth((dir_ / "gt.csv").string(), (dir_ / "track.csv").string());
+  ASSERT_EQ(errors.errors_mm.size(), 3u);
+  EXPECT_NEAR(errors.errors_mm[0], 12.0, 1e-6);
+  EXPECT_TRUE(std::isinf(errors.errors_mm[1]));
+  EXPECT_NEAR(errors.errors_mm[2], 12.0, 1e-6);
+}
+
+TEST_F(BenchmarkTool, BenchmarkShortRunWritesTablesCsvAndPlots) {
+  std::ostringstream log;
+  const BenchmarkResults results = runBenchmark(options(), log);
+
+  // The bag and the tracks where the issue says.
+  EXPECT_TRUE(fs::exists(dir_ / "bags" / "fingerwave.bag"));
+  EXPECT_TRUE(fs::exists(dir_ / "bags" / "fingerwave_gt.csv"));
+  EXPECT_TRUE(fs::exists(dir_ / "tracks" / "fingerwave_sag.csv"));
+  EXPECT_TRUE(fs::exists(dir_ / "tracks" / "fingerwave_sog.csv"));
+  EXPECT_NE(log.str().find("rendered fingerwave"), std::string::npos) << log.str();
+
+  std::vector<std::string> header;
+  const auto rows = readCsv((dir_ / "results.csv").string(), &header);
+  for (const std::string column : {"sequence", "tracker", "frames", "mean_mm", "sd_mm", "pct15",
+                                   "pct20", "pct25", "pct30", "pct45", "fps"}) {
+    EXPECT_NE(std::find(header.begin(), header.end(), column), header.end()) << column;
+  }
+  ASSERT_EQ(rows.size(), 2u);  // one row per tracker for the one sequence
+  std::set<std::string> trackers;
+  for (const auto& row : rows) {
+    SCOPED_TRACE(row.at("tracker"));
+    trackers.insert(row.at("tracker"));
+    EXPECT_EQ(row.at("sequence"), "fingerwave");
+    EXPECT_EQ(number(row, "frames"), 30.0);  // 40 rendered, the first 10 without the hand
+    const double mean = number(row, "mean_mm"), sd = number(row, "sd_mm");
+    EXPECT_TRUE(std::isfinite(mean));
+    EXPECT_GT(mean, 0.0);
+    EXPECT_LT(mean, 200.0);  // a hand-sized error, not garbage
+    EXPECT_TRUE(std::isfinite(sd));
+    EXPECT_GE(sd, 0.0);
+    double previous = 0.0;
+    for (const std::string column : {"pct15", "pct20", "pct25", "pct30", "pct45"}) {
+      const double pct = number(row, column);
+      EXPECT_GE(pct, previous) << column;  // a larger bound holds at least as many frames
+      EXPECT_LE(pct, 100.0);
+      previous = pct;
+    }
+    EXPECT_GT(number(row, "fps"), 0.0);
+    EXPECT_GE(number(row, "failed"), 0.0);
+    EXPECT_LT(number(row, "failed"), 30.0);
+  }
+  EXPECT_EQ(trackers, (std::set<std::string>{"sag", "sog"}));
+
+  // The same numbers in the results and in the Markdown.
+  ASSERT_EQ(results.runs.size(), 2u);
+  EXPECT_EQ(results.runs[0].errors.errors_mm.size(), 30u);
+  std::ifstream md_file(dir_ / "results.md");
+  std::stringstream md;
+  md << md_file.rdbuf();
+  EXPECT_EQ(md.str(), results.markdown);
+  for (const char* part : {"Fingertip error per sequence", "Table 1", "fingerwave SoG",
+                           "fingerwave SAG", "Speed", "| **all** |"}) {
+    EXPECT_NE(md.str().find(part), std::string::npos) << part;
+  }
+  EXPECT_EQ(md.str().find("Figure 6"), std::string::npos);  // not asked for
+
+  const cv::Mat plot = cv::imread((dir_ / "error_per_frame.png").string());
+  ASSERT_FALSE(plot.empty());
+  EXPECT_EQ(plot.cols, 900);
+  EXPECT_FALSE(fs::exists(dir_ / "camera_counts.png"));
+
+  // A second run reuses the bag (same settings); --rerender renders it again.
+  const auto written = fs::last_write_time(dir_ / "bags" / "fingerwave.bag");
+  std::ostringstream log2;
+  const BenchmarkResults again = runBenchmark(options("--models sag --no-plots"), log2);
+  EXPECT_NE(log2.str().find("reusing"), std::string::npos) << log2.str();
+  EXPECT_EQ(fs::last_write_time(dir_ / "bags" / "fingerwave.bag"), written);
+  ASSERT_EQ(again.runs.size(), 1u);
+  // The tracker is deterministic: the same bag gives the same errors.
+  EXPECT_EQ(again.runs[0].errors.errors_mm, results.runs[0].errors.errors_mm);
+  std::ostringstream log3;
+  runBenchmark(options("--models sag --no-plots --frames 12 --csv " + (dir_ / "r.csv").string()),
+               log3);
+  EXPECT_NE(log3.str().find("rendered fingerwave"), std::string::npos) << log3.str();
+  const auto rows12 = readCsv((dir_ / "r.csv").string(), &header);
+  ASSERT_EQ(rows12.size(), 1u);
+  EXPECT_EQ(number(rows12[0], "frames"), 2.0);
+}
+
+TEST_F(BenchmarkTool, BenchmarkCameraCountsCoverEveryCombination) {
+  std::ostringstream log;
+  const BenchmarkResults results =
+      runBenchmark(options("--camera-counts --frames 14 --models sag,sog"), log);
+  ASSERT_EQ(results.rig_cameras, 5);
+  ASSERT_EQ(results.camera_runs.size(), 26u * 2u);  // C(5,2..5) = 10+10+5+1, two trackers
+  std::map<size_t, std::set<std::vector<int>>> combos;
+  for (const auto& run : results.camera_runs) combos[run.cameras.size()].insert(run.cameras);
+  EXPECT_EQ(combos[2].size(), 10u);
+  EXPECT_EQ(combos[3].size(), 10u);
+  EXPECT_EQ(combos[4].size(), 5u);
+  EXPECT_EQ(combos[5].size(), 1u);
+
+  std::vector<std::string> header;
+  const auto rows = readCsv((dir_ / "camera_counts.csv").string(), &header);
+  ASSERT_EQ(rows.size(), 8u);  // 4 camera counts x 2 trackers
+  for (const auto& row : rows) {
+    const double cameras = number(row, "cameras");
+    EXPECT_GE(cameras, 2.0);
+    EXPECT_LE(cameras, 5.0);
+    EXPECT_EQ(number(row, "frames"), 4.0 * number(row, "combinations"));
+    EXPECT_EQ(number(row, "runs"), number(row, "combinations"));
+  }
+  EXPECT_NE(results.markdown.find("Figure 6"), std::string::npos);
+  const cv::Mat plot = cv::imread((dir_ / "camera_counts.png").string());
+  EXPECT_FALSE(plot.empty());
+  EXPECT_NE(log.str().find("cameras [52/52]"), std::string::npos) << log.str();
+}
+
+TEST_F(BenchmarkTool, BenchmarkGroundTruthCsvAgreesWithTheBag) {
+  std::ostringstream log;
+  runBenchmark(options("--frames 20 --models sag --no-plots"), log);
+  const TrackingCsv csv = readTrackingCsv((dir_ / "bags" / "fingerwave_gt.csv").string());
+  rosbag::Bag bag((dir_ / "bags" / "fingerwave.bag").string());
+  std::vector<geometry_msgs::PoseArray> tips;
+  for (const rosbag::MessageInstance& m :
+       rosbag::View(bag, rosbag::TopicQuery("/ground_truth/fingertips"))) {
+    tips.push_back(*m.instantiate<geometry_msgs::PoseArray>());
+    EXPECT_EQ(m.getTime(), tips.back().header.stamp);
+  }
+  ASSERT_EQ(tips.size(), 10u);  // frames 10..19 show the hand
+  ASSERT_EQ(csv.rows.size(), tips.size());
+  for (size_t i = 0; i < tips.size(); ++i) {
+    SCOPED_TRACE("row " + std::to_string(i));
+    EXPECT_NEAR(csv.rows[i].stamp, tips[i].header.stamp.toSec(), 1e-6);
+    ASSERT_EQ(tips[i].poses.size(), 5u);
+    for (int f = 0; f < 5; ++f) {
+      const auto& p = tips[i].poses[f].position;
+      EXPECT_LT((csv.rows[i].fingertips[f] - Eigen::Vector3d(p.x, p.y, p.z)).norm(), 1e-8);
+    }
+    if (i > 0) {
+      EXPECT_GT(csv.rows[i].stamp, csv.rows[i - 1].stamp);
+    }
+  }
+}
