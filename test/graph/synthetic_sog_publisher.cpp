@@ -4,7 +4,8 @@
 // fingertips on ground_truth/fingertips.
 // Private parameters:
 //   rate (15 Hz), num_cameras (5), duration (0 = forever)
-//   drop_cameras (list of indices) and drop_after (s): those cameras stop publishing then
+//   drop_cameras (list of indices) and drop_after (s): those cameras stop publishing then;
+//     drop_times (list of s, one per drop_cameras entry) gives each camera its own time instead
 //   malformed (false): cam<last> sends malformed SoGs in turn (size not matching camera_info,
 //     a NaN Gaussian, no Gaussians at all, an unknown frame) and cam<last-1> never sends its
 //     camera_info.
@@ -17,7 +18,7 @@
 
 #include <cmath>
 #include <limits>
-#include <set>
+#include <map>
 
 #include "sag_hand_tracker/ros/sog_conversions.h"
 #include "test_support/synthetic_scene.h"
@@ -34,7 +35,12 @@ int main(int argc, char** argv) {
   const bool malformed = pnh.param("malformed", false);
   std::vector<int> drop_list;
   pnh.getParam("drop_cameras", drop_list);
-  const std::set<int> drop(drop_list.begin(), drop_list.end());
+  std::vector<double> drop_times;
+  pnh.getParam("drop_times", drop_times);
+  std::map<int, double> drop;  // camera -> time it stops
+  for (size_t k = 0; k < drop_list.size(); ++k) {
+    drop[drop_list[k]] = k < drop_times.size() ? drop_times[k] : drop_after;
+  }
 
   const HandModel model = loadHandModel(sag_test::modelPath("sag"));
   std::vector<Camera> cameras = sag_test::fiveCameraRig();
@@ -85,7 +91,7 @@ int main(int argc, char** argv) {
     clampToLimits(model, &pose);
 
     for (int i = 0; i < n; ++i) {
-      if (drop.count(i) && t > drop_after) continue;
+      if (drop.count(i) && t > drop.at(i)) continue;
       const std::string frame_id = "cam" + std::to_string(i) + "_optical_frame";
       const bool broken_info = malformed && i == n - 2;
       const bool broken_sog = malformed && i == n - 1;
