@@ -4,6 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
+
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -34,6 +37,24 @@ class TempDirTest : public ::testing::Test {
     std::ostringstream text;
     text << in.rdbuf();
     return text.str();
+  }
+
+  // What a program printed and its exit status.
+  struct ToolRun {
+    int status = -1;
+    std::string out;
+    std::string err;
+  };
+  // Runs a shell command line with stdout and stderr captured in this test's folder.
+  ToolRun runTool(const std::string& command) const {
+    const std::string line =
+        command + " > '" + path("stdout.txt") + "' 2> '" + path("stderr.txt") + "'";
+    ToolRun run;
+    const int status = std::system(line.c_str());
+    run.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    run.out = readAll(path("stdout.txt"));
+    run.err = readAll(path("stderr.txt"));
+    return run;
   }
 
   std::filesystem::path dir_;

@@ -4,8 +4,10 @@
 // with the bag, and failed frames are counted as stated (benchmark.h).
 #include <geometry_msgs/PoseArray.h>
 #include <gtest/gtest.h>
+
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
+#include "test_support/temp_files.h"
 
 #include <cmath>
 #include <filesystem>
@@ -58,25 +60,16 @@ double number(const std::map<std::string, std::string>& row, const std::string& 
   return it == row.end() ? std::nan("") : std::stod(it->second);
 }
 
-class BenchmarkTool : public ::testing::Test {
+class BenchmarkTool : public sag_test::TempDirTest {
  protected:
-  void SetUp() override {
-    std::random_device random;
-    dir_ = fs::temp_directory_path() / ("sag_benchmark_" + std::to_string(random()));
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
   BenchmarkOptions options(const std::string& extra = "") const {
-    std::vector<std::string> args{"--sequences", "fingerwave", "--frames", "40",
+    std::vector<std::string> args{"--sequences", "fingerwave",  "--frames",     "40",
                                   "--out-dir",   dir_.string(), "--config-dir", kConfig};
     std::stringstream stream(extra);
     std::string word;
     while (stream >> word) args.push_back(word);
     return parseBenchmarkArguments(args);
   }
-
-  fs::path dir_;
 };
 
 }  // namespace

@@ -3,10 +3,12 @@
 // recomputed here, and bad input gets a one-line error and a non-zero exit.
 #include <geometry_msgs/PoseArray.h>
 #include <gtest/gtest.h>
+
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <sensor_msgs/JointState.h>
 #include <sys/wait.h>
+#include "test_support/temp_files.h"
 
 #include <filesystem>
 #include <fstream>
@@ -28,42 +30,12 @@ namespace {
 
 const std::string kConfig = std::string(SAG_SOURCE_DIR) + "/config";
 
-struct ToolRun {
-  int status = -1;
-  std::string out;
-  std::string err;
-};
-
-class RenderBagTool : public ::testing::Test {
+class RenderBagTool : public sag_test::TempDirTest {
  protected:
-  void SetUp() override {
-    std::random_device random;
-    dir_ = fs::temp_directory_path() / ("sag_render_bag_tool_" + std::to_string(random()));
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string path(const std::string& name) const { return (dir_ / name).string(); }
-
-  static std::string readAll(const std::string& file) {
-    std::ifstream in(file);
-    std::ostringstream text;
-    text << in.rdbuf();
-    return text.str();
-  }
-
   ToolRun renderBag(const std::string& arguments) const {
-    const std::string command = std::string("'") + SAG_BIN_DIR + "/render_bag' --config-dir '" +
-                                kConfig + "' " + arguments + " > '" + path("stdout.txt") +
-                                "' 2> '" + path("stderr.txt") + "'";
-    ToolRun run;
-    const int status = std::system(command.c_str());
-    run.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    run.out = readAll(path("stdout.txt"));
-    run.err = readAll(path("stderr.txt"));
-    return run;
+    return runTool(std::string("'") + SAG_BIN_DIR + "/render_bag' --config-dir '" + kConfig + "' " +
+                   arguments);
   }
-
-  fs::path dir_;
 };
 
 }  // namespace

@@ -2,10 +2,12 @@
 // Gaussians drawn as skin-coloured ellipses over a desk, after a few frames of empty desk) is
 // tracked from its first frame; every bad input gets a one-line error and a non-zero exit.
 #include <gtest/gtest.h>
+
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <std_msgs/String.h>
 #include <sys/wait.h>
+#include "test_support/temp_files.h"
 
 #include <filesystem>
 #include <fstream>
@@ -34,38 +36,10 @@ Pose truthAt(const HandModel& model, int hand_frame) {
   return pose;
 }
 
-struct ToolRun {
-  int status = -1;
-  std::string out;
-  std::string err;
-};
-
-class TrackBagTool : public ::testing::Test {
+class TrackBagTool : public sag_test::TempDirTest {
  protected:
-  void SetUp() override {
-    std::random_device random;
-    dir_ = fs::temp_directory_path() / ("sag_track_bag_tool_" + std::to_string(random()));
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string path(const std::string& name) const { return (dir_ / name).string(); }
-
-  static std::string readAll(const std::string& file) {
-    std::ifstream in(file);
-    std::ostringstream text;
-    text << in.rdbuf();
-    return text.str();
-  }
-
   ToolRun trackBag(const std::string& arguments) const {
-    const std::string command = std::string("'") + SAG_BIN_DIR + "/track_bag' " + arguments +
-                                " > '" + path("stdout.txt") + "' 2> '" + path("stderr.txt") + "'";
-    ToolRun run;
-    const int status = std::system(command.c_str());
-    run.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    run.out = readAll(path("stdout.txt"));
-    run.err = readAll(path("stderr.txt"));
-    return run;
+    return runTool(std::string("'") + SAG_BIN_DIR + "/track_bag' " + arguments);
   }
 
   std::string modelArgument() const {
@@ -81,8 +55,6 @@ class TrackBagTool : public ::testing::Test {
     EXPECT_EQ(run.err, "track_bag: error: " + bag + ": " + what + "\n");
     EXPECT_FALSE(fs::exists(path("bad.csv"))) << "no CSV for a failed run";
   }
-
-  fs::path dir_;
 };
 
 }  // namespace
