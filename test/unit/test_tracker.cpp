@@ -50,7 +50,9 @@ TEST(Tracker, TracksMotionAndRestartsWhenLost) {
     const FrameResult result =
         tracker.update(modelObservations(model, truth, cameras, 3.0), frame * 0.04);
     ASSERT_TRUE(result.has_pose);
-    if (frame > 0) EXPECT_EQ(result.status, TrackStatus::kTracking) << "frame " << frame;
+    if (frame > 0) {
+      EXPECT_EQ(result.status, TrackStatus::kTracking) << "frame " << frame;
+    }
     if (frame > 2)
       worst = std::max(worst, meanFingertipError(result.fingertips, fingertips(model, truth)));
   }
