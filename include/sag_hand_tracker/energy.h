@@ -54,7 +54,6 @@ class PoseEnergy {
   const HandModel& model() const { return model_; }
   const EnergyParams& params() const { return params_; }
   int numCameras() const { return static_cast<int>(cameras_.size()); }
-  const std::vector<CameraObservation>& observations() const { return observations_; }
 
  private:
   struct FrameCamera {
@@ -72,7 +71,6 @@ class PoseEnergy {
   EnergyParams params_;
   std::vector<std::vector<int>> ancestor_dofs_;  // per bone
   std::vector<FrameCamera> cameras_;
-  std::vector<CameraObservation> observations_;
 };
 
 }  // namespace sag_hand_tracker

@@ -72,6 +72,7 @@ class HandTracker {
 
   HandModel model_;
   TrackerParams params_;
+  PoseEnergy energy_;  // the frame's energy; rebuilt only when the parameters change
   std::optional<Pose> previous_;
   std::optional<Pose> current_;
   bool lost_ = false;

@@ -78,7 +78,6 @@ PoseEnergy::PoseEnergy(const HandModel& model, const EnergyParams& params)
 }
 
 void PoseEnergy::setFrame(const std::vector<CameraObservation>& observations) {
-  observations_ = observations;
   cameras_.clear();
   const size_t num_gaussians = model_.gaussians.size();
   for (const CameraObservation& observation : observations) {

@@ -81,9 +81,7 @@ std::string toString(TrackStatus status) {
 }
 
 HandTracker::HandTracker(const HandModel& model, const TrackerParams& params)
-    : model_(model), params_(params) {
-  validateHandModel(model_);
-}
+    : model_(model), params_(params), energy_(model, params.energy) {}
 
 void HandTracker::reset() {
   previous_.reset();
@@ -98,7 +96,10 @@ bool HandTracker::looksLost(double similarity) const {
          similarity < params_.lost_ratio * typical_similarity_;
 }
 
-void HandTracker::setParams(const TrackerParams& params) { params_ = params; }
+void HandTracker::setParams(const TrackerParams& params) {
+  params_ = params;
+  energy_ = PoseEnergy(model_, params_.energy);
+}
 
 std::optional<OptimizationResult> HandTracker::startFromHypotheses(
     const PoseEnergy& energy, const std::vector<CameraObservation>& observations) const {
@@ -166,7 +167,7 @@ FrameResult HandTracker::update(const std::vector<CameraObservation>& observatio
   result.stamp = stamp;
   result.num_cameras = static_cast<int>(observations.size());
 
-  PoseEnergy energy(model_, params_.energy);
+  PoseEnergy& energy = energy_;
   energy.setFrame(observations);
 
   std::optional<OptimizationResult> optimized;
@@ -176,8 +177,8 @@ FrameResult HandTracker::update(const std::vector<CameraObservation>& observatio
     optimized = optimizePose(energy, start, params_.optimizer);
     EnergyTerms terms;
     energy.evaluate(optimized->pose, nullptr, &terms);
-    const bool redetect = params_.redetect_interval > 0 &&
-                          frames_since_start_ + 1 >= params_.redetect_interval;
+    const bool redetect =
+        params_.redetect_interval > 0 && frames_since_start_ + 1 >= params_.redetect_interval;
     const bool lost = looksLost(terms.similarity);
     if (lost || redetect) {
       // Try the start routine on this frame and keep its result if it is better (clearly better
