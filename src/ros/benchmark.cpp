@@ -6,8 +6,8 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <functional>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <map>
 #include <set>
@@ -27,30 +27,6 @@ namespace fs = std::filesystem;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-std::vector<std::string> splitList(const std::string& option, const std::string& text) {
-  std::vector<std::string> items;
-  std::stringstream stream(text);
-  std::string item;
-  while (std::getline(stream, item, ',')) {
-    if (item.empty()) throw UsageError(option + " expects a list like a,b,c, got '" + text + "'");
-    items.push_back(item);
-  }
-  if (items.empty() || text.back() == ',') {
-    throw UsageError(option + " expects a list like a,b,c, got '" + text + "'");
-  }
-  return items;
-}
-
-int parsePositive(const std::string& option, const std::string& text) {
-  try {
-    size_t used = 0;
-    const long value = std::stol(text, &used);
-    if (used == text.size() && value >= 1 && value <= 1000000) return static_cast<int>(value);
-  } catch (const std::exception&) {
-  }
-  throw UsageError(option + " expects an integer >= 1, got '" + text + "'");
-}
 
 double secondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -130,8 +106,8 @@ SequenceBag prepareBag(const BenchmarkOptions& options, const std::string& seque
   const RenderBagSummary summary = renderStudioBag(render, nullptr);
   std::ofstream(stamp_path) << stamp;
   log << "benchmark: rendered " << summary.sequence << ": " << summary.frames << " frames x "
-      << summary.cameras << " cameras in " << fixed(summary.total_seconds, 1) << " s -> "
-      << bag.bag << "\n"
+      << summary.cameras << " cameras in " << fixed(summary.total_seconds, 1) << " s -> " << bag.bag
+      << "\n"
       << std::flush;
   return bag;
 }
@@ -320,17 +296,19 @@ std::string report(const BenchmarkOptions& options, const BenchmarkResults& resu
   for (const std::string& s : results.sequences) {
     std::vector<std::string> cells{s};
     for (const std::string& t : trackers) {
-      cells.push_back(fixed(pool(select(results.runs, [&](const BenchmarkRun& r) {
-                                  return r.tracker == t && r.sequence == s;
-                                })).fps,
-                            0));
+      cells.push_back(fixed(
+          pool(select(results.runs,
+                      [&](const BenchmarkRun& r) { return r.tracker == t && r.sequence == s; }))
+              .fps,
+          0));
     }
     md << markdownRow(cells);
   }
   std::vector<std::string> all_cells{"**all**"};
   std::ostringstream per_frame;
   for (const std::string& t : trackers) {
-    const Pooled p = pool(select(results.runs, [&](const BenchmarkRun& r) { return r.tracker == t; }));
+    const Pooled p =
+        pool(select(results.runs, [&](const BenchmarkRun& r) { return r.tracker == t; }));
     all_cells.push_back(fixed(p.fps, 0));
     per_frame << (per_frame.tellp() > 0 ? "; " : "") << displayName(t) << ": segmentation "
               << fixed(p.segmentation_ms, 2) << " ms + optimisation " << fixed(p.tracking_ms, 2)
@@ -398,9 +376,9 @@ void writeCameraCsvs(const std::string& dir, const BenchmarkResults& results,
       const Pooled p = pool(select(results.camera_runs, [&](const BenchmarkRun& r) {
         return r.tracker == t && static_cast<int>(r.cameras.size()) == count;
       }));
-      counts << t << "," << count << "," << combos << "," << p.runs << "," << p.stats.frames
-             << "," << p.stats.failed << "," << fixed(p.stats.mean_mm, 3) << ","
-             << fixed(p.stats.sd_mm, 3) << "\n";
+      counts << t << "," << count << "," << combos << "," << p.runs << "," << p.stats.frames << ","
+             << p.stats.failed << "," << fixed(p.stats.mean_mm, 3) << "," << fixed(p.stats.sd_mm, 3)
+             << "\n";
     }
   }
   const std::string runs_path = dir + "/camera_combinations.csv";
@@ -484,8 +462,8 @@ void writePlots(const std::string& dir, const BenchmarkResults& results,
 }  // namespace
 
 const std::vector<std::string>& benchmarkSequences() {
-  static const std::vector<std::string> sequences{"adbadd", "fingercount", "fingerwave",
-                                                  "flexex1", "pinch", "random", "tigergrasp"};
+  static const std::vector<std::string> sequences{"adbadd", "fingercount", "fingerwave", "flexex1",
+                                                  "pinch",  "random",      "tigergrasp"};
   return sequences;
 }
 
@@ -528,11 +506,11 @@ BenchmarkOptions parseBenchmarkArguments(const std::vector<std::string>& args) {
     if (arg == "--help" || arg == "-h") {
       options.help = true;
     } else if (arg == "--sequences") {
-      options.sequences = splitList(arg, value());
+      options.sequences = parseListOption(arg, value());
     } else if (arg == "--camera-counts") {
       options.camera_counts = true;
     } else if (arg == "--frames") {
-      options.frames = parsePositive(arg, value());
+      options.frames = parseIntOption(arg, value(), 1);
     } else if (arg == "--out-dir") {
       options.out_dir = value();
     } else if (arg == "--csv") {
@@ -540,9 +518,9 @@ BenchmarkOptions parseBenchmarkArguments(const std::vector<std::string>& args) {
     } else if (arg == "--rig") {
       options.rig = value();
     } else if (arg == "--iterations") {
-      options.iterations = parsePositive(arg, value());
+      options.iterations = parseIntOption(arg, value(), 1);
     } else if (arg == "--models") {
-      options.models = splitList(arg, value());
+      options.models = parseListOption(arg, value());
     } else if (arg == "--reuse") {
       options.rerender = false;
     } else if (arg == "--rerender") {
@@ -576,9 +554,9 @@ RunErrors matchToGroundTruth(const std::string& ground_truth_csv, const std::str
   RunErrors errors;
   for (const TrackingCsvRow& gt : truth.rows) {
     errors.stamps.push_back(gt.stamp);
-    const auto it = std::lower_bound(
-        tracked.rows.begin(), tracked.rows.end(), gt.stamp - 1e-4,
-        [](const TrackingCsvRow& row, double stamp) { return row.stamp < stamp; });
+    const auto it =
+        std::lower_bound(tracked.rows.begin(), tracked.rows.end(), gt.stamp - 1e-4,
+                         [](const TrackingCsvRow& row, double stamp) { return row.stamp < stamp; });
     if (it != tracked.rows.end() && std::fabs(it->stamp - gt.stamp) <= 1e-4) {
       errors.errors_mm.push_back(1e3 * meanFingertipError(it->fingertips, gt.fingertips));
     } else {

@@ -17,31 +17,15 @@
 namespace sag_hand_tracker {
 namespace {
 
-int parseInt(const std::string& option, const std::string& text, int min_value) {
-  char* end = nullptr;
-  errno = 0;
-  const long value = std::strtol(text.c_str(), &end, 10);
-  if (text.empty() || *end != '\0' || errno == ERANGE || value < min_value || value > 1000000) {
-    throw UsageError(option + " expects an integer >= " + std::to_string(min_value) + ", got '" +
-                     text + "'");
-  }
-  return static_cast<int>(value);
-}
-
 std::vector<int> parseCameraList(const std::string& text) {
   std::vector<int> cameras;
   std::set<int> seen;
-  std::stringstream stream(text);
-  std::string item;
-  while (std::getline(stream, item, ',')) {
-    const int id = parseInt("--cameras", item, 0);
+  for (const std::string& item : parseListOption("--cameras", text, "camera numbers like 0,2,4")) {
+    const int id = parseIntOption("--cameras", item, 0);
     if (!seen.insert(id).second) {
       throw UsageError("--cameras lists camera " + std::to_string(id) + " twice");
     }
     cameras.push_back(id);
-  }
-  if (cameras.empty() || text.back() == ',') {
-    throw UsageError("--cameras expects camera numbers like 0,2,4, got '" + text + "'");
   }
   return cameras;
 }
@@ -107,7 +91,7 @@ TrackBagOptions parseTrackBagArguments(const std::vector<std::string>& args) {
     } else if (arg == "--model") {
       options.model = value();
     } else if (arg == "--iterations") {
-      options.iterations = parseInt(arg, value(), 1);
+      options.iterations = parseIntOption(arg, value(), 1);
     } else if (arg == "--step-control") {
       options.step_control = value();
       if (options.step_control != "rprop" && options.step_control != "fixed") {
@@ -117,7 +101,7 @@ TrackBagOptions parseTrackBagArguments(const std::vector<std::string>& args) {
     } else if (arg == "--cameras") {
       options.cameras = parseCameraList(value());
     } else if (arg == "--background-frames") {
-      options.background_frames = parseInt(arg, value(), 0);
+      options.background_frames = parseIntOption(arg, value(), 0);
     } else if (arg == "--hand") {
       const std::string hand = value();
       if (hand == "left") {
@@ -283,8 +267,8 @@ TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
   try {
     TrackingCsvWriter csv(options.out, model.parameterNames());
     return runTrackBag(
-        reader, [&pipeline](const FrameSet& set) { return pipeline.process(set); }, csv,
-        progress, stop);
+        reader, [&pipeline](const FrameSet& set) { return pipeline.process(set); }, csv, progress,
+        stop);
   } catch (...) {
     // A run that failed half way leaves no CSV that could pass for a result.
     std::error_code ignored;

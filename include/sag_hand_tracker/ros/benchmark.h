@@ -15,7 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "sag_hand_tracker/ros/track_bag_runner.h"  // UsageError
+#include "sag_hand_tracker/command_line.h"
+#include "sag_hand_tracker/ros/track_bag_runner.h"
 
 namespace sag_hand_tracker {
 

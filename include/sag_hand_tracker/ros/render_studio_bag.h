@@ -11,7 +11,7 @@
 
 #include "sag_hand_tracker/progress.h"
 #include "sag_hand_tracker/ros/bag_output.h"
-#include "sag_hand_tracker/ros/track_bag_runner.h"  // UsageError
+#include "sag_hand_tracker/command_line.h"
 
 namespace sag_hand_tracker {
 

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "sag_hand_tracker/command_line.h"
 #include "sag_hand_tracker/csv.h"
 #include "sag_hand_tracker/frame_set.h"
 #include "sag_hand_tracker/hand_model.h"
@@ -20,12 +21,6 @@
 #include "sag_hand_tracker/tracking_pipeline.h"
 
 namespace sag_hand_tracker {
-
-// A bad command line; the message says what is wrong (without the usage text).
-class UsageError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
 
 struct TrackBagOptions {
   std::string bag;                       // --bag (required)

@@ -1,0 +1,26 @@
+// Command-line helpers shared by the offline tools: the usage error and the parsing of option
+// values, so that every tool words its complaints the same way.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace sag_hand_tracker {
+
+// A bad command line; the message says what is wrong (without the usage text).
+class UsageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// `text` as an integer in [min_value, 1000000]; else UsageError
+// "<option> expects an integer >= <min_value>, got '<text>'".
+int parseIntOption(const std::string& option, const std::string& text, int min_value);
+
+// The comma-separated items of `text`, none empty; else UsageError
+// "<option> expects <what>, got '<text>'".
+std::vector<std::string> parseListOption(const std::string& option, const std::string& text,
+                                         const std::string& what = "a list like a,b,c");
+
+}  // namespace sag_hand_tracker
