@@ -17,9 +17,9 @@
 #include <dynamic_reconfigure/server.h>
 #include <image_transport/image_transport.h>
 #include <nodelet/nodelet.h>
-#include <pluginlib/class_list_macros.hpp>
 #include <ros/ros.h>
 #include <sensor_msgs/image_encodings.h>
+#include <pluginlib/class_list_macros.hpp>
 
 #include <fstream>
 #include <map>
@@ -42,18 +42,18 @@ class SegmentationNodelet : public nodelet::Nodelet {
     save_background_ = pnh.param("save_background", false);
     it_ = std::make_unique<image_transport::ImageTransport>(nh);
 
-    reconfigure_ = std::make_unique<dynamic_reconfigure::Server<SegmentationConfig>>(
-        reconfigure_mutex_, pnh);
+    reconfigure_ =
+        std::make_unique<dynamic_reconfigure::Server<SegmentationConfig>>(reconfigure_mutex_, pnh);
     reconfigure_->setCallback(
         [this](SegmentationConfig& config, uint32_t) { reconfigure(config); });
     loadBackgroundFile();
 
-    auto connect = [this](const ros::SingleSubscriberPublisher&) { updateSubscription(); };
-    // Held while sog_pub_ is assigned: a subscriber that is already there (the tracker in the
-    // same manager) makes the connect callback run on another thread, possibly before advertise()
-    // returns; it would then see no subscribers and never subscribe the camera.
-    std::lock_guard<std::mutex> lock(subscription_mutex_);
-    sog_pub_ = nh.advertise<SumOfGaussians>("sog", 5, connect, connect);
+    sog_pub_ = nh.advertise<SumOfGaussians>("sog", 5);
+    // Lazy: the camera is subscribed while `sog` has subscribers. The count is polled (10 Hz)
+    // rather than followed with connect/disconnect callbacks: with those, the manager crashed
+    // inside roscpp's Publication::peerDisconnect during bag replay.
+    subscription_timer_ = nh.createWallTimer(
+        ros::WallDuration(0.1), [this](const ros::WallTimerEvent&) { updateSubscription(); });
   }
 
   void loadBackgroundFile() {
@@ -159,8 +159,8 @@ class SegmentationNodelet : public nodelet::Nodelet {
     std::lock_guard<std::mutex> lock(mutex_);
     try {
       const SegmentationMode mode = segmenter_.params().mode;
-      const bool needs_plate = mode == SegmentationMode::plate ||
-                               mode == SegmentationMode::plate_and_skin;
+      const bool needs_plate =
+          mode == SegmentationMode::plate || mode == SegmentationMode::plate_and_skin;
       if (needs_plate && !segmenter_.backgroundReady()) {
         segmenter_.addBackgroundFrame(rgb);
         NODELET_INFO_THROTTLE(2.0, "learning the background plate: %d of %d frames",
@@ -193,6 +193,7 @@ class SegmentationNodelet : public nodelet::Nodelet {
   std::map<std::string, ros::WallTime> warned_;
   ImageSegmenter segmenter_;
   std::mutex subscription_mutex_;
+  ros::WallTimer subscription_timer_;
   std::unique_ptr<image_transport::ImageTransport> it_;
   image_transport::CameraSubscriber camera_sub_;
   ros::Publisher sog_pub_;

@@ -23,7 +23,6 @@
 #include <geometry_msgs/PoseArray.h>
 #include <image_transport/image_transport.h>
 #include <nodelet/nodelet.h>
-#include <pluginlib/class_list_macros.hpp>
 #include <ros/package.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
@@ -32,6 +31,7 @@
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 #include <visualization_msgs/MarkerArray.h>
+#include <pluginlib/class_list_macros.hpp>
 
 #include <Eigen/Eigenvalues>
 #include <chrono>
@@ -41,12 +41,12 @@
 #include <mutex>
 #include <opencv2/imgproc.hpp>
 
-#include "sag_hand_tracker/ros/conversions.h"
-#include "sag_hand_tracker/ros/sog_conversions.h"
 #include "sag_hand_tracker/TrackerConfig.h"
 #include "sag_hand_tracker/TrackingStatus.h"
 #include "sag_hand_tracker/kinematics.h"
 #include "sag_hand_tracker/projection.h"
+#include "sag_hand_tracker/ros/conversions.h"
+#include "sag_hand_tracker/ros/sog_conversions.h"
 #include "sag_hand_tracker/tracker.h"
 
 namespace sag_hand_tracker {
@@ -133,23 +133,28 @@ class TrackerNodelet : public nodelet::Nodelet {
             std::lock_guard<std::mutex> lock(mutex_);
             cameras_[i].info = msg;
           });
-      auto connect = [this, i](const image_transport::SingleSubscriberPublisher&) {
-        updateOverlaySubscription(i);
-      };
-      cameras_[i].overlay_pub = it_->advertise(cam + "/overlay", 1, connect, connect);
+      // No connect callbacks: the timer below polls the subscriber count (see onTimer).
+      cameras_[i].overlay_pub = it_->advertise(cam + "/overlay", 1);
     }
 
     diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
     diagnostics_->setHardwareID("sag_hand_tracker");
     diagnostics_->add("tracker", this, &TrackerNodelet::diagnose);
 
-    reconfigure_ = std::make_unique<dynamic_reconfigure::Server<TrackerConfig>>(reconfigure_mutex_,
-                                                                               pnh);
+    reconfigure_ =
+        std::make_unique<dynamic_reconfigure::Server<TrackerConfig>>(reconfigure_mutex_, pnh);
     reconfigure_->setCallback([this](TrackerConfig& config, uint32_t) { reconfigure(config); });
 
-    // Processes sets whose cameras timed out, and watches for ROS time jumping back.
+    // Processes sets whose cameras timed out, watches for ROS time jumping back, and follows the
+    // overlay subscribers. (Polled rather than connect/disconnect callbacks: with those, the
+    // manager crashed inside roscpp's Publication::peerDisconnect during bag replay.)
     timer_ = nh.createWallTimer(ros::WallDuration(std::max(0.01, camera_timeout_ / 5.0)),
-                                [this](const ros::WallTimerEvent&) { onTimer(); });
+                                [this](const ros::WallTimerEvent&) {
+                                  for (int i = 0; i < num_cameras_; ++i) {
+                                    updateOverlaySubscription(i);
+                                  }
+                                  onTimer();
+                                });
     NODELET_INFO("tracker: %d cameras, root frame '%s', model '%s' (%zu Gaussians)", num_cameras_,
                  root_frame_.c_str(), model_.name.c_str(), model_.gaussians.size());
   }
@@ -302,8 +307,7 @@ class TrackerNodelet : public nodelet::Nodelet {
     try {
       result = tracker_->update(observations, stamp.toSec());
     } catch (const std::exception& e) {
-      NODELET_ERROR_THROTTLE(2.0, "tracker failed on the set at %.3f: %s", stamp.toSec(),
-                             e.what());
+      NODELET_ERROR_THROTTLE(2.0, "tracker failed on the set at %.3f: %s", stamp.toSec(), e.what());
       tracker_->reset();
       return;
     }
@@ -353,8 +357,8 @@ class TrackerNodelet : public nodelet::Nodelet {
       return false;
     }
     const std::string cam = "cam" + std::to_string(i);
-    const std::string frame = msg.header.frame_id.empty() ? cam + "_optical_frame"
-                                                          : msg.header.frame_id;
+    const std::string frame =
+        msg.header.frame_id.empty() ? cam + "_optical_frame" : msg.header.frame_id;
     geometry_msgs::TransformStamped transform;
     try {
       // Extrinsics are static: the latest transform is the one.
@@ -459,8 +463,7 @@ class TrackerNodelet : public nodelet::Nodelet {
       }
       if (model_.bones[b].length > 0.0) {  // along the bone's x axis
         lines.points.push_back(toPoint(frame.translation()));
-        lines.points.push_back(
-            toPoint(frame * Eigen::Vector3d(model_.bones[b].length, 0.0, 0.0)));
+        lines.points.push_back(toPoint(frame * Eigen::Vector3d(model_.bones[b].length, 0.0, 0.0)));
       }
     }
     markers.markers.push_back(lines);
@@ -508,9 +511,9 @@ class TrackerNodelet : public nodelet::Nodelet {
       for (size_t g = 0; g < hand.gaussians.size(); ++g) {
         // Drawn in ideal pinhole pixels (the tracker's space); with strong lens distortion the
         // ellipses are slightly off near the image border.
-        const ProjectedGaussian p = projectPerspective(
-            camera.world_to_camera * hand.gaussians[g].mean,
-            R * hand.gaussians[g].cov * R.transpose(), camera.K);
+        const ProjectedGaussian p =
+            projectPerspective(camera.world_to_camera * hand.gaussians[g].mean,
+                               R * hand.gaussians[g].cov * R.transpose(), camera.K);
         if (!p.valid) continue;
         Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(p.cov);
         const Eigen::Vector2d axes = eig.eigenvalues().cwiseMax(0.0).cwiseSqrt();
@@ -518,9 +521,8 @@ class TrackerNodelet : public nodelet::Nodelet {
             std::atan2(eig.eigenvectors()(1, 1), eig.eigenvectors()(0, 1)) * 180.0 / M_PI;
         if (!p.mean.allFinite() || !axes.allFinite()) continue;
         // Cyan, not the model's (skin) colour, which would vanish on the hand.
-        cv::ellipse(cv->image, cv::Point2d(p.mean.x(), p.mean.y()),
-                    cv::Size2d(axes[1], axes[0]), angle, 0, 360, cv::Scalar(255, 255, 0), 1,
-                    cv::LINE_AA);
+        cv::ellipse(cv->image, cv::Point2d(p.mean.x(), p.mean.y()), cv::Size2d(axes[1], axes[0]),
+                    angle, 0, 360, cv::Scalar(255, 255, 0), 1, cv::LINE_AA);
       }
       input.overlay_pub.publish(cv->toImageMsg());
     }
