@@ -14,6 +14,10 @@ class UsageError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// The value of the option args[*i]: args[*i + 1], advancing *i; UsageError
+// "<option> needs a value" when there is none or the next argument is an option itself.
+const std::string& nextOptionValue(const std::vector<std::string>& args, size_t* i);
+
 // `text` as an integer in [min_value, 1000000]; else UsageError
 // "<option> expects an integer >= <min_value>, got '<text>'".
 int parseIntOption(const std::string& option, const std::string& text, int min_value);

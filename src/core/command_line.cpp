@@ -6,6 +6,13 @@
 
 namespace sag_hand_tracker {
 
+const std::string& nextOptionValue(const std::vector<std::string>& args, size_t* i) {
+  if (*i + 1 >= args.size() || args[*i + 1].rfind("--", 0) == 0) {
+    throw UsageError(args[*i] + " needs a value");
+  }
+  return args[++*i];
+}
+
 int parseIntOption(const std::string& option, const std::string& text, int min_value) {
   char* end = nullptr;
   errno = 0;

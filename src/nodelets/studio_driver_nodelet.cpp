@@ -45,10 +45,10 @@
 
 #include <XmlRpcValue.h>
 #include <algorithm>
-#include <sstream>
 #include <chrono>
 #include <memory>
 #include <optional>
+#include <sstream>
 
 #include "sag_hand_tracker/calibration.h"
 #include "sag_hand_tracker/hand_model.h"
@@ -127,10 +127,9 @@ class StudioDriverNodelet : public nodelet::Nodelet {
 
     std::string list;
     for (const std::string& name : sequence_names_) list += (list.empty() ? "" : " ") + name;
-    NODELET_INFO(
-        "studio: rig '%s' (%zu cameras, %dx%d), sequences [%s]%s at %g fps, set-up %.1f s",
-        rig_name.c_str(), rig_.cameras.size(), rig_.cameras[0].width, rig_.cameras[0].height,
-        list.c_str(), loop_ ? " looped" : "", fps_, setup_seconds);
+    NODELET_INFO("studio: rig '%s' (%zu cameras, %dx%d), sequences [%s]%s at %g fps, set-up %.1f s",
+                 rig_name.c_str(), rig_.cameras.size(), rig_.cameras[0].width,
+                 rig_.cameras[0].height, list.c_str(), loop_ ? " looped" : "", fps_, setup_seconds);
 
     // Rendering on its own queue and thread (see the header comment).
     render_nh_ = ros::NodeHandle(nh);
@@ -254,10 +253,10 @@ class StudioDriverNodelet : public nodelet::Nodelet {
     const studio::StudioFrame frame = sequence_->frame(k);
     std::vector<studio::StudioImage> images;
     try {
-      images = renderer_->render(lead_in ? std::vector<std::vector<studio::SurfacePart>>()
-                                         : sequence_->surfaces(k),
-                                 lead_in ? studio::mixSeed(sequence_->noiseSeed(0), 1000 + lead_in_left_)
-                                         : sequence_->noiseSeed(k));
+      images = renderer_->render(
+          lead_in ? std::vector<std::vector<studio::SurfacePart>>() : sequence_->surfaces(k),
+          lead_in ? studio::mixSeed(sequence_->noiseSeed(0), 1000 + lead_in_left_)
+                  : sequence_->noiseSeed(k));
     } catch (const std::exception& e) {
       NODELET_ERROR("studio: rendering frame %d failed: %s; the studio stops", k, e.what());
       timer_.stop();
@@ -287,25 +286,11 @@ class StudioDriverNodelet : public nodelet::Nodelet {
   }
 
   void publishGroundTruth(const studio::StudioFrame& frame, const ros::Time& stamp) {
-    auto joints = boost::make_shared<sensor_msgs::JointState>();
-    joints->header.stamp = stamp;
-    joints->header.frame_id = rig_.root_frame;
-    joints->name = joint_names_;
-    const PoseVector v = frame.pose.toVector();
-    joints->position.assign(v.data(), v.data() + v.size());
-    gt_joint_pub_.publish(joints);
-
-    auto tips = boost::make_shared<geometry_msgs::PoseArray>();
-    tips->header = joints->header;
-    for (const Eigen::Vector3d& tip : frame.fingertips) {
-      geometry_msgs::Pose pose;
-      pose.position.x = tip.x();
-      pose.position.y = tip.y();
-      pose.position.z = tip.z();
-      pose.orientation.w = 1.0;
-      tips->poses.push_back(pose);
-    }
-    gt_fingertip_pub_.publish(tips);
+    std_msgs::Header header;
+    header.stamp = stamp;
+    header.frame_id = rig_.root_frame;
+    gt_joint_pub_.publish(toJointStateMsg(joint_names_, frame.pose, header));
+    gt_fingertip_pub_.publish(toFingertipsMsg(frame.fingertips, header));
   }
 
   double fps_ = 25.0;

@@ -382,13 +382,10 @@ class TrackerNodelet : public nodelet::Nodelet {
   }
 
   void publishPose(const ros::Time& stamp, const FrameResult& result, const PosedHand& hand) {
-    sensor_msgs::JointState joints;
-    joints.header.stamp = stamp;
-    joints.header.frame_id = root_frame_;
-    joints.name = joint_names_;
-    const PoseVector v = result.pose.toVector();
-    joints.position.assign(v.data(), v.data() + v.size());
-    joint_pub_.publish(joints);
+    std_msgs::Header header;
+    header.stamp = stamp;
+    header.frame_id = root_frame_;
+    joint_pub_.publish(toJointStateMsg(joint_names_, result.pose, header));
 
     std::vector<geometry_msgs::TransformStamped> transforms;
     for (size_t b = 0; b < model_.bones.size(); ++b) {
@@ -396,24 +393,12 @@ class TrackerNodelet : public nodelet::Nodelet {
       t.header.stamp = stamp;
       t.header.frame_id = root_frame_;
       t.child_frame_id = "hand_" + model_.bones[b].name;
-      const Eigen::Isometry3d& frame = hand.bone_frames[b];
-      t.transform.translation.x = frame.translation().x();
-      t.transform.translation.y = frame.translation().y();
-      t.transform.translation.z = frame.translation().z();
-      t.transform.rotation = toQuaternion(frame.rotation());
+      t.transform = toTransformMsg(hand.bone_frames[b]);
       transforms.push_back(t);
     }
     tf_broadcaster_.sendTransform(transforms);
 
-    geometry_msgs::PoseArray tips;
-    tips.header = joints.header;
-    for (const Eigen::Vector3d& tip : result.fingertips) {
-      geometry_msgs::Pose pose;
-      pose.position = toPoint(tip);
-      pose.orientation.w = 1.0;
-      tips.poses.push_back(pose);
-    }
-    fingertip_pub_.publish(tips);
+    fingertip_pub_.publish(toFingertipsMsg(result.fingertips, header));
 
     if (marker_pub_.getNumSubscribers() > 0) marker_pub_.publish(makeMarkers(stamp, hand));
   }

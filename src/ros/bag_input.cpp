@@ -80,6 +80,20 @@ struct BagReader::Impl {
   std::int64_t last_yielded = 0;
   BagReaderStatistics stats;
 
+  // Runs `action`; rosbag's and roscpp's exceptions become InputError naming the bag.
+  template <typename Action>
+  void translateErrors(Action action) const {
+    try {
+      action();
+    } catch (const InputError&) {
+      throw;
+    } catch (const rosbag::BagException& exception) {
+      fail(std::string("cannot read the bag: ") + exception.what());
+    } catch (const ros::Exception& exception) {
+      fail(std::string("cannot read the bag: ") + exception.what());
+    }
+  }
+
   [[noreturn]] void fail(const std::string& problem) const {
     throw InputError(path + ": " + problem);
   }
@@ -363,15 +377,7 @@ BagReader::BagReader(const std::string& path, const BagReaderOptions& options)
   impl_->path = path;
   impl_->options = options;
   impl_->options.max_pending_sets = std::max(1, options.max_pending_sets);
-  try {
-    impl_->open();
-  } catch (const InputError&) {
-    throw;
-  } catch (const rosbag::BagException& exception) {
-    impl_->fail(std::string("cannot read the bag: ") + exception.what());
-  } catch (const ros::Exception& exception) {
-    impl_->fail(std::string("cannot read the bag: ") + exception.what());
-  }
+  impl_->translateErrors([this] { impl_->open(); });
 }
 
 BagReader::~BagReader() = default;
@@ -393,15 +399,7 @@ double BagReader::progress() const {
 bool BagReader::next(FrameSet* set) {
   const auto start = std::chrono::steady_clock::now();
   bool more = false;
-  try {
-    more = impl_->step(set);
-  } catch (const InputError&) {
-    throw;
-  } catch (const rosbag::BagException& exception) {
-    impl_->fail(std::string("cannot read the bag: ") + exception.what());
-  } catch (const ros::Exception& exception) {
-    impl_->fail(std::string("cannot read the bag: ") + exception.what());
-  }
+  impl_->translateErrors([&] { more = impl_->step(set); });
   impl_->stats.decode_seconds +=
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return more;

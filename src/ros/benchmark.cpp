@@ -497,12 +497,7 @@ BenchmarkOptions parseBenchmarkArguments(const std::vector<std::string>& args) {
   BenchmarkOptions options;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& arg = args[i];
-    auto value = [&]() -> const std::string& {
-      if (i + 1 >= args.size() || args[i + 1].rfind("--", 0) == 0) {
-        throw UsageError(arg + " needs a value");
-      }
-      return args[++i];
-    };
+    auto value = [&]() -> const std::string& { return nextOptionValue(args, &i); };
     if (arg == "--help" || arg == "-h") {
       options.help = true;
     } else if (arg == "--sequences") {

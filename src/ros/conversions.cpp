@@ -198,4 +198,29 @@ geometry_msgs::Transform toTransformMsg(const Eigen::Isometry3d& isometry) {
   return transform;
 }
 
+sensor_msgs::JointState toJointStateMsg(const std::vector<std::string>& names, const Pose& pose,
+                                        const std_msgs::Header& header) {
+  sensor_msgs::JointState message;
+  message.header = header;
+  message.name = names;
+  const PoseVector parameters = pose.toVector();
+  message.position.assign(parameters.data(), parameters.data() + parameters.size());
+  return message;
+}
+
+geometry_msgs::PoseArray toFingertipsMsg(const Fingertips& fingertips,
+                                         const std_msgs::Header& header) {
+  geometry_msgs::PoseArray message;
+  message.header = header;
+  for (const Eigen::Vector3d& tip : fingertips) {
+    geometry_msgs::Pose pose;
+    pose.position.x = tip.x();
+    pose.position.y = tip.y();
+    pose.position.z = tip.z();
+    pose.orientation.w = 1.0;
+    message.poses.push_back(pose);
+  }
+  return message;
+}
+
 }  // namespace sag_hand_tracker

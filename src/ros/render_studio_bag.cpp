@@ -1,9 +1,7 @@
 // renderStudioBag: the body of the render_bag tool (see render_studio_bag.h).
 #include "sag_hand_tracker/ros/render_studio_bag.h"
 
-#include <geometry_msgs/PoseArray.h>
 #include <ros/package.h>
-#include <sensor_msgs/JointState.h>
 
 #include <algorithm>
 #include <chrono>
@@ -20,6 +18,7 @@
 #include "sag_hand_tracker/calibration.h"
 #include "sag_hand_tracker/csv.h"
 #include "sag_hand_tracker/hand_model.h"
+#include "sag_hand_tracker/ros/conversions.h"
 #include "sag_hand_tracker/studio/motion.h"
 #include "sag_hand_tracker/studio/renderer.h"
 #include "sag_hand_tracker/studio/sequence.h"
@@ -40,36 +39,6 @@ ros::Time frameStamp(double start_seconds, int index, double fps) {
 }
 
 // ---- ground-truth messages ------------------------------------------------------------------
-
-// The 26 pose parameters (metres and radians, HandModel::parameterNames() order) as a JointState.
-sensor_msgs::JointState jointStateMessage(const std::vector<std::string>& names,
-                                          const PoseVector& parameters, const ros::Time& stamp,
-                                          const std::string& frame) {
-  sensor_msgs::JointState message;
-  message.header.stamp = stamp;
-  message.header.frame_id = frame;
-  message.name = names;
-  message.position.assign(parameters.data(), parameters.data() + parameters.size());
-  return message;
-}
-
-// The fingertips (thumb..pinky) as poses with the identity orientation, in the root frame.
-geometry_msgs::PoseArray fingertipsMessage(
-    const std::array<Eigen::Vector3d, kNumFingers>& fingertips, const ros::Time& stamp,
-    const std::string& frame) {
-  geometry_msgs::PoseArray message;
-  message.header.stamp = stamp;
-  message.header.frame_id = frame;
-  for (const Eigen::Vector3d& tip : fingertips) {
-    geometry_msgs::Pose pose;
-    pose.position.x = tip.x();
-    pose.position.y = tip.y();
-    pose.position.z = tip.z();
-    pose.orientation.w = 1.0;
-    message.poses.push_back(pose);
-  }
-  return message;
-}
 
 TrackingCsvRow groundTruthRow(const StudioFrame& frame, const ros::Time& stamp) {
   TrackingCsvRow row;
@@ -284,10 +253,11 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
       bag.writeCameraImage(rig.cameras[c], images[c].rgb, stamp);
     }
     if (frame.hand_present) {
-      bag.write("/ground_truth/joint_states", stamp,
-                jointStateMessage(names, frame.pose.toVector(), stamp, rig.root_frame));
-      bag.write("/ground_truth/fingertips", stamp,
-                fingertipsMessage(frame.fingertips, stamp, rig.root_frame));
+      std_msgs::Header header;
+      header.stamp = stamp;
+      header.frame_id = rig.root_frame;
+      bag.write("/ground_truth/joint_states", stamp, toJointStateMsg(names, frame.pose, header));
+      bag.write("/ground_truth/fingertips", stamp, toFingertipsMsg(frame.fingertips, header));
       csv.write(groundTruthRow(frame, stamp));
     }
     if (k == preview_frame) {
@@ -296,15 +266,14 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
     }
     if (progress) {
       progress->update(static_cast<double>(k + 1) / frames,
-                      "frame " + std::to_string(k + 1) + "/" + std::to_string(frames));
+                       "frame " + std::to_string(k + 1) + "/" + std::to_string(frames));
     }
   }
   csv.close();
   bag.close();
   const double total_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - loop_start).count();
-  if (progress)
-    progress->finish("frame " + std::to_string(frames) + "/" + std::to_string(frames));
+  if (progress) progress->finish("frame " + std::to_string(frames) + "/" + std::to_string(frames));
 
   RenderBagSummary summary;
   summary.sequence = sequence.motion().name;
@@ -325,15 +294,14 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
 
 std::string formatRenderBagSummary(const RenderBagSummary& s) {
   std::ostringstream summary;
-  summary << std::fixed << std::setprecision(1) << "render_bag: " << s.sequence << ": "
-          << s.frames << " frames (" << s.empty_frames << " without the hand) x "
-          << s.cameras << " cameras at " << s.fps << " fps, seed " << s.seed
-          << "\n  rendering " << s.frames / std::max(s.render_seconds, 1e-9) << " frames/s ("
-          << 1000.0 * s.render_seconds / std::max(s.frames, 1) << " ms per frame of "
-          << s.cameras << " images), with the bag and CSV "
-          << s.frames / std::max(s.total_seconds, 1e-9) << " frames/s; studio set-up "
-          << s.setup_seconds << " s\n  bag: " << s.bag << "\n  ground truth: " << s.gt_csv
-          << " (" << s.gt_rows << " rows)\n";
+  summary << std::fixed << std::setprecision(1) << "render_bag: " << s.sequence << ": " << s.frames
+          << " frames (" << s.empty_frames << " without the hand) x " << s.cameras << " cameras at "
+          << s.fps << " fps, seed " << s.seed << "\n  rendering "
+          << s.frames / std::max(s.render_seconds, 1e-9) << " frames/s ("
+          << 1000.0 * s.render_seconds / std::max(s.frames, 1) << " ms per frame of " << s.cameras
+          << " images), with the bag and CSV " << s.frames / std::max(s.total_seconds, 1e-9)
+          << " frames/s; studio set-up " << s.setup_seconds << " s\n  bag: " << s.bag
+          << "\n  ground truth: " << s.gt_csv << " (" << s.gt_rows << " rows)\n";
   if (!s.preview.empty()) summary << "  contact sheet: " << s.preview << "\n";
   return summary.str();
 }

@@ -20,6 +20,7 @@
 #include <limits>
 #include <map>
 
+#include "sag_hand_tracker/ros/conversions.h"
 #include "sag_hand_tracker/ros/sog_conversions.h"
 #include "test_support/synthetic_scene.h"
 
@@ -114,28 +115,27 @@ int main(int argc, char** argv) {
       msg.header.frame_id = frame_id;
       if (broken_sog) {
         switch (frame % 4) {
-          case 0: msg.width /= 2; break;  // size does not match camera_info
+          case 0:
+            msg.width /= 2;
+            break;  // size does not match camera_info
           case 1:
-            if (!msg.gaussians.empty()) msg.gaussians[0].x = std::numeric_limits<float>::quiet_NaN();
+            if (!msg.gaussians.empty())
+              msg.gaussians[0].x = std::numeric_limits<float>::quiet_NaN();
             break;
-          case 2: msg.gaussians.clear(); break;  // an empty SoG
-          default: msg.header.frame_id = "no_such_frame"; break;
+          case 2:
+            msg.gaussians.clear();
+            break;  // an empty SoG
+          default:
+            msg.header.frame_id = "no_such_frame";
+            break;
         }
       }
       sog_pubs[i].publish(msg);
     }
-    geometry_msgs::PoseArray truth;
-    truth.header.stamp = stamp;
-    truth.header.frame_id = "world";
-    for (const Eigen::Vector3d& tip : fingertips(model, pose)) {
-      geometry_msgs::Pose p;
-      p.position.x = tip.x();
-      p.position.y = tip.y();
-      p.position.z = tip.z();
-      p.orientation.w = 1.0;
-      truth.poses.push_back(p);
-    }
-    truth_pub.publish(truth);
+    std_msgs::Header truth_header;
+    truth_header.stamp = stamp;
+    truth_header.frame_id = "world";
+    truth_pub.publish(toFingertipsMsg(fingertips(model, pose), truth_header));
     ++frame;
     loop.sleep();
   }

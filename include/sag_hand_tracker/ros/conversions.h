@@ -3,9 +3,11 @@
 // one-line message.
 #pragma once
 
+#include <geometry_msgs/PoseArray.h>
 #include <geometry_msgs/Transform.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
+#include <sensor_msgs/JointState.h>
 #include <std_msgs/Header.h>
 
 #include <Eigen/Geometry>
@@ -13,6 +15,8 @@
 #include <string>
 
 #include "sag_hand_tracker/camera.h"
+#include "sag_hand_tracker/metrics.h"
+#include "sag_hand_tracker/pose.h"
 
 namespace sag_hand_tracker {
 
@@ -47,5 +51,13 @@ cv::Mat toRgbMat(const sensor_msgs::Image& image);
 // normalises the quaternion otherwise.
 Eigen::Isometry3d toIsometry(const geometry_msgs::Transform& transform);
 geometry_msgs::Transform toTransformMsg(const Eigen::Isometry3d& isometry);
+
+// The 26 pose parameters (metres and radians, HandModel::parameterNames() order) as a JointState.
+sensor_msgs::JointState toJointStateMsg(const std::vector<std::string>& names, const Pose& pose,
+                                        const std_msgs::Header& header);
+
+// The fingertips (thumb..pinky) as poses with the identity orientation.
+geometry_msgs::PoseArray toFingertipsMsg(const Fingertips& fingertips,
+                                         const std_msgs::Header& header);
 
 }  // namespace sag_hand_tracker
