@@ -12,6 +12,8 @@ export PATH := /usr/bin:/bin:/usr/sbin:/sbin:$(PATH)
 export ROS_HOME ?= $(WS)/ros_home
 export ROS_LOG_DIR ?= $(WS)/ros_home/log
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+# A compiler cache when the machine has one (developers' worktrees share it); builds without it too.
+CCACHE := $(shell command -v ccache 2>/dev/null)
 
 # Debian 12's own ROS 1 packages and the libraries the package uses.
 DEBS := ros-desktop-dev catkin rosbash libcv-bridge-dev libimage-geometry-dev \
@@ -39,11 +41,17 @@ workspace:
 	@ln -sfn $(ROOT) $(WS)/src/sag_hand_tracker
 
 build: deps workspace
-	cd $(WS) && catkin_make -DCMAKE_BUILD_TYPE=Release -j$(JOBS)
+	cd $(WS) && catkin_make -DCMAKE_BUILD_TYPE=Release \
+	  $(if $(CCACHE),-DCMAKE_CXX_COMPILER_LAUNCHER=$(CCACHE)) -j$(JOBS)
 
 test: build
 	cd $(WS) && rm -rf build/test_results && catkin_make run_tests -j$(JOBS)
-	cd $(WS) && catkin_test_results build/test_results
+	@# catkin_test_results' summary, then the plain closing line CI counts ("N passed, N failed").
+	@cd $(WS) && status=0 && { catkin_test_results build/test_results > test_summary.txt || status=$$?; } \
+	  && cat test_summary.txt \
+	  && sed -nE 's/^Summary: ([0-9]+) tests, ([0-9]+) errors, ([0-9]+) failures, ([0-9]+) skipped.*/\1 \2 \3 \4/p' \
+	    test_summary.txt | awk '{print $$1-$$2-$$3-$$4 " passed, " $$2+$$3 " failed, " $$4 " skipped"}' \
+	  && exit $$status
 
 demo: build
 	source $(WS)/devel/setup.bash && $(ROOT)/scripts/demo
