@@ -7,7 +7,7 @@ SHELL := /bin/bash
 ROOT := $(CURDIR)
 WS := $(ROOT)/.catkin_ws
 JOBS ?= 2
-# A python3 from another install earlier on PATH breaks catkin (DESIGN.md section 7).
+# A python3 from another install earlier on PATH breaks catkin (doc/design.md section 7).
 export PATH := /usr/bin:/bin:/usr/sbin:/sbin:$(PATH)
 export ROS_HOME ?= $(WS)/ros_home
 export ROS_LOG_DIR ?= $(WS)/ros_home/log

@@ -41,10 +41,10 @@
 #include <memory>
 #include <optional>
 
-#include "sag_hand_tracker/calibration.h"
-#include "sag_hand_tracker/capture.h"
+#include "sag_hand_tracker/camera/calibration.h"
+#include "sag_hand_tracker/capture/capture.h"
 #include "sag_hand_tracker/ros/conversions.h"
-#include "sag_hand_tracker/types.h"
+#include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
 
@@ -320,10 +320,10 @@ class CameraDriverNodelet : public nodelet::Nodelet {
   void report(const std::vector<CaptureEvent>& events) {
     for (const CaptureEvent& event : events) {
       switch (event.kind) {
-        case CaptureEvent::Kind::resized:
+        case CaptureEvent::Kind::kResized:
           NODELET_WARN("%s", event.message.c_str());
           break;
-        case CaptureEvent::Kind::read_failed: {
+        case CaptureEvent::Kind::kReadFailed: {
           // Throttled per camera, so that one camera's failures do not hide another's.
           Output& out = outputs_.at(event.camera);
           const ros::WallTime now = ros::WallTime::now();
@@ -333,8 +333,8 @@ class CameraDriverNodelet : public nodelet::Nodelet {
           }
           break;
         }
-        case CaptureEvent::Kind::stopped:
-        case CaptureEvent::Kind::finished:
+        case CaptureEvent::Kind::kStopped:
+        case CaptureEvent::Kind::kFinished:
           NODELET_ERROR("%s", event.message.c_str());
           break;
       }

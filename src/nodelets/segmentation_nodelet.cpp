@@ -22,14 +22,14 @@
 #include <pluginlib/class_list_macros.hpp>
 
 #include <fstream>
-#include <map>
 #include <memory>
 #include <mutex>
 #include <opencv2/imgproc.hpp>
 
 #include "sag_hand_tracker/SegmentationConfig.h"
 #include "sag_hand_tracker/ros/sog_conversions.h"
-#include "sag_hand_tracker/segmentation.h"
+#include "sag_hand_tracker/ros/throttled_warnings.h"
+#include "sag_hand_tracker/segmentation/quadtree_segmentation.h"
 
 namespace sag_hand_tracker {
 
@@ -132,16 +132,7 @@ class SegmentationNodelet : public nodelet::Nodelet {
                const sensor_msgs::CameraInfoConstPtr& info) {
     const std::string problem = checkInput(*image, *info);
     if (!problem.empty()) {
-      // Throttled per kind of problem, so that one does not hide another.
-      std::lock_guard<std::mutex> lock(mutex_);
-      const std::string key = problem.substr(0, 16);
-      const ros::WallTime now = ros::WallTime::now();
-      auto last = warned_.find(key);
-      if (last == warned_.end() || (now - last->second).toSec() > 5.0) {
-        warned_[key] = now;
-        NODELET_WARN("%s image skipped: %s", getNodeHandle().resolveName("image_raw").c_str(),
-                     problem.c_str());
-      }
+      warn("image skipped: " + problem);
       return;
     }
     cv::Mat rgb;
@@ -153,14 +144,14 @@ class SegmentationNodelet : public nodelet::Nodelet {
         rgb = cv->image.clone();
       }
     } catch (const std::exception& e) {
-      NODELET_WARN_THROTTLE(5.0, "image conversion failed: %s", e.what());
+      warn(std::string("image conversion failed: ") + e.what());
       return;
     }
     std::lock_guard<std::mutex> lock(mutex_);
     try {
       const SegmentationMode mode = segmenter_.params().mode;
       const bool needs_plate =
-          mode == SegmentationMode::plate || mode == SegmentationMode::plate_and_skin;
+          mode == SegmentationMode::kPlate || mode == SegmentationMode::kPlateAndSkin;
       if (needs_plate && !segmenter_.backgroundReady()) {
         segmenter_.addBackgroundFrame(rgb);
         NODELET_INFO_THROTTLE(2.0, "learning the background plate: %d of %d frames",
@@ -177,20 +168,29 @@ class SegmentationNodelet : public nodelet::Nodelet {
         return;
       }
       const ImageSoG sog = segmenter_.segment(rgb);
-      SumOfGaussians msg = ros_util::sogToMsg(sog);
+      SumOfGaussians msg = sogToMsg(sog);
       msg.header = image->header;
       sog_pub_.publish(msg);
     } catch (const std::exception& e) {
       // E.g. the image size changed and no longer matches the learned plate.
-      NODELET_WARN_THROTTLE(5.0, "segmentation failed, image skipped: %s", e.what());
+      warn(std::string("segmentation failed, image skipped: ") + e.what());
+    }
+  }
+
+  // Throttled per kind of problem, so that one does not hide another.
+  void warn(const std::string& problem) {
+    std::lock_guard<std::mutex> lock(warnings_mutex_);
+    if (warnings_.shouldWarn(-1, problem)) {
+      NODELET_WARN("%s: %s", getNodeHandle().resolveName("image_raw").c_str(), problem.c_str());
     }
   }
 
   std::string background_file_;
   bool save_background_ = false;
   bool learned_logged_ = false;
-  std::mutex mutex_;  // guards segmenter_ and warned_
-  std::map<std::string, ros::WallTime> warned_;
+  std::mutex mutex_;  // guards segmenter_
+  std::mutex warnings_mutex_;
+  ThrottledWarnings warnings_;
   ImageSegmenter segmenter_;
   std::mutex subscription_mutex_;
   ros::WallTimer subscription_timer_;

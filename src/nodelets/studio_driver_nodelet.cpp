@@ -36,12 +36,12 @@
 #include <image_transport/image_transport.h>
 #include <nodelet/nodelet.h>
 #include <ros/callback_queue.h>
-#include <ros/package.h>
 #include <ros/ros.h>
 #include <sensor_msgs/JointState.h>
 #include <std_msgs/String.h>
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <pluginlib/class_list_macros.hpp>
+#include "sag_hand_tracker/ros/package_config.h"
 
 #include <XmlRpcValue.h>
 #include <algorithm>
@@ -50,13 +50,13 @@
 #include <optional>
 #include <sstream>
 
-#include "sag_hand_tracker/calibration.h"
-#include "sag_hand_tracker/hand_model.h"
+#include "sag_hand_tracker/camera/calibration.h"
+#include "sag_hand_tracker/model/hand_model.h"
 #include "sag_hand_tracker/ros/conversions.h"
 #include "sag_hand_tracker/studio/motion.h"
 #include "sag_hand_tracker/studio/renderer.h"
 #include "sag_hand_tracker/studio/sequence.h"
-#include "sag_hand_tracker/types.h"
+#include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
 
@@ -82,8 +82,7 @@ class StudioDriverNodelet : public nodelet::Nodelet {
     lead_in_frames_ = std::max(0, pnh.param("lead_in_frames", 15));
     motion_blur_ = std::max(1, pnh.param("motion_blur", 1));
     wait_for_subscribers_ = pnh.param("wait_for_subscribers", 10.0);
-    std::string config_dir = pnh.param<std::string>("config_dir", "");
-    if (config_dir.empty()) config_dir = ros::package::getPath("sag_hand_tracker") + "/config";
+    const std::string config_dir = packageConfigDir(pnh.param<std::string>("config_dir", ""));
 
     if (!readStringList(pnh, "sequences", &sequence_names_)) return;
     if (sequence_names_.empty()) sequence_names_ = studio::builtinMotionNames();

@@ -10,11 +10,11 @@
 //   handedness (right|left), camera_timeout (0.5 s), time_jump_threshold (1.0 s), plus the
 //   dynamic_reconfigure parameters of cfg/Tracker.cfg.
 //
-// Synchronization (message_filters::Synchronizer takes at most 9 inputs, DESIGN.md section 7):
-// a stamp-keyed buffer. A set is processed as soon as every camera that is not marked missing has
-// delivered its SoG for that stamp. A set still incomplete after camera_timeout (wall clock) is
-// processed with the cameras present, and the absent ones are marked missing (no longer waited
-// for) until they deliver again. Older incomplete sets are dropped when a newer one completes.
+// Synchronization: CameraSetSynchronizer (tracking/camera_set_synchronizer.h; message_filters'
+// synchronizers take at most 9 inputs): a set is processed as soon as every camera that is not
+// marked missing has delivered its SoG for that stamp; a camera silent for camera_timeout is left
+// out until it delivers again; stamps or ROS time jumping back (a looping bag) reset the tracker.
+// Markers and overlays: ros/visualization.h.
 #include "sag_hand_tracker/SumOfGaussians.h"
 
 #include <cv_bridge/cv_bridge.h>
@@ -23,7 +23,6 @@
 #include <geometry_msgs/PoseArray.h>
 #include <image_transport/image_transport.h>
 #include <nodelet/nodelet.h>
-#include <ros/package.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/JointState.h>
@@ -32,59 +31,33 @@
 #include <tf2_ros/transform_listener.h>
 #include <visualization_msgs/MarkerArray.h>
 #include <pluginlib/class_list_macros.hpp>
+#include "sag_hand_tracker/ros/package_config.h"
 
-#include <Eigen/Eigenvalues>
 #include <chrono>
 #include <deque>
-#include <map>
 #include <memory>
 #include <mutex>
-#include <opencv2/imgproc.hpp>
 
 #include "sag_hand_tracker/TrackerConfig.h"
 #include "sag_hand_tracker/TrackingStatus.h"
-#include "sag_hand_tracker/kinematics.h"
-#include "sag_hand_tracker/projection.h"
+#include "sag_hand_tracker/model/kinematics.h"
 #include "sag_hand_tracker/ros/conversions.h"
 #include "sag_hand_tracker/ros/sog_conversions.h"
-#include "sag_hand_tracker/tracker.h"
+#include "sag_hand_tracker/ros/throttled_warnings.h"
+#include "sag_hand_tracker/ros/visualization.h"
+#include "sag_hand_tracker/tracking/camera_set_synchronizer.h"
+#include "sag_hand_tracker/tracking/tracker.h"
+#include "sag_hand_tracker/util/timing.h"
 
 namespace sag_hand_tracker {
 
-namespace {
-
-geometry_msgs::Point toPoint(const Eigen::Vector3d& p) {
-  geometry_msgs::Point point;
-  point.x = p.x();
-  point.y = p.y();
-  point.z = p.z();
-  return point;
-}
-
-geometry_msgs::Quaternion toQuaternion(const Eigen::Matrix3d& rotation) {
-  const Eigen::Quaterniond q(rotation);
-  geometry_msgs::Quaternion msg;
-  msg.x = q.x();
-  msg.y = q.y();
-  msg.z = q.z();
-  msg.w = q.w();
-  return msg;
-}
-
-}  // namespace
-
 class TrackerNodelet : public nodelet::Nodelet {
  private:
-  struct PendingSet {
-    std::vector<SumOfGaussians::ConstPtr> sogs;  // per camera, null until it arrived
-    ros::WallTime first_arrival;
-    int count = 0;
-  };
+  using Synchronizer = CameraSetSynchronizer<SumOfGaussians::ConstPtr>;
   struct CameraInput {
     ros::Subscriber sog_sub;
     ros::Subscriber info_sub;
     sensor_msgs::CameraInfo::ConstPtr info;
-    bool missing = false;
     image_transport::Publisher overlay_pub;
     image_transport::Subscriber image_sub;
     std::deque<sensor_msgs::ImageConstPtr> images;  // recent images, for the overlay
@@ -99,13 +72,15 @@ class TrackerNodelet : public nodelet::Nodelet {
       num_cameras_ = 1;
     }
     root_frame_ = pnh.param<std::string>("root_frame", "world");
-    camera_timeout_ = pnh.param("camera_timeout", 0.5);
-    time_jump_threshold_ = pnh.param("time_jump_threshold", 1.0);
+    CameraSetSynchronizerParams sync_params;
+    sync_params.num_cameras = num_cameras_;
+    sync_params.camera_timeout = pnh.param("camera_timeout", 0.5);
+    sync_params.time_jump_threshold = pnh.param("time_jump_threshold", 1.0);
+    synchronizer_ = std::make_unique<Synchronizer>(sync_params);
     const std::string model_name = pnh.param<std::string>("model", "sag");
     const std::string handedness = pnh.param<std::string>("handedness", "right");
     try {
-      const std::string path =
-          resolveModelPath(model_name, ros::package::getPath("sag_hand_tracker") + "/config");
+      const std::string path = resolveModelPath(model_name, packageConfigDir());
       model_ = loadHandModel(path, handedness == "left" ? Handedness::kLeft : Handedness::kRight);
     } catch (const std::exception& e) {
       NODELET_FATAL("cannot load hand model '%s': %s", model_name.c_str(), e.what());
@@ -148,7 +123,7 @@ class TrackerNodelet : public nodelet::Nodelet {
     // Processes sets whose cameras timed out, watches for ROS time jumping back, and follows the
     // overlay subscribers. (Polled rather than connect/disconnect callbacks: with those, the
     // manager crashed inside roscpp's Publication::peerDisconnect during bag replay.)
-    timer_ = nh.createWallTimer(ros::WallDuration(std::max(0.01, camera_timeout_ / 5.0)),
+    timer_ = nh.createWallTimer(ros::WallDuration(std::max(0.01, sync_params.camera_timeout / 5.0)),
                                 [this](const ros::WallTimerEvent&) {
                                   for (int i = 0; i < num_cameras_; ++i) {
                                     updateOverlaySubscription(i);
@@ -191,115 +166,81 @@ class TrackerNodelet : public nodelet::Nodelet {
     std::lock_guard<std::mutex> lock(mutex_);
     const ros::Time stamp = msg->header.stamp;
     if (stamp.isZero()) {
-      NODELET_WARN_THROTTLE(5.0, "cam%d/sog: message with a zero stamp, skipped", camera);
+      warnCamera(camera, "message with a zero stamp, skipped");
       return;
     }
-    CameraInput& input = cameras_[camera];
-    if (input.missing) {
-      input.missing = false;
-      NODELET_INFO("cam%d delivers again: waiting for it again", camera);
-    }
-    if (!last_processed_.isZero() && stamp <= last_processed_) {
-      if ((last_processed_ - stamp).toSec() > time_jump_threshold_) {
-        resetLocked("image stamps jumped back by " +
-                    std::to_string((last_processed_ - stamp).toSec()) + " s");
-      } else {
-        ++late_messages_;
-        return;  // late message of a set already processed
-      }
-    }
-    PendingSet& set = pending_[stamp];
-    if (set.sogs.empty()) {
-      set.sogs.resize(num_cameras_);
-      set.first_arrival = ros::WallTime::now();
-    }
-    if (!set.sogs[camera]) ++set.count;
-    set.sogs[camera] = msg;
-    processCompleteSets();
-  }
-
-  bool isComplete(const PendingSet& set) const {
-    for (int i = 0; i < num_cameras_; ++i) {
-      if (!cameras_[i].missing && !set.sogs[i]) return false;
-    }
-    return set.count > 0;
-  }
-
-  // Processes the newest complete set (dropping older incomplete ones). Caller holds mutex_.
-  void processCompleteSets() {
-    for (auto it = pending_.rbegin(); it != pending_.rend(); ++it) {
-      if (!isComplete(it->second)) continue;
-      const ros::Time stamp = it->first;
-      PendingSet set = std::move(it->second);
-      auto end = pending_.upper_bound(stamp);
-      for (auto old = pending_.begin(); old != end; ++old) {
-        if (old->first != stamp) ++dropped_sets_;
-      }
-      pending_.erase(pending_.begin(), end);
-      processSet(stamp, set);
-      return;
-    }
+    const std::optional<Synchronizer::Set> set = synchronizer_->add(
+        camera, static_cast<std::int64_t>(stamp.toNSec()), msg, ros::WallTime::now().toSec());
+    handleSyncEvents();
+    if (set) processSet(*set);
   }
 
   void onTimer() {
     std::lock_guard<std::mutex> lock(mutex_);
-    const ros::Time now = ros::Time::now();
-    if (!last_now_.isZero() && now + ros::Duration(time_jump_threshold_) < last_now_) {
-      resetLocked("ROS time jumped back (bag loop?)");
+    synchronizer_->checkClock(ros::Time::now().toSec());
+    handleSyncEvents();
+    for (const Synchronizer::Set& set : synchronizer_->poll(ros::WallTime::now().toSec())) {
+      handleSyncEvents();
+      processSet(set);
     }
-    last_now_ = now;
-    const ros::WallTime wall = ros::WallTime::now();
-    while (!pending_.empty()) {
-      auto it = pending_.begin();
-      if ((wall - it->second.first_arrival).toSec() < camera_timeout_) break;
-      for (int i = 0; i < num_cameras_; ++i) {
-        if (!it->second.sogs[i] && !cameras_[i].missing) {
-          cameras_[i].missing = true;
-          NODELET_WARN("cam%d delivered no SoG for %.2f s: continuing without it", i,
-                       camera_timeout_);
-        }
-      }
-      const ros::Time stamp = it->first;
-      PendingSet set = std::move(it->second);
-      pending_.erase(it);
-      processSet(stamp, set);
-    }
+    handleSyncEvents();
     diagnostics_->update();
   }
 
-  void resetLocked(const std::string& why) {
-    NODELET_WARN("%s: resetting the tracker and its buffers", why.c_str());
-    tracker_->reset();
-    pending_.clear();
-    last_processed_ = ros::Time();
-    for (CameraInput& input : cameras_) input.images.clear();
-    tf_buffer_->clear();
-    ++resets_;
+  // Logs what the synchronizer reports and resets the tracker when time jumped back. Caller holds
+  // mutex_.
+  void handleSyncEvents() {
+    const double timeout = synchronizer_->params().camera_timeout;
+    for (const SyncEvent& event : synchronizer_->takeEvents()) {
+      switch (event.kind) {
+        case SyncEvent::Kind::kCameraMissing:
+          NODELET_WARN("cam%d delivered no SoG for %.2f s: continuing without it", event.camera,
+                       timeout);
+          break;
+        case SyncEvent::Kind::kCameraBack:
+          NODELET_INFO("cam%d delivers again: waiting for it again", event.camera);
+          break;
+        case SyncEvent::Kind::kLate:
+          warnCamera(event.camera, "SoG stamped " + std::to_string(event.seconds) +
+                                       " s before the last processed set: ignored (late, or "
+                                       "stamps going backwards)");
+          break;
+        case SyncEvent::Kind::kTimeJumpBack:
+          NODELET_WARN(
+              "time jumped back by %.3f s (bag loop?): resetting the tracker and its "
+              "buffers",
+              event.seconds);
+          tracker_->reset();
+          for (CameraInput& input : cameras_) input.images.clear();
+          tf_buffer_->clear();
+          break;
+      }
+    }
   }
 
   // Caller holds mutex_.
-  void processSet(const ros::Time& stamp, const PendingSet& set) {
+  void warnCamera(int camera, const std::string& problem) {
+    if (warnings_.shouldWarn(camera, problem)) {
+      NODELET_WARN("cam%d: %s", camera, problem.c_str());
+    }
+  }
+
+  // Caller holds mutex_.
+  void processSet(const Synchronizer::Set& set) {
     const auto start = std::chrono::steady_clock::now();
-    last_processed_ = stamp;
+    ros::Time stamp;
+    stamp.fromNSec(static_cast<std::uint64_t>(set.stamp_ns));
     std::vector<CameraObservation> observations;
     std::vector<int> observation_camera;
     for (int i = 0; i < num_cameras_; ++i) {
-      if (!set.sogs[i]) continue;
+      if (!set.messages[i]) continue;
       std::string problem;
       CameraObservation observation;
-      if (makeObservation(i, *set.sogs[i], &observation, &problem)) {
+      if (makeObservation(i, **set.messages[i], &observation, &problem)) {
         observations.push_back(std::move(observation));
         observation_camera.push_back(i);
       } else {
-        // Throttled per camera and kind of problem (one throttled call site would let one
-        // problem hide the others).
-        const std::string key = std::to_string(i) + problem.substr(0, 24);
-        const ros::WallTime now = ros::WallTime::now();
-        auto last = warned_.find(key);
-        if (last == warned_.end() || (now - last->second).toSec() > 5.0) {
-          warned_[key] = now;
-          NODELET_WARN("cam%d skipped: %s", i, problem.c_str());
-        }
+        warnCamera(i, "skipped: " + problem);
         ++skipped_inputs_;
       }
     }
@@ -311,8 +252,7 @@ class TrackerNodelet : public nodelet::Nodelet {
       tracker_->reset();
       return;
     }
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double seconds = secondsSince(start);
     ++frames_;
     seconds_sum_ += seconds;
     last_result_ = result;
@@ -372,7 +312,7 @@ class TrackerNodelet : public nodelet::Nodelet {
       // tf gives the pose of the optical frame in the root frame; the camera wants root -> camera.
       observation->camera.world_to_camera = toIsometry(transform.transform).inverse();
       validateCamera(observation->camera);
-      observation->sog = ros_util::sogFromMsg(msg);
+      observation->sog = sogFromMsg(msg);
       undistortImageSoG(observation->camera, &observation->sog);
     } catch (const std::exception& e) {
       *problem = e.what();
@@ -400,59 +340,9 @@ class TrackerNodelet : public nodelet::Nodelet {
 
     fingertip_pub_.publish(toFingertipsMsg(result.fingertips, header));
 
-    if (marker_pub_.getNumSubscribers() > 0) marker_pub_.publish(makeMarkers(stamp, hand));
-  }
-
-  visualization_msgs::MarkerArray makeMarkers(const ros::Time& stamp, const PosedHand& hand) {
-    visualization_msgs::MarkerArray markers;
-    for (size_t g = 0; g < hand.gaussians.size(); ++g) {
-      visualization_msgs::Marker m;
-      m.header.stamp = stamp;
-      m.header.frame_id = root_frame_;
-      m.ns = "gaussians";
-      m.id = static_cast<int>(g);
-      m.type = visualization_msgs::Marker::SPHERE;
-      m.action = visualization_msgs::Marker::ADD;
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(hand.gaussians[g].cov);
-      Eigen::Matrix3d axes = eig.eigenvectors();
-      if (axes.determinant() < 0) axes.col(2) = -axes.col(2);  // a rotation, not a reflection
-      m.pose.position = toPoint(hand.gaussians[g].mean);
-      m.pose.orientation = toQuaternion(axes);
-      const Eigen::Vector3d sigma = eig.eigenvalues().cwiseMax(0.0).cwiseSqrt();
-      m.scale.x = 2.0 * sigma[0];
-      m.scale.y = 2.0 * sigma[1];
-      m.scale.z = 2.0 * sigma[2];
-      const Eigen::Vector3d rgb = hsvToRgb(model_.gaussians[g].hsv);
-      m.color.r = static_cast<float>(rgb[0]);
-      m.color.g = static_cast<float>(rgb[1]);
-      m.color.b = static_cast<float>(rgb[2]);
-      m.color.a = 0.8f;
-      markers.markers.push_back(m);
+    if (marker_pub_.getNumSubscribers() > 0) {
+      marker_pub_.publish(makeHandMarkers(model_, hand, header));
     }
-    visualization_msgs::Marker lines;
-    lines.header.stamp = stamp;
-    lines.header.frame_id = root_frame_;
-    lines.ns = "skeleton";
-    lines.id = 0;
-    lines.type = visualization_msgs::Marker::LINE_LIST;
-    lines.action = visualization_msgs::Marker::ADD;
-    lines.pose.orientation.w = 1.0;
-    lines.scale.x = 0.002;
-    lines.color.r = lines.color.g = lines.color.b = 0.9f;
-    lines.color.a = 1.0f;
-    for (size_t b = 0; b < model_.bones.size(); ++b) {
-      const Eigen::Isometry3d& frame = hand.bone_frames[b];
-      if (model_.bones[b].parent >= 0) {  // parent origin -> bone origin
-        lines.points.push_back(toPoint(hand.bone_frames[model_.bones[b].parent].translation()));
-        lines.points.push_back(toPoint(frame.translation()));
-      }
-      if (model_.bones[b].length > 0.0) {  // along the bone's x axis
-        lines.points.push_back(toPoint(frame.translation()));
-        lines.points.push_back(toPoint(frame * Eigen::Vector3d(model_.bones[b].length, 0.0, 0.0)));
-      }
-    }
-    markers.markers.push_back(lines);
-    return markers;
   }
 
   // Overlay images: subscribe to cam<i>/image_raw only while someone watches cam<i>/overlay.
@@ -488,35 +378,18 @@ class TrackerNodelet : public nodelet::Nodelet {
       try {
         cv = cv_bridge::toCvCopy(image, "bgr8");
       } catch (const std::exception& e) {
-        NODELET_WARN_THROTTLE(5.0, "overlay of cam%d: %s", observation_camera[o], e.what());
+        warnCamera(observation_camera[o], std::string("overlay: ") + e.what());
         continue;
       }
-      const Camera& camera = observations[o].camera;
-      const Eigen::Matrix3d R = camera.world_to_camera.linear();
-      for (size_t g = 0; g < hand.gaussians.size(); ++g) {
-        // Drawn in ideal pinhole pixels (the tracker's space); with strong lens distortion the
-        // ellipses are slightly off near the image border.
-        const ProjectedGaussian p =
-            projectPerspective(camera.world_to_camera * hand.gaussians[g].mean,
-                               R * hand.gaussians[g].cov * R.transpose(), camera.K);
-        if (!p.valid) continue;
-        Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(p.cov);
-        const Eigen::Vector2d axes = eig.eigenvalues().cwiseMax(0.0).cwiseSqrt();
-        const double angle =
-            std::atan2(eig.eigenvectors()(1, 1), eig.eigenvectors()(0, 1)) * 180.0 / M_PI;
-        if (!p.mean.allFinite() || !axes.allFinite()) continue;
-        // Cyan, not the model's (skin) colour, which would vanish on the hand.
-        cv::ellipse(cv->image, cv::Point2d(p.mean.x(), p.mean.y()), cv::Size2d(axes[1], axes[0]),
-                    angle, 0, 360, cv::Scalar(255, 255, 0), 1, cv::LINE_AA);
-      }
+      drawHandOverlay(observations[o].camera, hand, &cv->image);
       input.overlay_pub.publish(cv->toImageMsg());
     }
   }
 
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
     // Called from onTimer with mutex_ held.
-    int missing = 0;
-    for (const CameraInput& input : cameras_) missing += input.missing ? 1 : 0;
+    const int missing = synchronizer_->missingCount();
+    const SyncStatistics& sync = synchronizer_->statistics();
     if (frames_ == 0) {
       stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no camera set received yet");
     } else if (missing > 0) {
@@ -535,29 +408,25 @@ class TrackerNodelet : public nodelet::Nodelet {
     stat.add("similarity", last_result_.energy.similarity);
     stat.add("cameras in last set", last_result_.num_cameras);
     stat.add("missing cameras", missing);
-    stat.add("dropped incomplete sets", dropped_sets_);
-    stat.add("late messages", late_messages_);
+    stat.add("dropped incomplete sets", sync.dropped_sets);
+    stat.add("late messages", sync.late_messages);
     stat.add("skipped camera inputs", skipped_inputs_);
-    stat.add("resets (time jumped back)", resets_);
+    stat.add("resets (time jumped back)", sync.resets);
   }
 
   int num_cameras_ = 5;
   std::string root_frame_;
-  double camera_timeout_ = 0.5;
-  double time_jump_threshold_ = 1.0;
   HandModel model_;
   std::vector<std::string> joint_names_;
   std::unique_ptr<HandTracker> tracker_;
 
   std::mutex mutex_;  // guards everything below (callbacks may run on several threads)
   std::vector<CameraInput> cameras_;
-  std::map<ros::Time, PendingSet> pending_;
-  std::map<std::string, ros::WallTime> warned_;  // last warning per camera and problem
-  ros::Time last_processed_;
-  ros::Time last_now_;
+  std::unique_ptr<Synchronizer> synchronizer_;
+  ThrottledWarnings warnings_;
   FrameResult last_result_;
   double last_seconds_ = 0.0, seconds_sum_ = 0.0;
-  long frames_ = 0, dropped_sets_ = 0, late_messages_ = 0, skipped_inputs_ = 0, resets_ = 0;
+  long frames_ = 0, skipped_inputs_ = 0;
 
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;

@@ -137,8 +137,7 @@ class DemoSummary {
     timer_ = nh_.createWallTimer(ros::WallDuration(0.1),
                                  [this](const ros::WallTimerEvent&) { onTimer(); });
     ROS_INFO("demo summary: watching %d cameras for %s", num_cameras_,
-             duration_ > 0 ? (std::to_string(duration_) + " s").c_str()
-                           : "the studio's sequences");
+             duration_ > 0 ? (std::to_string(duration_) + " s").c_str() : "the studio's sequences");
   }
 
  private:
@@ -260,11 +259,10 @@ class DemoSummary {
       file << "seconds: " << seconds << "\ncameras: " << num_cameras_ << "\nsets: " << sets
            << "\ncomplete_sets: " << complete << "\nprocessed_sets: " << with_status
            << "\nunprocessed_sets: " << sets - with_status
-           << "\nunprocessed_sets_with_hand: " << hand_unprocessed << "\njoint_states: " << with_joints
-           << "\njoint_state_rate: " << with_joints / seconds
-           << "\ndropped_sets: " << hand_without_joints
-           << "\nhand_sets: " << hand_sets << "\nrestarts: " << restarts_
-           << "\nmean_fingertip_error_mm: " << mean(errors)
+           << "\nunprocessed_sets_with_hand: " << hand_unprocessed
+           << "\njoint_states: " << with_joints << "\njoint_state_rate: " << with_joints / seconds
+           << "\ndropped_sets: " << hand_without_joints << "\nhand_sets: " << hand_sets
+           << "\nrestarts: " << restarts_ << "\nmean_fingertip_error_mm: " << mean(errors)
            << "\nmedian_fingertip_error_mm: " << percentile(errors, 50)
            << "\nerror_sets: " << errors.size()
            << "\nlatency_median_ms: " << percentile(latencies, 50)

@@ -18,9 +18,9 @@
 #include <set>
 #include <sstream>
 
-#include "sag_hand_tracker/calibration.h"
+#include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/ros/conversions.h"
-#include "sag_hand_tracker/types.h"
+#include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
 namespace {

@@ -8,7 +8,7 @@
 #include <stdexcept>
 
 #include "sag_hand_tracker/ros/conversions.h"
-#include "sag_hand_tracker/types.h"
+#include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
 

@@ -10,8 +10,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "sag_hand_tracker/calibration.h"
-#include "sag_hand_tracker/types.h"
+#include "sag_hand_tracker/camera/calibration.h"
+#include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
 namespace {

@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "sag_hand_tracker/ros/benchmark.h"
-#include "sag_hand_tracker/types.h"
+#include "sag_hand_tracker/apps/evaluation.h"
+#include "sag_hand_tracker/util/types.h"
 
 int main(int argc, char** argv) {
   using namespace sag_hand_tracker;

@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
-#include "sag_hand_tracker/progress.h"
-#include "sag_hand_tracker/ros/render_studio_bag.h"
-#include "sag_hand_tracker/types.h"
+#include "sag_hand_tracker/apps/progress.h"
+#include "sag_hand_tracker/apps/render_runner.h"
+#include "sag_hand_tracker/util/types.h"
 
 int main(int argc, char** argv) {
   using namespace sag_hand_tracker;
@@ -31,8 +31,7 @@ int main(int argc, char** argv) {
   }
   try {
     ProgressBar progress(std::cerr, stderrIsTerminal());
-    const RenderBagSummary summary =
-        renderStudioBag(options, options.quiet ? nullptr : &progress);
+    const RenderBagSummary summary = renderStudioBag(options, options.quiet ? nullptr : &progress);
     std::cerr << formatRenderBagSummary(summary);
     return 0;
   } catch (const std::exception& error) {

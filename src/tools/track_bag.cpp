@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
-#include "sag_hand_tracker/progress.h"
-#include "sag_hand_tracker/ros/track_bag_runner.h"
-#include "sag_hand_tracker/types.h"
+#include "sag_hand_tracker/apps/progress.h"
+#include "sag_hand_tracker/apps/track_runner.h"
+#include "sag_hand_tracker/util/types.h"
 
 // The work is trackBag (sag_ros: model, bag reader, TrackingPipeline, the loop, the CSV), which
 // the benchmark calls as well, so both measure the same tracker.
@@ -27,8 +27,7 @@ void onSignal(int) { g_stop = true; }
 
 int run(const TrackBagOptions& options) {
   ProgressBar progress(std::cerr, stderrIsTerminal());
-  const TrackBagSummary summary =
-      trackBag(options, options.quiet ? nullptr : &progress, &g_stop);
+  const TrackBagSummary summary = trackBag(options, options.quiet ? nullptr : &progress, &g_stop);
   std::cout << formatSummary(summary) << std::flush;
 
   if (summary.interrupted) return 130;

@@ -5,7 +5,7 @@
 
 #include <random>
 
-#include "sag_hand_tracker/optimizer.h"
+#include "sag_hand_tracker/optimization/optimizer.h"
 #include "test_support/synthetic_scene.h"
 
 using namespace sag_hand_tracker;

@@ -3,7 +3,7 @@
 // shadow of hand and arm; the plate is learned from 10 frames without the hand.
 #include <benchmark/benchmark.h>
 
-#include "sag_hand_tracker/segmentation.h"
+#include "sag_hand_tracker/segmentation/quadtree_segmentation.h"
 #include "test_support/segmentation_test_images.h"
 
 namespace {
@@ -24,7 +24,7 @@ ImageSegmenter makeSegmenter(SegmentationMode mode) {
   SegmentationParams p;
   p.mode = mode;
   ImageSegmenter segmenter(p);
-  if (mode == SegmentationMode::plate || mode == SegmentationMode::plate_and_skin) {
+  if (mode == SegmentationMode::kPlate || mode == SegmentationMode::kPlateAndSkin) {
     for (unsigned seed = 0; seed < 10; ++seed) {
       segmenter.addBackgroundFrame(sag_test::backgroundFrame(seed));
     }
@@ -46,19 +46,19 @@ void run(benchmark::State& state, SegmentationMode mode) {
 
 // The whole image (no background removal): the paper's image SoG.
 void SegmentQuadtreeNoBackgroundRemoval(benchmark::State& state) {
-  run(state, SegmentationMode::none);
+  run(state, SegmentationMode::kNone);
 }
 BENCHMARK(SegmentQuadtreeNoBackgroundRemoval)->Unit(benchmark::kMicrosecond);
 
-void SegmentWithBackgroundPlate(benchmark::State& state) { run(state, SegmentationMode::plate); }
+void SegmentWithBackgroundPlate(benchmark::State& state) { run(state, SegmentationMode::kPlate); }
 BENCHMARK(SegmentWithBackgroundPlate)->Unit(benchmark::kMicrosecond);
 
 void SegmentWithPlateAndSkinGate(benchmark::State& state) {
-  run(state, SegmentationMode::plate_and_skin);
+  run(state, SegmentationMode::kPlateAndSkin);
 }
 BENCHMARK(SegmentWithPlateAndSkinGate)->Unit(benchmark::kMicrosecond);
 
-void SegmentWithSkinGateOnly(benchmark::State& state) { run(state, SegmentationMode::skin); }
+void SegmentWithSkinGateOnly(benchmark::State& state) { run(state, SegmentationMode::kSkin); }
 BENCHMARK(SegmentWithSkinGateOnly)->Unit(benchmark::kMicrosecond);
 
 // Learning: the cost of one addBackgroundFrame.

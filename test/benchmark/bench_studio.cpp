@@ -3,8 +3,8 @@
 // and the one-off set-up (the precomputed background of every camera).
 #include <benchmark/benchmark.h>
 
-#include "sag_hand_tracker/calibration.h"
-#include "sag_hand_tracker/hand_model.h"
+#include "sag_hand_tracker/camera/calibration.h"
+#include "sag_hand_tracker/model/hand_model.h"
 #include "sag_hand_tracker/studio/motion.h"
 #include "sag_hand_tracker/studio/renderer.h"
 #include "sag_hand_tracker/studio/sequence.h"

@@ -25,7 +25,7 @@
 #include <string>
 #include <vector>
 
-#include "sag_hand_tracker/csv.h"
+#include "sag_hand_tracker/apps/csv.h"
 
 namespace {
 
@@ -34,8 +34,8 @@ using Tips = std::array<Eigen::Vector3d, 5>;
 Tips toTips(const geometry_msgs::PoseArray& msg) {
   Tips tips;
   for (size_t i = 0; i < 5 && i < msg.poses.size(); ++i) {
-    tips[i] = Eigen::Vector3d(msg.poses[i].position.x, msg.poses[i].position.y,
-                              msg.poses[i].position.z);
+    tips[i] =
+        Eigen::Vector3d(msg.poses[i].position.x, msg.poses[i].position.y, msg.poses[i].position.z);
   }
   return tips;
 }
@@ -116,9 +116,10 @@ TEST_F(FingertipChecker, AgainstReference) {
     double mean = 0.0;
     for (double e : errors) mean += e;
     mean /= std::max<size_t>(1, errors.size());
-    std::printf("fingertip_checker: %zu tracked sets, %zu ground-truth sets, %zu matched, mean "
-                "fingertip error %.2f mm\n",
-                tracked_.size(), reference_.size(), errors.size(), mean * 1000.0);
+    std::printf(
+        "fingertip_checker: %zu tracked sets, %zu ground-truth sets, %zu matched, mean "
+        "fingertip error %.2f mm\n",
+        tracked_.size(), reference_.size(), errors.size(), mean * 1000.0);
     EXPECT_EQ(malformed_, 0);
     EXPECT_GE(static_cast<int>(errors.size()), pnh.param("min_matched", 100));
     EXPECT_LT(mean, pnh.param("max_mean_error", 0.02));
@@ -160,10 +161,11 @@ TEST_F(FingertipChecker, AgainstReference) {
   }
   const double fraction = static_cast<double>(matched) / offline.rows.size();
   const double mean = sum / std::max(1, matched);
-  std::printf("fingertip_checker: track_bag %zu rows, graph %zu fingertip sets, %d matched "
-              "(%.0f%%), mean difference %.3f mm, max %.3f mm\n",
-              offline.rows.size(), tracked_.size(), matched, 100.0 * fraction, mean * 1000.0,
-              worst * 1000.0);
+  std::printf(
+      "fingertip_checker: track_bag %zu rows, graph %zu fingertip sets, %d matched "
+      "(%.0f%%), mean difference %.3f mm, max %.3f mm\n",
+      offline.rows.size(), tracked_.size(), matched, 100.0 * fraction, mean * 1000.0,
+      worst * 1000.0);
   EXPECT_EQ(malformed_, 0);
   EXPECT_GE(fraction, pnh.param("min_matched_fraction", 0.8));
   EXPECT_LT(mean, pnh.param("max_mean_difference", 0.002));

@@ -65,8 +65,8 @@ TEST(TrackerGraph, OutputsAreFiniteAndKeepComing) {
         std::lock_guard<std::mutex> lock(rec.mutex);
         rec.statuses.push_back(*m);
       });
-  auto log_sub = nh.subscribe<rosgraph_msgs::Log>(
-      "/rosout", 1000, [&](const rosgraph_msgs::Log::ConstPtr& m) {
+  auto log_sub =
+      nh.subscribe<rosgraph_msgs::Log>("/rosout", 1000, [&](const rosgraph_msgs::Log::ConstPtr& m) {
         if (m->level < rosgraph_msgs::Log::WARN) return;
         std::lock_guard<std::mutex> lock(rec.mutex);
         rec.warnings.push_back(m->msg);
@@ -103,9 +103,10 @@ TEST(TrackerGraph, OutputsAreFiniteAndKeepComing) {
   if (max_tip_error > 0.0) {
     double sum = 0.0;
     int count = 0;
-    const ros::Time half = rec.tips.empty() ? ros::Time() :
-        rec.tips.front().header.stamp +
-        (rec.tips.back().header.stamp - rec.tips.front().header.stamp) * 0.5;
+    const ros::Time half =
+        rec.tips.empty() ? ros::Time()
+                         : rec.tips.front().header.stamp +
+                               (rec.tips.back().header.stamp - rec.tips.front().header.stamp) * 0.5;
     for (const auto& tips : rec.tips) {
       if (tips.header.stamp < half) continue;
       auto it = rec.truth.find(tips.header.stamp);
@@ -139,7 +140,8 @@ TEST(TrackerGraph, OutputsAreFiniteAndKeepComing) {
 
   for (const std::string& expected : expect_warnings) {
     bool found = false;
-    for (const std::string& w : rec.warnings) found = found || w.find(expected) != std::string::npos;
+    for (const std::string& w : rec.warnings)
+      found = found || w.find(expected) != std::string::npos;
     EXPECT_TRUE(found) << "no WARN on /rosout containing '" << expected << "'";
   }
 }

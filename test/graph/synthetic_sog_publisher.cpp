@@ -110,7 +110,7 @@ int main(int argc, char** argv) {
           for (int c = 0; c < 3; ++c) info.P[r * 4 + c] = cameras[i].K(r, c);
         info_pubs[i].publish(info);
       }
-      SumOfGaussians msg = ros_util::sogToMsg(sag_test::modelImageSoG(model, pose, cameras[i]));
+      SumOfGaussians msg = sogToMsg(sag_test::modelImageSoG(model, pose, cameras[i]));
       msg.header.stamp = stamp;
       msg.header.frame_id = frame_id;
       if (broken_sog) {

@@ -7,8 +7,8 @@
 #include <random>
 #include <vector>
 
-#include "sag_hand_tracker/kinematics.h"
-#include "sag_hand_tracker/projection.h"
+#include "sag_hand_tracker/energy/projection.h"
+#include "sag_hand_tracker/model/kinematics.h"
 #include "test_support/synthetic_scene.h"
 
 namespace sag_test {

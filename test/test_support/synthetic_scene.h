@@ -6,11 +6,11 @@
 #include <random>
 #include <vector>
 
-#include "sag_hand_tracker/camera.h"
-#include "sag_hand_tracker/energy.h"
-#include "sag_hand_tracker/hand_model.h"
-#include "sag_hand_tracker/kinematics.h"
-#include "sag_hand_tracker/projection.h"
+#include "sag_hand_tracker/camera/camera.h"
+#include "sag_hand_tracker/energy/energy.h"
+#include "sag_hand_tracker/energy/projection.h"
+#include "sag_hand_tracker/model/hand_model.h"
+#include "sag_hand_tracker/model/kinematics.h"
 
 namespace sag_test {
 

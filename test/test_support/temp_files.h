@@ -13,7 +13,7 @@
 #include <sstream>
 #include <string>
 
-#include "sag_hand_tracker/types.h"
+#include "sag_hand_tracker/util/types.h"
 
 namespace sag_test {
 

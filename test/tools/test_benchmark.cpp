@@ -19,9 +19,9 @@
 #include <set>
 #include <sstream>
 
-#include "sag_hand_tracker/csv.h"
-#include "sag_hand_tracker/ros/benchmark.h"
-#include "sag_hand_tracker/types.h"
+#include "sag_hand_tracker/apps/csv.h"
+#include "sag_hand_tracker/apps/evaluation.h"
+#include "sag_hand_tracker/util/types.h"
 
 using namespace sag_hand_tracker;
 namespace fs = std::filesystem;

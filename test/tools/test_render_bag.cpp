@@ -16,9 +16,9 @@
 #include <random>
 #include <sstream>
 
-#include "sag_hand_tracker/calibration.h"
-#include "sag_hand_tracker/csv.h"
-#include "sag_hand_tracker/hand_model.h"
+#include "sag_hand_tracker/apps/csv.h"
+#include "sag_hand_tracker/camera/calibration.h"
+#include "sag_hand_tracker/model/hand_model.h"
 #include "sag_hand_tracker/ros/bag_input.h"
 #include "sag_hand_tracker/studio/motion.h"
 #include "sag_hand_tracker/studio/sequence.h"

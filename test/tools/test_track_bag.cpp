@@ -14,7 +14,7 @@
 #include <random>
 #include <sstream>
 
-#include "sag_hand_tracker/csv.h"
+#include "sag_hand_tracker/apps/csv.h"
 #include "sag_hand_tracker/ros/bag_output.h"
 #include "sag_hand_tracker/ros/conversions.h"
 #include "test_support/rendered_scene.h"

@@ -6,9 +6,9 @@
 #include <random>
 #include <sstream>
 
-#include "sag_hand_tracker/csv.h"
+#include "sag_hand_tracker/apps/csv.h"
+#include "sag_hand_tracker/apps/track_runner.h"
 #include "sag_hand_tracker/ros/bag_output.h"
-#include "sag_hand_tracker/ros/track_bag_runner.h"
 
 using namespace sag_hand_tracker;
 namespace fs = std::filesystem;

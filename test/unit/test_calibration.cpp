@@ -6,8 +6,8 @@
 #include <fstream>
 #include <random>
 
-#include "sag_hand_tracker/calibration.h"
-#include "sag_hand_tracker/types.h"
+#include "sag_hand_tracker/camera/calibration.h"
+#include "sag_hand_tracker/util/types.h"
 
 using namespace sag_hand_tracker;
 namespace fs = std::filesystem;

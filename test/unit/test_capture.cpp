@@ -10,8 +10,8 @@
 #include <opencv2/videoio.hpp>
 #include <random>
 
-#include "sag_hand_tracker/capture.h"
-#include "sag_hand_tracker/types.h"
+#include "sag_hand_tracker/capture/capture.h"
+#include "sag_hand_tracker/util/types.h"
 
 using namespace sag_hand_tracker;
 namespace fs = std::filesystem;
@@ -45,7 +45,7 @@ class ScriptedSource : public FrameSource {
   GrabResult grab() override {
     const GrabResult result = script_.at(static_cast<std::size_t>(*grabs_));
     ++*grabs_;
-    if (result == GrabResult::failed) problem_ = "the device delivered no frame";
+    if (result == GrabResult::kFailed) problem_ = "the device delivered no frame";
     return result;
   }
   bool retrieve(cv::Mat* bgr) override {
@@ -62,33 +62,33 @@ class ScriptedSource : public FrameSource {
 
 TEST(SourceSpec, ParsesDevicesFilesAndFolders) {
   SourceSpec spec = parseSourceSpec("0");
-  EXPECT_EQ(spec.kind, SourceKind::device);
+  EXPECT_EQ(spec.kind, SourceKind::kDevice);
   EXPECT_EQ(spec.device_index, 0);
   EXPECT_EQ(describeSource(spec), "V4L2 device 0");
 
   spec = parseSourceSpec(" 12 ");
-  EXPECT_EQ(spec.kind, SourceKind::device);
+  EXPECT_EQ(spec.kind, SourceKind::kDevice);
   EXPECT_EQ(spec.device_index, 12);
 
   spec = parseSourceSpec("/dev/video2");
-  EXPECT_EQ(spec.kind, SourceKind::device);
+  EXPECT_EQ(spec.kind, SourceKind::kDevice);
   EXPECT_EQ(spec.device_index, -1);
   EXPECT_EQ(spec.path, "/dev/video2");
   EXPECT_EQ(describeSource(spec), "V4L2 device /dev/video2");
 
   spec = parseSourceSpec("dir:/data/cam0");
-  EXPECT_EQ(spec.kind, SourceKind::image_folder);
+  EXPECT_EQ(spec.kind, SourceKind::kImageFolder);
   EXPECT_EQ(spec.path, "/data/cam0");
   EXPECT_EQ(describeSource(spec), "image folder '/data/cam0'");
 
   spec = parseSourceSpec("recordings/cam1.avi");
-  EXPECT_EQ(spec.kind, SourceKind::video_file);
+  EXPECT_EQ(spec.kind, SourceKind::kVideoFile);
   EXPECT_EQ(spec.path, "recordings/cam1.avi");
   EXPECT_EQ(spec.text, "recordings/cam1.avi");
   EXPECT_EQ(describeSource(spec), "video file 'recordings/cam1.avi'");
 
   spec = parseSourceSpec("-1");  // not a device index
-  EXPECT_EQ(spec.kind, SourceKind::video_file);
+  EXPECT_EQ(spec.kind, SourceKind::kVideoFile);
 }
 
 TEST(SourceSpec, RejectsEmptySources) {
@@ -196,14 +196,14 @@ TEST_F(CaptureFiles, FolderIsReadInOrderAndFinishesWithoutLoop) {
   options.loop = false;
   auto source = openFrameSource(parseSourceSpec("dir:" + folder), options);
   for (int i = 0; i < 3; ++i) {
-    ASSERT_EQ(source->grab(), GrabResult::ok);
+    ASSERT_EQ(source->grab(), GrabResult::kOk);
     cv::Mat bgr;
     ASSERT_TRUE(source->retrieve(&bgr));
     EXPECT_EQ(bgr.at<cv::Vec3b>(0, 0), cv::Vec3b(0, 10 * i, 255)) << "image " << i;
   }
-  EXPECT_EQ(source->grab(), GrabResult::finished);
+  EXPECT_EQ(source->grab(), GrabResult::kFinished);
   EXPECT_EQ(source->problem(), "all 3 images read (loop is off)");
-  EXPECT_EQ(source->grab(), GrabResult::finished);
+  EXPECT_EQ(source->grab(), GrabResult::kFinished);
 }
 
 TEST_F(CaptureFiles, FolderLoops) {
@@ -213,7 +213,7 @@ TEST_F(CaptureFiles, FolderLoops) {
   auto source = openFrameSource(parseSourceSpec("dir:" + folder), options);
   std::vector<int> greens;
   for (int i = 0; i < 5; ++i) {
-    ASSERT_EQ(source->grab(), GrabResult::ok);
+    ASSERT_EQ(source->grab(), GrabResult::kOk);
     cv::Mat bgr;
     ASSERT_TRUE(source->retrieve(&bgr));
     greens.push_back(bgr.at<cv::Vec3b>(0, 0)[1]);
@@ -226,9 +226,9 @@ TEST_F(CaptureFiles, UnreadableImageIsNamed) {
   std::ofstream(fs::path(folder) / "001.png") << "not a png";
   auto source = openFrameSource(parseSourceSpec("dir:" + folder), SourceOptions{});
   cv::Mat bgr;
-  ASSERT_EQ(source->grab(), GrabResult::ok);
+  ASSERT_EQ(source->grab(), GrabResult::kOk);
   EXPECT_TRUE(source->retrieve(&bgr));
-  ASSERT_EQ(source->grab(), GrabResult::ok);
+  ASSERT_EQ(source->grab(), GrabResult::kOk);
   EXPECT_FALSE(source->retrieve(&bgr));
   EXPECT_EQ(source->problem(), "cannot read the image '" + folder + "/001.png'");
 }
@@ -248,7 +248,7 @@ TEST_F(CaptureFiles, VideoFileIsReadAndLooped) {
     std::vector<int> greens;
     for (int i = 0; i < grabs; ++i) {
       *last = source->grab();
-      if (*last != GrabResult::ok) break;
+      if (*last != GrabResult::kOk) break;
       cv::Mat bgr;
       EXPECT_TRUE(source->retrieve(&bgr));
       EXPECT_EQ(bgr.type(), CV_8UC3);
@@ -258,11 +258,11 @@ TEST_F(CaptureFiles, VideoFileIsReadAndLooped) {
     }
     return greens;
   };
-  GrabResult last = GrabResult::ok;
+  GrabResult last = GrabResult::kOk;
   EXPECT_EQ(readGreens(false, 10, &last), (std::vector<int>{0, 1, 2, 3}));
-  EXPECT_EQ(last, GrabResult::finished);
+  EXPECT_EQ(last, GrabResult::kFinished);
   EXPECT_EQ(readGreens(true, 6, &last), (std::vector<int>{0, 1, 2, 3, 0, 1}));
-  EXPECT_EQ(last, GrabResult::ok);
+  EXPECT_EQ(last, GrabResult::kOk);
 }
 
 TEST_F(CaptureFiles, MultiCaptureCarriesOnWithoutFinishedAndMissingCameras) {
@@ -273,7 +273,7 @@ TEST_F(CaptureFiles, MultiCaptureCarriesOnWithoutFinishedAndMissingCameras) {
   sources.push_back(
       openFrameSource(parseSourceSpec("dir:" + makeFolder("b", 4, {20, 15})), options));
   MultiCapture capture({"cam0", "cam1", "cam2"}, std::move(sources), 16, 12, 3);
-  EXPECT_EQ(capture.state(1), CameraState::not_opened);
+  EXPECT_EQ(capture.state(1), CameraState::kNotOpened);
   EXPECT_EQ(capture.runningCount(), 2);
 
   for (int set = 0; set < 4; ++set) {
@@ -294,14 +294,14 @@ TEST_F(CaptureFiles, MultiCaptureCarriesOnWithoutFinishedAndMissingCameras) {
     }
     if (set == 0) {  // the size difference of cam2 is reported once
       ASSERT_EQ(events.size(), 1u);
-      EXPECT_EQ(events[0].kind, CaptureEvent::Kind::resized);
+      EXPECT_EQ(events[0].kind, CaptureEvent::Kind::kResized);
       EXPECT_EQ(events[0].camera, 2);
       EXPECT_NE(events[0].message.find("camera cam2 (image folder '"), std::string::npos);
       EXPECT_NE(events[0].message.find("delivers 20x15 frames; resizing them to 16x12"),
                 std::string::npos);
     } else if (set == 2) {  // cam0's folder ran out: reported once
       ASSERT_EQ(events.size(), 1u);
-      EXPECT_EQ(events[0].kind, CaptureEvent::Kind::finished);
+      EXPECT_EQ(events[0].kind, CaptureEvent::Kind::kFinished);
       EXPECT_EQ(events[0].camera, 0);
       EXPECT_NE(events[0].message.find("camera cam0 (image folder '"), std::string::npos);
       EXPECT_NE(events[0].message.find("has no more frames: all 2 images read (loop is off)"),
@@ -310,8 +310,8 @@ TEST_F(CaptureFiles, MultiCaptureCarriesOnWithoutFinishedAndMissingCameras) {
       EXPECT_TRUE(events.empty());
     }
   }
-  EXPECT_EQ(capture.state(0), CameraState::finished);
-  EXPECT_EQ(capture.state(2), CameraState::running);
+  EXPECT_EQ(capture.state(0), CameraState::kFinished);
+  EXPECT_EQ(capture.state(2), CameraState::kRunning);
   EXPECT_EQ(capture.runningCount(), 1);
 }
 
@@ -321,7 +321,7 @@ TEST(MultiCapture, StopsACameraAfterConsecutiveFailures) {
   std::vector<std::unique_ptr<FrameSource>> sources;
   // Two failures, a frame (resets the count), then three failures: stopped at the third.
   sources.push_back(std::make_unique<ScriptedSource>(
-      std::vector<R>{R::failed, R::failed, R::ok, R::failed, R::failed, R::failed}, &grabs));
+      std::vector<R>{R::kFailed, R::kFailed, R::kOk, R::kFailed, R::kFailed, R::kFailed}, &grabs));
   MultiCapture capture({"cam3"}, std::move(sources), 0, 0, 3);
   std::vector<std::vector<CaptureEvent::Kind>> kinds;
   std::vector<bool> got_frame;
@@ -331,7 +331,7 @@ TEST(MultiCapture, StopsACameraAfterConsecutiveFailures) {
     kinds.emplace_back();
     for (const CaptureEvent& event : capture.takeEvents()) {
       kinds.back().push_back(event.kind);
-      if (event.kind == CaptureEvent::Kind::stopped) {
+      if (event.kind == CaptureEvent::Kind::kStopped) {
         EXPECT_EQ(event.message,
                   "camera cam3 (V4L2 device /dev/video7) stopped: no frame in 3 consecutive "
                   "attempts (the device delivered no frame); the other cameras carry on");
@@ -340,12 +340,12 @@ TEST(MultiCapture, StopsACameraAfterConsecutiveFailures) {
   }
   using K = CaptureEvent::Kind;
   EXPECT_EQ(got_frame, (std::vector<bool>{false, false, true, false, false, false, false, false}));
-  EXPECT_EQ(kinds[0], std::vector<K>{K::read_failed});
+  EXPECT_EQ(kinds[0], std::vector<K>{K::kReadFailed});
   EXPECT_EQ(kinds[2], std::vector<K>{});
-  EXPECT_EQ(kinds[4], std::vector<K>{K::read_failed});
-  EXPECT_EQ(kinds[5], (std::vector<K>{K::read_failed, K::stopped}));
+  EXPECT_EQ(kinds[4], std::vector<K>{K::kReadFailed});
+  EXPECT_EQ(kinds[5], (std::vector<K>{K::kReadFailed, K::kStopped}));
   EXPECT_TRUE(kinds[6].empty());
   EXPECT_EQ(grabs, 6);  // a stopped camera is no longer grabbed
-  EXPECT_EQ(capture.state(0), CameraState::stopped);
+  EXPECT_EQ(capture.state(0), CameraState::kStopped);
   EXPECT_EQ(capture.runningCount(), 0);
 }

@@ -1,6 +1,6 @@
 #include <gtest/gtest.h>
 
-#include "sag_hand_tracker/colour.h"
+#include "sag_hand_tracker/energy/colour.h"
 
 using namespace sag_hand_tracker;
 
@@ -33,8 +33,9 @@ TEST(Colour, HueIsCircular) {
 }
 
 TEST(Colour, HsvToRgbInvertsRgbToHsv) {
-  for (const Eigen::Vector3d& rgb : {Eigen::Vector3d(200, 150, 120), Eigen::Vector3d(10, 240, 30),
-                                    Eigen::Vector3d(90, 20, 250), Eigen::Vector3d(128, 128, 128)}) {
+  for (const Eigen::Vector3d& rgb :
+       {Eigen::Vector3d(200, 150, 120), Eigen::Vector3d(10, 240, 30), Eigen::Vector3d(90, 20, 250),
+        Eigen::Vector3d(128, 128, 128)}) {
     const Eigen::Vector3d back = hsvToRgb(rgbToHsv(rgb[0], rgb[1], rgb[2])) * 255.0;
     EXPECT_LT((back - rgb).norm(), 1e-9) << rgb.transpose();
   }

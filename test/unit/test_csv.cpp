@@ -8,7 +8,7 @@
 #include <random>
 #include <sstream>
 
-#include "sag_hand_tracker/csv.h"
+#include "sag_hand_tracker/apps/csv.h"
 
 using namespace sag_hand_tracker;
 namespace fs = std::filesystem;

@@ -2,7 +2,7 @@
 
 #include <random>
 
-#include "sag_hand_tracker/energy.h"
+#include "sag_hand_tracker/energy/energy.h"
 #include "test_support/synthetic_scene.h"
 
 using namespace sag_hand_tracker;

@@ -4,7 +4,7 @@
 #include <fstream>
 #include <regex>
 
-#include "sag_hand_tracker/kinematics.h"
+#include "sag_hand_tracker/model/kinematics.h"
 #include "test_support/synthetic_scene.h"
 
 using namespace sag_hand_tracker;
@@ -48,7 +48,7 @@ TEST(HandModel, LoadsTheBuiltInModels) {
   }
 }
 
-// The fingertip (DESIGN.md section 3) is the end of the distal bone in both models.
+// The fingertip (doc/design.md section 4) is the end of the distal bone in both models.
 TEST(HandModel, FingertipsAreTheDistalBoneEnds) {
   for (const std::string name : {"sag", "sog"}) {
     const HandModel model = loadHandModel(modelPath(name));

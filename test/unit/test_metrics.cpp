@@ -2,8 +2,8 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "sag_hand_tracker/metrics.h"
-#include "sag_hand_tracker/plot.h"
+#include "sag_hand_tracker/apps/metrics.h"
+#include "sag_hand_tracker/apps/plot.h"
 
 using namespace sag_hand_tracker;
 

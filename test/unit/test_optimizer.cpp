@@ -1,10 +1,10 @@
 #include <gtest/gtest.h>
 
-#include "sag_hand_tracker/metrics.h"
+#include "sag_hand_tracker/apps/metrics.h"
 
 #include <random>
 
-#include "sag_hand_tracker/optimizer.h"
+#include "sag_hand_tracker/optimization/optimizer.h"
 #include "test_support/synthetic_scene.h"
 
 using namespace sag_hand_tracker;

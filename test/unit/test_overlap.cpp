@@ -1,6 +1,6 @@
 #include <gtest/gtest.h>
 
-#include "sag_hand_tracker/overlap.h"
+#include "sag_hand_tracker/energy/overlap.h"
 
 #include <Eigen/Dense>
 

@@ -2,7 +2,7 @@
 
 #include <sstream>
 
-#include "sag_hand_tracker/progress.h"
+#include "sag_hand_tracker/apps/progress.h"
 
 using namespace sag_hand_tracker;
 

@@ -3,7 +3,7 @@
 #include <Eigen/Cholesky>
 #include <random>
 
-#include "sag_hand_tracker/projection.h"
+#include "sag_hand_tracker/energy/projection.h"
 #include "test_support/synthetic_scene.h"
 
 using namespace sag_hand_tracker;

@@ -10,8 +10,8 @@
 #include <utility>
 #include <vector>
 
-#include "sag_hand_tracker/colour.h"
-#include "sag_hand_tracker/segmentation.h"
+#include "sag_hand_tracker/energy/colour.h"
+#include "sag_hand_tracker/segmentation/quadtree_segmentation.h"
 #include "test_support/segmentation_test_images.h"
 
 using namespace sag_hand_tracker;
@@ -24,7 +24,7 @@ cv::Mat uniform(int width, int height, cv::Scalar rgb) {
 
 SegmentationParams noneParams() {
   SegmentationParams p;
-  p.mode = SegmentationMode::none;
+  p.mode = SegmentationMode::kNone;
   return p;
 }
 
@@ -404,8 +404,8 @@ TEST(Segment, RejectsBadParameters) {
 }
 
 TEST(Segment, ModeNamesRoundTrip) {
-  for (SegmentationMode mode : {SegmentationMode::none, SegmentationMode::plate,
-                                SegmentationMode::skin, SegmentationMode::plate_and_skin}) {
+  for (SegmentationMode mode : {SegmentationMode::kNone, SegmentationMode::kPlate,
+                                SegmentationMode::kSkin, SegmentationMode::kPlateAndSkin}) {
     EXPECT_EQ(parseSegmentationMode(toString(mode)), mode);
   }
   EXPECT_NE(inputErrorMessage([] { parseSegmentationMode("skinn"); }).find("skinn"),
@@ -416,11 +416,11 @@ TEST(Segment, ModeNamesRoundTrip) {
 
 TEST(Background, ReadyAfterConfiguredFramesAndFallsBackToSkinBefore) {
   SegmentationParams p;
-  p.mode = SegmentationMode::plate;
+  p.mode = SegmentationMode::kPlate;
   p.background.frames = 3;
   ImageSegmenter segmenter(p);
   EXPECT_FALSE(segmenter.backgroundReady());
-  EXPECT_EQ(segmenter.effectiveMode(), SegmentationMode::skin);
+  EXPECT_EQ(segmenter.effectiveMode(), SegmentationMode::kSkin);
   // Before the plate is ready the skin gate applies: exactly what mode skin gives, the hand and
   // not the desk. (The gate is not perfect: the cells where the red mug's rim blends with the grey
   // desk have skin hue and saturation.)
@@ -428,7 +428,7 @@ TEST(Background, ReadyAfterConfiguredFramesAndFallsBackToSkinBefore) {
   o.hand = true;
   const cv::Mat frame = sag_test::scene(o);
   SegmentationParams skin = p;
-  skin.mode = SegmentationMode::skin;
+  skin.mode = SegmentationMode::kSkin;
   std::vector<QuadtreeLeaf> fallback, explicit_skin;
   segmenter.segment(frame, &fallback);
   ImageSegmenter(skin).segment(frame, &explicit_skin);
@@ -446,14 +446,14 @@ TEST(Background, ReadyAfterConfiguredFramesAndFallsBackToSkinBefore) {
   segmenter.addBackgroundFrame(sag_test::backgroundFrame(2));
   EXPECT_TRUE(segmenter.backgroundReady());
   EXPECT_EQ(segmenter.backgroundFrameCount(), 3);
-  EXPECT_EQ(segmenter.effectiveMode(), SegmentationMode::plate);
+  EXPECT_EQ(segmenter.effectiveMode(), SegmentationMode::kPlate);
   segmenter.resetBackground();
   EXPECT_FALSE(segmenter.backgroundReady());
   EXPECT_EQ(segmenter.backgroundFrameCount(), 0);
 }
 
 TEST(Background, RemovesEverythingOnBackgroundOnlyFrames) {
-  const ImageSegmenter segmenter = learnedSegmenter(SegmentationMode::plate);
+  const ImageSegmenter segmenter = learnedSegmenter(SegmentationMode::kPlate);
   ASSERT_TRUE(segmenter.backgroundReady());
   for (unsigned seed = 100; seed < 105; ++seed) {
     const cv::Mat frame = sag_test::backgroundFrame(seed);  // new camera noise
@@ -466,7 +466,7 @@ TEST(Background, RemovesEverythingOnBackgroundOnlyFrames) {
 }
 
 TEST(Background, KeepsSkinColouredHand) {
-  const ImageSegmenter segmenter = learnedSegmenter(SegmentationMode::plate);
+  const ImageSegmenter segmenter = learnedSegmenter(SegmentationMode::kPlate);
   sag_test::SceneOptions o;
   o.hand = true;
   o.seed = 42;
@@ -500,7 +500,7 @@ TEST(Background, RemovesShadowOfHandAndArmOnDesk) {
   // Without the dark/sleeve rule, so that only the shadow test can remove the shadow.
   p.background.dark_max_value = 0.0;
   p.background.sleeve_max_value = 0.0;
-  const ImageSegmenter segmenter = learnedSegmenter(SegmentationMode::plate, p);
+  const ImageSegmenter segmenter = learnedSegmenter(SegmentationMode::kPlate, p);
   for (double factor : {0.35, 0.55, 0.75, 0.9}) {
     sag_test::SceneOptions o;
     o.shadow = true;
@@ -510,7 +510,7 @@ TEST(Background, RemovesShadowOfHandAndArmOnDesk) {
   }
   // Control: without the shadow test the same shadow is foreground.
   p.background.shadow_chroma_tolerance = 0.0;
-  const ImageSegmenter no_shadow_test = learnedSegmenter(SegmentationMode::plate, p);
+  const ImageSegmenter no_shadow_test = learnedSegmenter(SegmentationMode::kPlate, p);
   sag_test::SceneOptions o;
   o.shadow = true;
   EXPECT_GT(no_shadow_test.segment(sag_test::scene(o)).gaussians.size(), 50u);
@@ -546,7 +546,7 @@ TEST(Background, RemovesShadowOnColouredSurface) {
 }
 
 TEST(Background, RemovesBlackSleeve) {
-  const ImageSegmenter segmenter = learnedSegmenter(SegmentationMode::plate);
+  const ImageSegmenter segmenter = learnedSegmenter(SegmentationMode::kPlate);
   sag_test::SceneOptions o;
   o.sleeve = true;
   o.shadow = true;
@@ -555,7 +555,7 @@ TEST(Background, RemovesBlackSleeve) {
   SegmentationParams p;
   p.background.dark_max_value = 0.0;
   p.background.sleeve_max_value = 0.0;
-  const ImageSegmenter without_rule = learnedSegmenter(SegmentationMode::plate, p);
+  const ImageSegmenter without_rule = learnedSegmenter(SegmentationMode::kPlate, p);
   o.shadow = false;
   std::vector<QuadtreeLeaf> leaves;
   without_rule.segment(sag_test::scene(o), &leaves);
@@ -567,7 +567,7 @@ TEST(Background, FullSceneKeepsOnlyTheHand) {
   o.hand = o.sleeve = o.shadow = true;
   o.seed = 11;
   const cv::Mat hand = sag_test::handMask(o);
-  for (SegmentationMode mode : {SegmentationMode::plate, SegmentationMode::plate_and_skin}) {
+  for (SegmentationMode mode : {SegmentationMode::kPlate, SegmentationMode::kPlateAndSkin}) {
     const ImageSegmenter segmenter = learnedSegmenter(mode);
     std::vector<QuadtreeLeaf> leaves;
     const ImageSoG sog = segmenter.segment(sag_test::scene(o), &leaves);
@@ -590,9 +590,9 @@ TEST(Background, ForeignObjectsNeedTheSkinGate) {
   cv::Mat cup = cv::Mat::zeros(frame.size(), CV_8UC1);
   cv::circle(cup, cv::Point(270, 120), 16, cv::Scalar(255), cv::FILLED);
   std::vector<QuadtreeLeaf> leaves;
-  learnedSegmenter(SegmentationMode::plate).segment(frame, &leaves);
+  learnedSegmenter(SegmentationMode::kPlate).segment(frame, &leaves);
   EXPECT_GT(overlapWith(cup, leaves).recall, 0.8);
-  learnedSegmenter(SegmentationMode::plate_and_skin).segment(frame, &leaves);
+  learnedSegmenter(SegmentationMode::kPlateAndSkin).segment(frame, &leaves);
   EXPECT_EQ(overlapWith(cup, leaves).recall, 0.0);
   EXPECT_GT(overlapWith(sag_test::handMask(o), leaves).recall, 0.9);
 }
@@ -632,7 +632,7 @@ TEST(Background, RemovesIsolatedNoiseCells) {
   frame(cv::Rect(200, 60, 4, 4)).setTo(cv::Scalar(255, 255, 255));
   frame(cv::Rect(40, 120, 3, 3)).setTo(cv::Scalar(250, 180, 150));
   frame(cv::Rect(100, 140, 12, 12)).setTo(cv::Scalar(210, 150, 120));
-  ImageSegmenter segmenter = learnedSegmenter(SegmentationMode::plate);
+  ImageSegmenter segmenter = learnedSegmenter(SegmentationMode::kPlate);
   std::vector<QuadtreeLeaf> leaves;
   const std::size_t with_removal = segmenter.segment(frame, &leaves).gaussians.size();
   cv::Mat blob = cv::Mat::zeros(frame.size(), CV_8UC1);
@@ -652,7 +652,7 @@ TEST(Background, WorksOnOddImageSizes) {
   o.width = 321;
   o.height = 243;
   SegmentationParams p;
-  p.mode = SegmentationMode::plate;
+  p.mode = SegmentationMode::kPlate;
   ImageSegmenter segmenter(p);
   for (unsigned seed = 0; seed < 10; ++seed) {
     o.seed = seed;
@@ -685,24 +685,24 @@ TEST(Background, WorksOnOddImageSizes) {
 }
 
 TEST(Background, RejectsImagesOfAnotherSize) {
-  const ImageSegmenter segmenter = learnedSegmenter(SegmentationMode::plate);
+  const ImageSegmenter segmenter = learnedSegmenter(SegmentationMode::kPlate);
   const std::string message =
       inputErrorMessage([&] { segmenter.segment(sag_test::backgroundFrame(0, 640, 480)); });
   EXPECT_NE(message.find("640x480"), std::string::npos) << message;
   EXPECT_NE(message.find("320x240"), std::string::npos) << message;
   EXPECT_THROW(segmenter.foregroundMask(sag_test::backgroundFrame(0, 320, 200)), InputError);
-  ImageSegmenter learning = learnedSegmenter(SegmentationMode::plate);
+  ImageSegmenter learning = learnedSegmenter(SegmentationMode::kPlate);
   EXPECT_THROW(learning.addBackgroundFrame(sag_test::backgroundFrame(0, 321, 240)), InputError);
   EXPECT_EQ(learning.backgroundFrameCount(), 10);
   // Mode none and skin do not use the plate: any size is fine.
   SegmentationParams skin = learning.params();
-  skin.mode = SegmentationMode::skin;
+  skin.mode = SegmentationMode::kSkin;
   learning.setParams(skin);
   EXPECT_NO_THROW(learning.segment(sag_test::backgroundFrame(0, 640, 480)));
 }
 
 TEST(Background, SaveAndLoadRoundTrip) {
-  const ImageSegmenter learned = learnedSegmenter(SegmentationMode::plate);
+  const ImageSegmenter learned = learnedSegmenter(SegmentationMode::kPlate);
   const std::string path = testing::TempDir() + "sag_background_plate_test.yml.gz";
   learned.saveBackground(path);
   ImageSegmenter loaded;
@@ -810,9 +810,9 @@ TEST(Skin, ModeKeepsOnlySkinRegions) {
   img(cv::Rect(0, 64, 64, 64)).setTo(cv::Scalar(50, 160, 60));
   img(cv::Rect(64, 64, 64, 64)).setTo(cv::Scalar(128, 128, 128));
   SegmentationParams p;
-  p.mode = SegmentationMode::skin;
+  p.mode = SegmentationMode::kSkin;
   const ImageSegmenter segmenter(p);
-  EXPECT_EQ(segmenter.effectiveMode(), SegmentationMode::skin);
+  EXPECT_EQ(segmenter.effectiveMode(), SegmentationMode::kSkin);
   std::vector<QuadtreeLeaf> leaves;
   const ImageSoG sog = segmenter.segment(img, &leaves);
   ASSERT_EQ(sog.gaussians.size(), 4u);  // the skin quadrant: four 32x32 leaves

@@ -8,11 +8,11 @@
 #include <opencv2/core.hpp>
 #include <random>
 
-#include "sag_hand_tracker/calibration.h"
-#include "sag_hand_tracker/colour.h"
-#include "sag_hand_tracker/hand_model.h"
-#include "sag_hand_tracker/kinematics.h"
-#include "sag_hand_tracker/segmentation.h"
+#include "sag_hand_tracker/camera/calibration.h"
+#include "sag_hand_tracker/energy/colour.h"
+#include "sag_hand_tracker/model/hand_model.h"
+#include "sag_hand_tracker/model/kinematics.h"
+#include "sag_hand_tracker/segmentation/quadtree_segmentation.h"
 #include "sag_hand_tracker/studio/hand_surface.h"
 #include "sag_hand_tracker/studio/motion.h"
 #include "sag_hand_tracker/studio/primitives.h"

@@ -1,8 +1,8 @@
 #include <gtest/gtest.h>
 
-#include "sag_hand_tracker/metrics.h"
+#include "sag_hand_tracker/apps/metrics.h"
 
-#include "sag_hand_tracker/tracker.h"
+#include "sag_hand_tracker/tracking/tracker.h"
 #include "test_support/synthetic_scene.h"
 
 using namespace sag_hand_tracker;

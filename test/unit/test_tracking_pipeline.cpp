@@ -1,10 +1,10 @@
 #include <gtest/gtest.h>
 
-#include "sag_hand_tracker/metrics.h"
+#include "sag_hand_tracker/apps/metrics.h"
 
 #include "test_support/temp_files.h"
 
-#include "sag_hand_tracker/tracking_pipeline.h"
+#include "sag_hand_tracker/tracking/tracking_pipeline.h"
 #include "test_support/rendered_scene.h"
 
 using namespace sag_hand_tracker;
@@ -54,7 +54,7 @@ TEST(Pipeline, PipelineLearnsTheBackgroundThenTracks) {
   for (int i = 0; i < 4; ++i) {
     EXPECT_EQ(pipeline.segmenter(i).backgroundFrameCount(), 2);
     EXPECT_TRUE(pipeline.segmenter(i).backgroundReady());
-    EXPECT_EQ(pipeline.segmenter(i).effectiveMode(), SegmentationMode::plate);
+    EXPECT_EQ(pipeline.segmenter(i).effectiveMode(), SegmentationMode::kPlate);
   }
 
   // The first frame with the hand: found without an initial pose.
@@ -94,7 +94,7 @@ TEST(Pipeline, PipelineWithoutBackgroundFramesTracksFromTheFirstSet) {
   PipelineParams params;
   params.background_frames = 0;
   TrackingPipeline pipeline(model, cameras, params);
-  EXPECT_EQ(pipeline.segmenter(0).effectiveMode(), SegmentationMode::skin);
+  EXPECT_EQ(pipeline.segmenter(0).effectiveMode(), SegmentationMode::kSkin);
   const Pose truth = typicalPose(model);
   const ProcessedFrame processed = pipeline.process(makeSet(0, handImages(model, truth, cameras)));
   EXPECT_FALSE(processed.background);

@@ -1,6 +1,6 @@
 // Streamed reading of a multi-camera bag without a ROS master (rosbag_storage).
 //
-// A bag is a complete input (DESIGN.md section 6) when it holds, for cameras i = 0..N-1:
+// A bag is a complete input (doc/design.md section 6) when it holds, for cameras i = 0..N-1:
 //   /cam<i>/image_raw    sensor_msgs/Image, rgb8 or bgr8
 //   /cam<i>/camera_info  sensor_msgs/CameraInfo (the first message is the calibration)
 //   /tf_static           tf2_msgs/TFMessage: root -> cam<i>_optical_frame (or the camera_info's
@@ -18,8 +18,8 @@
 #include <string>
 #include <vector>
 
-#include "sag_hand_tracker/camera.h"
-#include "sag_hand_tracker/frame_set.h"
+#include "sag_hand_tracker/camera/camera.h"
+#include "sag_hand_tracker/tracking/frame_set.h"
 
 namespace sag_hand_tracker {
 

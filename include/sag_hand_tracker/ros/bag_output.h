@@ -1,6 +1,6 @@
 // Writing multi-camera bags in the interface that BagReader (and track_bag) reads: per camera
 // /<name>/image_raw and /<name>/camera_info with identical stamps, and the rig's extrinsics on
-// /tf_static. Cameras should be named cam<i> (DESIGN.md section 6). No ROS master needed.
+// /tf_static. Cameras should be named cam<i> (doc/design.md section 6). No ROS master needed.
 #pragma once
 
 #include <ros/time.h>
@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "sag_hand_tracker/calibration.h"
-#include "sag_hand_tracker/camera.h"
-#include "sag_hand_tracker/frame_set.h"
+#include "sag_hand_tracker/camera/calibration.h"
+#include "sag_hand_tracker/camera/camera.h"
+#include "sag_hand_tracker/tracking/frame_set.h"
 
 namespace sag_hand_tracker {
 

@@ -14,9 +14,9 @@
 #include <opencv2/core.hpp>
 #include <string>
 
-#include "sag_hand_tracker/camera.h"
-#include "sag_hand_tracker/metrics.h"
-#include "sag_hand_tracker/pose.h"
+#include "sag_hand_tracker/apps/metrics.h"
+#include "sag_hand_tracker/camera/camera.h"
+#include "sag_hand_tracker/model/pose.h"
 
 namespace sag_hand_tracker {
 

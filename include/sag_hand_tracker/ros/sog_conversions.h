@@ -1,55 +1,16 @@
-// Message <-> core conversions for the image SoG (ROS layer, header-only; used by the nodelets
-// and the graph tests). Camera, image and transform conversions are in conversions.h.
+// Message <-> core conversions for the image SoG (ROS layer; used by the nodelets and the graph
+// tests). Camera, image and transform conversions are in conversions.h.
 #pragma once
 
-#include <Eigen/Geometry>
-#include <algorithm>
-#include <cmath>
-#include <string>
-
 #include "sag_hand_tracker/SumOfGaussians.h"
-#include "sag_hand_tracker/camera.h"
-#include "sag_hand_tracker/types.h"
+#include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
-namespace ros_util {
 
 // Core image SoG from the message (raw pixels). Throws InputError naming the first non-finite or
 // negative value.
-inline ImageSoG sogFromMsg(const sag_hand_tracker::SumOfGaussians& msg) {
-  ImageSoG sog;
-  sog.width = static_cast<int>(msg.width);
-  sog.height = static_cast<int>(msg.height);
-  sog.gaussians.reserve(msg.gaussians.size());
-  for (size_t i = 0; i < msg.gaussians.size(); ++i) {
-    const auto& g = msg.gaussians[i];
-    if (!std::isfinite(g.x) || !std::isfinite(g.y) || !std::isfinite(g.sigma) || !(g.sigma > 0) ||
-        !std::isfinite(g.h) || !std::isfinite(g.s) || !std::isfinite(g.v)) {
-      throw InputError("image Gaussian " + std::to_string(i) +
-                       " is not finite or has sigma <= 0");
-    }
-    sog.gaussians.push_back({Eigen::Vector2d(g.x, g.y), g.sigma, Hsv(g.h, g.s, g.v)});
-  }
-  return sog;
-}
+ImageSoG sogFromMsg(const sag_hand_tracker::SumOfGaussians& msg);
 
-inline sag_hand_tracker::SumOfGaussians sogToMsg(const ImageSoG& sog) {
-  sag_hand_tracker::SumOfGaussians msg;
-  msg.width = static_cast<uint32_t>(sog.width);
-  msg.height = static_cast<uint32_t>(sog.height);
-  msg.gaussians.resize(sog.gaussians.size());
-  for (size_t i = 0; i < sog.gaussians.size(); ++i) {
-    const ImageGaussian& g = sog.gaussians[i];
-    auto& m = msg.gaussians[i];
-    m.x = static_cast<float>(g.mean.x());
-    m.y = static_cast<float>(g.mean.y());
-    m.sigma = static_cast<float>(g.sigma);
-    m.h = static_cast<float>(g.hsv[0]);
-    m.s = static_cast<float>(g.hsv[1]);
-    m.v = static_cast<float>(g.hsv[2]);
-  }
-  return msg;
-}
+sag_hand_tracker::SumOfGaussians sogToMsg(const ImageSoG& sog);
 
-}  // namespace ros_util
 }  // namespace sag_hand_tracker

@@ -10,7 +10,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "sag_hand_tracker/hand_model.h"
+#include "sag_hand_tracker/model/hand_model.h"
+#include "sag_hand_tracker/model/kinematics.h"
 #include "sag_hand_tracker/studio/primitives.h"
 
 namespace sag_hand_tracker {
@@ -38,8 +39,8 @@ HandModel shapeHandModel(const HandModel& model, const HandShape& shape);
 
 // Fingertips of the rendered hand (thumb..pinky): the distal bone's end, origin + length * x. The
 // rendered distal capsule ends exactly there, its rounded cap included.
-std::array<Eigen::Vector3d, kNumFingers> boneFingertips(
-    const HandModel& model, const std::vector<Eigen::Isometry3d>& bone_frames);
+Fingertips boneFingertips(const HandModel& model,
+                          const std::vector<Eigen::Isometry3d>& bone_frames);
 
 // Labels of the label image (one byte per pixel).
 enum SurfaceLabel : std::uint8_t {

@@ -39,8 +39,8 @@
 #include <string>
 #include <vector>
 
-#include "sag_hand_tracker/hand_model.h"
-#include "sag_hand_tracker/pose.h"
+#include "sag_hand_tracker/model/hand_model.h"
+#include "sag_hand_tracker/model/pose.h"
 
 namespace sag_hand_tracker {
 namespace studio {

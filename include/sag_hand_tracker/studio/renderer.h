@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "sag_hand_tracker/camera.h"
+#include "sag_hand_tracker/camera/camera.h"
 #include "sag_hand_tracker/studio/hand_surface.h"
 
 namespace sag_hand_tracker {
@@ -111,8 +111,7 @@ Eigen::Vector3f studioAlbedo(const Eigen::Vector3d& point, const Eigen::Vector3d
 // tile with camera 0's label image and, if given, the ground-truth fingertips (+) projected into
 // it. `caption` is written at the bottom left.
 cv::Mat contactSheet(const std::vector<StudioImage>& images, const std::vector<Camera>& cameras,
-                     const std::array<Eigen::Vector3d, kNumFingers>* fingertips = nullptr,
-                     const std::string& caption = "");
+                     const Fingertips* fingertips = nullptr, const std::string& caption = "");
 
 // Linear <-> sRGB-encoded values in [0, 1].
 float linearToSrgb(float linear);

@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "sag_hand_tracker/hand_model.h"
-#include "sag_hand_tracker/pose.h"
+#include "sag_hand_tracker/model/hand_model.h"
+#include "sag_hand_tracker/model/pose.h"
 #include "sag_hand_tracker/studio/hand_surface.h"
 #include "sag_hand_tracker/studio/motion.h"
 
@@ -31,8 +31,8 @@ struct StudioFrame {
   int index = 0;
   double time = 0.0;  // seconds from the first frame
   bool hand_present = false;
-  Pose pose;                                            // meaningful when the hand is present
-  std::array<Eigen::Vector3d, kNumFingers> fingertips;  // of the rendered (shaped) hand
+  Pose pose;              // meaningful when the hand is present
+  Fingertips fingertips;  // of the rendered (shaped) hand
 };
 
 class StudioSequence {

@@ -1,0 +1,92 @@
+// The benchmark of issue 4 (the paper's section 5 on the synthetic studio): renders each sequence
+// once with renderStudioBag (the code of render_bag), tracks it with every model through trackBag
+// (the code of track_bag), matches the tracked rows to the ground truth by stamp, and reports the
+// fingertip error (mean, sd, Table 1's percentages), the speed, and optionally the paper's
+// Figure 6 (error against the number of cameras), as text, Markdown, CSV and PNG.
+//
+// Failures: a ground-truth frame without a tracked row (the tracker had no pose: waiting for the
+// start or lost) is a failed frame. Its error is +inf: it counts against every bound of Table 1
+// (percentages are over all ground-truth frames) and it is left out of the mean and sd, which are
+// over the tracked frames; the number of failed frames is reported beside them.
+#pragma once
+
+#include <array>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "sag_hand_tracker/apps/command_line.h"
+#include "sag_hand_tracker/apps/track_runner.h"
+
+namespace sag_hand_tracker {
+
+struct BenchmarkOptions {
+  std::vector<std::string> sequences;  // --sequences a,b (default: the 7 of Dexter 1)
+  bool camera_counts = false;          // --camera-counts: the Figure 6 experiment
+  int frames = 0;                      // --frames N rendered per sequence (0: full length)
+  std::string out_dir = "benchmark";   // --out-dir DIR
+  std::string csv;                     // --csv FILE (default DIR/results.csv)
+  std::string rig = "dexter5";         // --rig name|dir|file
+  int iterations = 10;                 // --iterations N (optimiser, per frame)
+  std::vector<std::string> models{"sag", "sog"};  // --models sag,sog (or model files)
+  bool rerender = false;   // --rerender (default --reuse: keep matching bags)
+  std::string config_dir;  // --config-dir DIR (default: the package's config/)
+  bool plots = true;       // --no-plots
+  bool help = false;
+};
+
+// The seven sequences of Dexter 1, in the paper's order.
+const std::vector<std::string>& benchmarkSequences();
+
+// Parses the arguments after the program name. Throws UsageError.
+BenchmarkOptions parseBenchmarkArguments(const std::vector<std::string>& args);
+std::string benchmarkUsage();
+
+// Errors of one tracked run against the ground truth.
+struct RunErrors {
+  std::vector<double> stamps;     // the ground-truth frames (seconds)
+  std::vector<double> errors_mm;  // per ground-truth frame; +inf where the tracker had no pose
+};
+
+// Per-frame mean fingertip error (mm) of the tracked CSV against the ground-truth CSV, matched
+// by stamp (within 0.1 ms). Throws InputError for unreadable files.
+RunErrors matchToGroundTruth(const std::string& ground_truth_csv, const std::string& tracked_csv);
+
+// Statistics of a set of per-frame errors with failures as +inf (see the file comment).
+struct ErrorStats {
+  int frames = 0;                         // ground-truth frames
+  int failed = 0;                         // of which without a pose
+  double mean_mm = 0.0;                   // over the tracked frames (NaN if none)
+  double sd_mm = 0.0;                     // over the tracked frames (NaN if none)
+  std::array<double, 5> percent_below{};  // errorBoundsMm(), over all frames
+};
+ErrorStats errorStats(const std::vector<double>& errors_mm);
+
+struct BenchmarkRun {
+  std::string sequence;
+  std::string tracker;       // the model's label: "sag", "sog" or the file's stem
+  std::vector<int> cameras;  // empty: all
+  RunErrors errors;
+  ErrorStats stats;
+  double fps = 0.0;         // TrackBagSummary::pipelineFps()
+  int pipeline_frames = 0;  // frames after the background
+  double pipeline_seconds = 0.0;
+  double segmentation_seconds = 0.0;
+  double tracking_seconds = 0.0;
+};
+
+struct BenchmarkResults {
+  std::vector<std::string> sequences;
+  std::vector<std::string> trackers;
+  int rig_cameras = 0;
+  std::vector<BenchmarkRun> runs;         // sequence x tracker, all cameras
+  std::vector<BenchmarkRun> camera_runs;  // --camera-counts: combination x sequence x tracker
+  std::string markdown;                   // the report (also DIR/results.md)
+  double seconds = 0.0;                   // the whole benchmark
+};
+
+// Runs the benchmark and writes DIR/results.md, the CSVs and the plots. Progress lines go to
+// `log` (stderr in the tool). Throws InputError for bad input.
+BenchmarkResults runBenchmark(const BenchmarkOptions& options, std::ostream& log);
+
+}  // namespace sag_hand_tracker

@@ -1,0 +1,67 @@
+// The body of render_bag as a library function, so that the benchmark renders its bags with
+// exactly the code of the tool: a studio sequence into a bag in the interface that track_bag reads
+// (/cam<i>/image_raw rgb8, /cam<i>/camera_info, /tf_static root -> cam<i>_optical_frame, identical
+// stamps per set), with the ground truth in the bag (/ground_truth/joint_states,
+// /ground_truth/fingertips) and in a CSV with track_bag's columns. No ROS master needed.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "sag_hand_tracker/apps/command_line.h"
+#include "sag_hand_tracker/apps/progress.h"
+#include "sag_hand_tracker/ros/bag_output.h"
+
+namespace sag_hand_tracker {
+
+struct RenderBagOptions {
+  std::string sequence;               // --sequence name|file (required)
+  std::string rig = "dexter5";        // --rig name|dir|file
+  std::string out;                    // --out OUT.bag (required)
+  std::string gt_csv;                 // --gt-csv FILE (default: OUT with .gt.csv)
+  std::string config_dir;             // --config-dir DIR (default: the package's config/)
+  std::string model = "sag";          // --model sag|FILE: the skeleton the hand is rendered on
+  double fps = 25.0;                  // --fps
+  int frames = 0;                     // --frames N (0: the motion's duration)
+  std::uint64_t seed = 1;             // --seed S
+  int motion_blur = 1;                // --motion-blur N sub-frames (1: none)
+  double exposure = 0.010;            // --exposure SECONDS (motion blur)
+  double noise = 2.0;                 // --noise SIGMA (8-bit levels)
+  double hand_scale = 1.0;            // --hand-scale S
+  std::string preview;                // --preview PNG: contact sheet of one frame
+  int preview_frame = -1;             // --preview-frame N (default: the middle frame)
+  double start_stamp = 1400000000.0;  // --start-stamp SECONDS of the first frame
+  BagCompression compression = BagCompression::kNone;  // --compression none|lz4|bz2
+  bool quiet = false;
+  bool help = false;
+};
+
+// Parses the arguments after the program name (fills gt_csv from out when not given). Throws
+// UsageError.
+RenderBagOptions parseRenderBagArguments(const std::vector<std::string>& args);
+std::string renderBagUsage();
+
+struct RenderBagSummary {
+  std::string sequence;  // the motion's name
+  std::string bag;
+  std::string gt_csv;
+  std::string preview;   // empty: none
+  int frames = 0;        // sets written
+  int empty_frames = 0;  // of which without the hand
+  int gt_rows = 0;       // ground-truth rows (= frames with the hand)
+  int cameras = 0;
+  double fps = 0.0;  // the sequence's frame rate
+  std::uint64_t seed = 0;
+  double render_seconds = 0.0;  // rendering the images only
+  double total_seconds = 0.0;   // the frame loop, with the bag and the CSV
+  double setup_seconds = 0.0;   // the studio renderer's set-up
+};
+
+// Renders the sequence. `progress` may be null (no progress). Throws InputError for bad input.
+RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* progress);
+
+// The tool's closing report (several lines).
+std::string formatRenderBagSummary(const RenderBagSummary& summary);
+
+}  // namespace sag_hand_tracker

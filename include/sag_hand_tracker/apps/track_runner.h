@@ -1,0 +1,102 @@
+// The offline tracking loop of track_bag (and of anything else that tracks a bag the same way):
+// command line, reading sets from a bag, the per-set tracking call, the CSV, the progress bar and
+// the summary. The tracking itself is passed in to runTrackBag, so the loop is tested without it;
+// trackBag is the whole tool (model, bag reader, TrackingPipeline, loop, CSV), which track_bag's
+// main and the benchmark both call, so they run the same code.
+#pragma once
+
+#include <atomic>
+#include <functional>
+#include <ostream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "sag_hand_tracker/apps/command_line.h"
+#include "sag_hand_tracker/apps/csv.h"
+#include "sag_hand_tracker/apps/progress.h"
+#include "sag_hand_tracker/model/hand_model.h"
+#include "sag_hand_tracker/ros/bag_input.h"
+#include "sag_hand_tracker/tracking/frame_set.h"
+#include "sag_hand_tracker/tracking/tracking_pipeline.h"
+
+namespace sag_hand_tracker {
+
+struct TrackBagOptions {
+  std::string bag;                       // --bag (required)
+  std::string out;                       // --out (required)
+  std::string model = "sag";             // --model sag|sog|FILE
+  int iterations = 10;                   // --iterations N (>= 1)
+  std::string step_control = "rprop";    // --step-control rprop|fixed
+  std::vector<int> cameras;              // --cameras 0,2,4 (empty: all)
+  int background_frames = 10;            // --background-frames N (>= 0)
+  Handedness hand = Handedness::kRight;  // --hand left|right
+  std::string root_frame;  // --root-frame FRAME (empty: the root of the bag's tf tree)
+  bool quiet = false;      // --quiet: no progress bar
+  bool help = false;       // --help
+  // Where the built-in models ("sag", "sog") are; empty: the package's config/ (found through
+  // ROS_PACKAGE_PATH). Not a command-line option of track_bag; the benchmark sets it.
+  std::string config_dir;
+};
+
+// Parses the arguments after the program name. Throws UsageError.
+TrackBagOptions parseTrackBagArguments(const std::vector<std::string>& args);
+std::string trackBagUsage();
+
+// What happened over a run.
+struct TrackBagSummary {
+  std::string bag;
+  std::string csv;
+  std::vector<std::string> cameras;   // names of the cameras read
+  int frames = 0;                     // sets processed
+  int background_frames = 0;          // sets learned as background
+  int tracked_frames = 0;             // sets with a pose (= CSV rows)
+  int waiting_frames = 0;             // sets after the background without a pose
+  int lost_frames = 0;                // status lost
+  int restarted_frames = 0;           // the track was started again after being lost
+  int incomplete_sets = 0;            // sets where a camera was missing
+  int dropped_images = 0;             // late or duplicate images (see BagReaderStatistics)
+  long image_gaussians = 0;           // foreground image Gaussians over the tracked sets
+  double decode_seconds = 0.0;        // reading and decoding the bag (excluded from fps)
+  double background_seconds = 0.0;    // learning the background plates
+  double segmentation_seconds = 0.0;  // segmentation of the tracked sets
+  double tracking_seconds = 0.0;      // HandTracker::update of the tracked sets
+  double pipeline_seconds = 0.0;      // the whole tracking call over the sets after the background
+  bool interrupted = false;
+
+  // Frames per second of the pipeline (segmentation + optimisation, decode excluded) over the
+  // sets after the background phase; 0 when there were none.
+  double pipelineFps() const;
+};
+
+// One-paragraph summary for the end of a run.
+std::string formatSummary(const TrackBagSummary& summary);
+
+// The per-set tracking call.
+using TrackFrameFunction = std::function<ProcessedFrame(const FrameSet&)>;
+
+// Reads every set of `reader`, calls `track` on it (timed), writes a CSV row for each result
+// with a pose, and updates `progress` (may be null). Stops early, with summary.interrupted set,
+// when `stop` (may be null) becomes true. InputError from the reader or `track` propagates.
+TrackBagSummary runTrackBag(BagReader& reader, const TrackFrameFunction& track,
+                            TrackingCsvWriter& csv, ProgressBar* progress,
+                            const std::atomic<bool>* stop = nullptr);
+
+// The CSV row of a result with a pose.
+TrackingCsvRow toCsvRow(const FrameResult& result);
+
+// The file of a model given as "sag", "sog" (built-in, in `config_dir`, or the package's config/
+// when empty) or a path. Throws InputError if the package is needed and cannot be found.
+std::string trackBagModelPath(const std::string& name_or_path, const std::string& config_dir);
+
+// The pipeline parameters that the options set (iterations, step control, background frames).
+PipelineParams trackBagPipelineParams(const TrackBagOptions& options);
+
+// The whole of track_bag: loads the model, opens the bag (options.cameras, options.root_frame),
+// builds the TrackingPipeline and runs runTrackBag into the CSV options.out. `progress` and
+// `stop` may be null. A run that fails half way removes the CSV and rethrows (InputError for bad
+// input). The caller decides what no tracked frame or an interruption means.
+TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
+                         const std::atomic<bool>* stop = nullptr);
+
+}  // namespace sag_hand_tracker

@@ -1,0 +1,38 @@
+// A calibrated pinhole camera: intrinsics K, distortion, image size and the root->camera pose.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <string>
+#include <vector>
+
+#include "sag_hand_tracker/util/types.h"
+
+namespace sag_hand_tracker {
+
+struct Camera {
+  std::string name;  // e.g. "cam0"; its optical frame is "<name>_optical_frame"
+  int width = 0;
+  int height = 0;
+  Eigen::Matrix3d K = Eigen::Matrix3d::Identity();
+  // plumb_bob / rational_polynomial coefficients (k1 k2 p1 p2 [k3 ...]); empty or zero = none.
+  std::vector<double> distortion;
+  // root (world) frame -> camera optical frame (z forward, x right, y down).
+  Eigen::Isometry3d world_to_camera = Eigen::Isometry3d::Identity();
+
+  bool hasDistortion() const;
+  Eigen::Vector3d centre() const;  // camera centre in the root frame
+  // Pinhole projection of a root-frame point to pixels (no distortion); false if behind.
+  bool project(const Eigen::Vector3d& world_point, Eigen::Vector2d* pixel) const;
+  // Maps a distorted pixel to the ideal pinhole pixel (identity without distortion).
+  Eigen::Vector2d undistortPixel(const Eigen::Vector2d& pixel) const;
+};
+
+// Throws InputError naming the camera and the problem (zero or negative focal length, non-finite
+// values, bad image size, extrinsics not a rigid transform).
+void validateCamera(const Camera& camera);
+
+// Moves every image Gaussian of `sog` to ideal pinhole coordinates (no-op without distortion).
+void undistortImageSoG(const Camera& camera, ImageSoG* sog);
+
+}  // namespace sag_hand_tracker

@@ -1,0 +1,76 @@
+// The pose fitting energy E(Theta) = E_sim - w_l E_lim (paper eqs. 6-9) and its exact gradient.
+#pragma once
+
+#include <vector>
+
+#include "sag_hand_tracker/camera/camera.h"
+#include "sag_hand_tracker/energy/colour.h"
+#include "sag_hand_tracker/energy/overlap.h"
+#include "sag_hand_tracker/model/hand_model.h"
+#include "sag_hand_tracker/model/kinematics.h"
+#include "sag_hand_tracker/model/pose.h"
+#include "sag_hand_tracker/util/types.h"
+
+namespace sag_hand_tracker {
+
+struct EnergyParams {
+  double limit_weight = 0.1;  // w_l of paper eq. 9
+  // Common factor on the model Gaussians' weights w_p^h of eq. 8. Below 0.5 a single projected
+  // Gaussian cannot saturate an image Gaussian (D_pq < 2 E_qq), so the energy has a peak at the
+  // true pose instead of a flat plateau; overlapping model Gaussians still saturate (occlusion).
+  double model_weight = 0.5;
+  ColourSimilarityParams colour;
+  // Pairs whose Mahalanobis term exceeds this are skipped: exp(-30) ~ 1e-13 of the pair's peak.
+  double max_mahalanobis_sq = 60.0;
+};
+
+// One camera's input for a frame: calibration and the image SoG (undistorted pixels).
+struct CameraObservation {
+  Camera camera;
+  ImageSoG sog;
+};
+
+// Per-camera breakdown, for diagnostics and the overlay.
+struct EnergyTerms {
+  double similarity = 0.0;     // E_sim, normalised: mean over cameras of sum_q min(..) / sum_q E_qq
+  double limit_penalty = 0.0;  // E_lim
+  double total = 0.0;          // E_sim - w_l E_lim
+  std::vector<double> per_camera;
+};
+
+// Holds what does not depend on the pose for one frame (colour similarities, E_qq), so that the
+// optimizer's iterations evaluate only the pose-dependent part.
+class PoseEnergy {
+ public:
+  PoseEnergy(const HandModel& model, const EnergyParams& params);
+
+  // Sets the frame: cameras and image SoGs. Computes d(c_p, c_q) once per pair.
+  void setFrame(const std::vector<CameraObservation>& observations);
+
+  // E(Theta); with `gradient`, also dE/dTheta (orientation in the tangent space, see pose.h).
+  double evaluate(const Pose& pose, PoseVector* gradient = nullptr,
+                  EnergyTerms* terms = nullptr) const;
+
+  const HandModel& model() const { return model_; }
+  const EnergyParams& params() const { return params_; }
+  int numCameras() const { return static_cast<int>(cameras_.size()); }
+
+ private:
+  struct FrameCamera {
+    Eigen::Matrix3d rotation;  // root -> camera
+    Eigen::Vector3d translation;
+    Eigen::Matrix3d K;
+    ImageGaussianArrays image_gaussians;
+    // Row p: w_p d(c_p, c_q) for every image Gaussian q. The colour term does not depend on the
+    // pose, so it is computed once per frame.
+    std::vector<double> weights;
+    double normaliser = 1.0;  // 1 / sum_q E_qq
+  };
+
+  HandModel model_;
+  EnergyParams params_;
+  std::vector<std::vector<int>> ancestor_dofs_;  // per bone
+  std::vector<FrameCamera> cameras_;
+};
+
+}  // namespace sag_hand_tracker

@@ -1,0 +1,42 @@
+#include "sag_hand_tracker/apps/command_line.h"
+
+#include <cerrno>
+#include <cstdlib>
+#include <sstream>
+
+namespace sag_hand_tracker {
+
+const std::string& nextOptionValue(const std::vector<std::string>& args, size_t* i) {
+  if (*i + 1 >= args.size() || args[*i + 1].rfind("--", 0) == 0) {
+    throw UsageError(args[*i] + " needs a value");
+  }
+  return args[++*i];
+}
+
+int parseIntOption(const std::string& option, const std::string& text, int min_value) {
+  char* end = nullptr;
+  errno = 0;
+  const long value = std::strtol(text.c_str(), &end, 10);
+  if (text.empty() || *end != '\0' || errno == ERANGE || value < min_value || value > 1000000) {
+    throw UsageError(option + " expects an integer >= " + std::to_string(min_value) + ", got '" +
+                     text + "'");
+  }
+  return static_cast<int>(value);
+}
+
+std::vector<std::string> parseListOption(const std::string& option, const std::string& text,
+                                         const std::string& what) {
+  std::vector<std::string> items;
+  std::stringstream stream(text);
+  std::string item;
+  while (std::getline(stream, item, ',')) {
+    if (item.empty()) throw UsageError(option + " expects " + what + ", got '" + text + "'");
+    items.push_back(item);
+  }
+  if (items.empty() || text.back() == ',') {
+    throw UsageError(option + " expects " + what + ", got '" + text + "'");
+  }
+  return items;
+}
+
+}  // namespace sag_hand_tracker

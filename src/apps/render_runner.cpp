@@ -1,0 +1,299 @@
+// renderStudioBag: the body of the render_bag tool (see render_studio_bag.h).
+#include "sag_hand_tracker/apps/render_runner.h"
+
+#include "sag_hand_tracker/ros/package_config.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <iomanip>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "sag_hand_tracker/apps/csv.h"
+#include "sag_hand_tracker/camera/calibration.h"
+#include "sag_hand_tracker/model/hand_model.h"
+#include "sag_hand_tracker/ros/conversions.h"
+#include "sag_hand_tracker/ros/package_config.h"
+#include "sag_hand_tracker/studio/motion.h"
+#include "sag_hand_tracker/studio/renderer.h"
+#include "sag_hand_tracker/studio/sequence.h"
+#include "sag_hand_tracker/util/types.h"
+
+namespace sag_hand_tracker {
+namespace {
+
+using studio::StudioFrame;
+
+// Frame stamps on an exact nanosecond grid: start + index / fps.
+ros::Time frameStamp(double start_seconds, int index, double fps) {
+  const auto start_ns = static_cast<std::int64_t>(std::llround(start_seconds * 1e9));
+  const auto offset_ns = static_cast<std::int64_t>(std::llround(index * 1e9 / fps));
+  ros::Time stamp;
+  stamp.fromNSec(static_cast<std::uint64_t>(start_ns + offset_ns));
+  return stamp;
+}
+
+// ---- ground-truth messages ------------------------------------------------------------------
+
+TrackingCsvRow groundTruthRow(const StudioFrame& frame, const ros::Time& stamp) {
+  TrackingCsvRow row;
+  row.stamp = stamp.toSec();
+  row.fingertips = frame.fingertips;
+  row.parameters = frame.pose.toVector();
+  row.energy = 0.0;  // ground truth has no energy
+  return row;
+}
+
+void writeContactSheet(const std::string& path, const std::vector<studio::StudioImage>& images,
+                       const std::vector<Camera>& cameras, const StudioFrame& frame,
+                       const std::string& caption) {
+  const cv::Mat sheet = studio::contactSheet(
+      images, cameras, frame.hand_present ? &frame.fingertips : nullptr, caption);
+  cv::Mat bgr;
+  cv::cvtColor(sheet, bgr, cv::COLOR_RGB2BGR);
+  bool written = false;
+  try {
+    written = cv::imwrite(path, bgr);
+  } catch (const cv::Exception& error) {
+    throw InputError(path + ": cannot write the contact sheet: " + error.what());
+  }
+  if (!written) throw InputError(path + ": cannot write the contact sheet");
+}
+
+}  // namespace
+
+std::string renderBagUsage() {
+  return "usage: render_bag --sequence <name|motion.yaml> --out OUT.bag [options]\n"
+         "Renders a synthetic studio sequence (5 calibrated cameras by default) into a bag that\n"
+         "track_bag reads, with the ground truth in the bag and in a CSV.\n"
+         "  --sequence S       built-in motion (adbadd fingercount fingerwave flexex1 pinch\n"
+         "                     random tigergrasp) or a motion file (config/motions/README.md)\n"
+         "  --rig R            built-in rig name, a directory with rig.yaml, or a rig file\n"
+         "                     (default dexter5)\n"
+         "  --out OUT.bag      the bag to write (overwritten)\n"
+         "  --gt-csv FILE      ground-truth CSV (default: OUT.bag with the extension .gt.csv)\n"
+         "  --fps F            frame rate, 25 (Dexter 1, default) or 60\n"
+         "  --frames N         number of frames (default: the motion's duration * fps)\n"
+         "  --seed S           seed of the motion's random parts and the sensor noise (default 1)\n"
+         "  --motion-blur N    sub-frames averaged per frame (default 1: none)\n"
+         "  --exposure T       exposure time in seconds for motion blur (default 0.010)\n"
+         "  --noise SIGMA      sensor noise, 8-bit levels (default 2)\n"
+         "  --hand-scale S     size of the rendered hand relative to the model (default 1)\n"
+         "  --model M          hand skeleton: sag (default) or a model file\n"
+         "  --preview PNG      also write a contact sheet of one frame (all views + labels)\n"
+         "  --preview-frame N  the frame of the contact sheet (default: the middle one)\n"
+         "  --start-stamp T    stamp of the first frame in seconds (default 1400000000)\n"
+         "  --compression C    bag compression: none (default), lz4 or bz2\n"
+         "  --config-dir DIR   where the built-in motions, rigs and models are (default: the\n"
+         "                     package's config/)\n"
+         "  --quiet            no progress bar\n"
+         "The first 10 frames show the empty studio (for the background plate); ground truth is\n"
+         "written for the frames with the hand.\n";
+}
+
+RenderBagOptions parseRenderBagArguments(const std::vector<std::string>& args) {
+  RenderBagOptions options;
+  auto value = [&](size_t* i) {
+    if (*i + 1 >= args.size()) throw UsageError(args[*i] + " needs a value");
+    return args[++*i];
+  };
+  auto number = [&](size_t* i) {
+    const std::string flag = args[*i];
+    const std::string text = value(i);
+    try {
+      size_t used = 0;
+      const double v = std::stod(text, &used);
+      if (used != text.size() || !std::isfinite(v)) throw std::invalid_argument(text);
+      return v;
+    } catch (const std::exception&) {
+      throw UsageError(flag + " needs a number, not '" + text + "'");
+    }
+  };
+  auto integer = [&](size_t* i, long long min) {
+    const std::string flag = args[*i];
+    const double v = number(i);
+    if (v != std::floor(v) || v < static_cast<double>(min)) {
+      throw UsageError(flag + " needs an integer >= " + std::to_string(min));
+    }
+    return static_cast<long long>(v);
+  };
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (a == "--sequence") {
+      options.sequence = value(&i);
+    } else if (a == "--rig") {
+      options.rig = value(&i);
+    } else if (a == "--out") {
+      options.out = value(&i);
+    } else if (a == "--gt-csv") {
+      options.gt_csv = value(&i);
+    } else if (a == "--config-dir") {
+      options.config_dir = value(&i);
+    } else if (a == "--model") {
+      options.model = value(&i);
+    } else if (a == "--fps") {
+      options.fps = number(&i);
+      if (!(options.fps > 0.0 && options.fps <= 1000.0))
+        throw UsageError("--fps must be in (0, 1000]");
+    } else if (a == "--frames") {
+      options.frames = static_cast<int>(integer(&i, 1));
+    } else if (a == "--seed") {
+      options.seed = static_cast<std::uint64_t>(integer(&i, 0));
+    } else if (a == "--motion-blur") {
+      options.motion_blur = static_cast<int>(integer(&i, 1));
+    } else if (a == "--exposure") {
+      options.exposure = number(&i);
+      if (options.exposure < 0.0) throw UsageError("--exposure must not be negative");
+    } else if (a == "--noise") {
+      options.noise = number(&i);
+      if (options.noise < 0.0) throw UsageError("--noise must not be negative");
+    } else if (a == "--hand-scale") {
+      options.hand_scale = number(&i);
+      if (!(options.hand_scale > 0.0)) throw UsageError("--hand-scale must be positive");
+    } else if (a == "--preview") {
+      options.preview = value(&i);
+    } else if (a == "--preview-frame") {
+      options.preview_frame = static_cast<int>(integer(&i, 0));
+    } else if (a == "--start-stamp") {
+      options.start_stamp = number(&i);
+      if (!(options.start_stamp > 0.0)) throw UsageError("--start-stamp must be positive");
+    } else if (a == "--compression") {
+      const std::string mode = value(&i);
+      if (mode == "none") {
+        options.compression = BagCompression::kNone;
+      } else if (mode == "lz4") {
+        options.compression = BagCompression::kLz4;
+      } else if (mode == "bz2") {
+        options.compression = BagCompression::kBz2;
+      } else {
+        throw UsageError("--compression must be none, lz4 or bz2, not '" + mode + "'");
+      }
+    } else if (a == "--quiet") {
+      options.quiet = true;
+    } else if (a == "--help" || a == "-h") {
+      options.help = true;
+    } else {
+      throw UsageError("unknown argument '" + a + "'");
+    }
+  }
+  if (options.help) return options;
+  if (options.sequence.empty()) throw UsageError("--sequence is required");
+  if (options.out.empty()) throw UsageError("--out is required");
+  if (options.gt_csv.empty()) {
+    std::filesystem::path csv(options.out);
+    csv.replace_extension(".gt.csv");
+    options.gt_csv = csv.string();
+  }
+  return options;
+}
+
+RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* progress) {
+  const std::string config = packageConfigDir(options.config_dir);
+  const HandModel model = loadHandModel(resolveModelPath(options.model, config));
+  const CameraRig rig = loadCameraRig(studio::resolveRigPath(options.rig, config));
+  if (rig.cameras.empty()) throw InputError("the rig has no cameras");
+  const std::string motion_path = studio::resolveMotionPath(options.sequence, config);
+  studio::Motion motion = studio::loadMotion(motion_path, model, options.seed);
+
+  studio::SequenceParams params;
+  params.fps = options.fps;
+  params.frames = options.frames;
+  params.seed = options.seed;
+  params.motion_blur_samples = options.motion_blur;
+  params.exposure = std::min(options.exposure, 1.0 / options.fps);
+  params.shape.scale = options.hand_scale;
+  const studio::StudioSequence sequence(model, std::move(motion), params);
+  const int frames = sequence.frameCount();
+  const int preview_frame = options.preview.empty()
+                                ? -1
+                                : (options.preview_frame >= 0 ? options.preview_frame : frames / 2);
+  if (preview_frame >= frames) {
+    throw InputError("--preview-frame " + std::to_string(preview_frame) +
+                     " is past the last frame " + std::to_string(frames - 1));
+  }
+  studio::SensorParams sensor;
+  sensor.noise_sigma = options.noise;
+
+  const auto setup_start = std::chrono::steady_clock::now();
+  const studio::StudioRenderer renderer(rig.cameras, studio::StudioSceneParams(), sensor);
+  const double setup_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - setup_start).count();
+
+  const std::vector<std::string> names = model.parameterNames();
+  BagWriter bag(options.out, options.compression);
+  TrackingCsvWriter csv(options.gt_csv, names);
+  bag.writeStaticTransforms(rig, frameStamp(options.start_stamp, 0, options.fps));
+
+  double render_seconds = 0.0;
+  const auto loop_start = std::chrono::steady_clock::now();
+  for (int k = 0; k < frames; ++k) {
+    const ros::Time stamp = frameStamp(options.start_stamp, k, options.fps);
+    const StudioFrame frame = sequence.frame(k);
+    const auto render_start = std::chrono::steady_clock::now();
+    const auto images = renderer.render(sequence.surfaces(k), sequence.noiseSeed(k));
+    render_seconds +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - render_start).count();
+    for (size_t c = 0; c < images.size(); ++c) {
+      bag.writeCameraImage(rig.cameras[c], images[c].rgb, stamp);
+    }
+    if (frame.hand_present) {
+      std_msgs::Header header;
+      header.stamp = stamp;
+      header.frame_id = rig.root_frame;
+      bag.write("/ground_truth/joint_states", stamp, toJointStateMsg(names, frame.pose, header));
+      bag.write("/ground_truth/fingertips", stamp, toFingertipsMsg(frame.fingertips, header));
+      csv.write(groundTruthRow(frame, stamp));
+    }
+    if (k == preview_frame) {
+      writeContactSheet(options.preview, images, rig.cameras, frame,
+                        sequence.motion().name + " frame " + std::to_string(k));
+    }
+    if (progress) {
+      progress->update(static_cast<double>(k + 1) / frames,
+                       "frame " + std::to_string(k + 1) + "/" + std::to_string(frames));
+    }
+  }
+  csv.close();
+  bag.close();
+  const double total_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - loop_start).count();
+  if (progress) progress->finish("frame " + std::to_string(frames) + "/" + std::to_string(frames));
+
+  RenderBagSummary summary;
+  summary.sequence = sequence.motion().name;
+  summary.bag = options.out;
+  summary.gt_csv = options.gt_csv;
+  summary.preview = options.preview;
+  summary.frames = frames;
+  summary.empty_frames = params.empty_frames;
+  summary.gt_rows = csv.rows();
+  summary.cameras = static_cast<int>(rig.cameras.size());
+  summary.fps = options.fps;
+  summary.seed = options.seed;
+  summary.render_seconds = render_seconds;
+  summary.total_seconds = total_seconds;
+  summary.setup_seconds = setup_seconds;
+  return summary;
+}
+
+std::string formatRenderBagSummary(const RenderBagSummary& s) {
+  std::ostringstream summary;
+  summary << std::fixed << std::setprecision(1) << "render_bag: " << s.sequence << ": " << s.frames
+          << " frames (" << s.empty_frames << " without the hand) x " << s.cameras << " cameras at "
+          << s.fps << " fps, seed " << s.seed << "\n  rendering "
+          << s.frames / std::max(s.render_seconds, 1e-9) << " frames/s ("
+          << 1000.0 * s.render_seconds / std::max(s.frames, 1) << " ms per frame of " << s.cameras
+          << " images), with the bag and CSV " << s.frames / std::max(s.total_seconds, 1e-9)
+          << " frames/s; studio set-up " << s.setup_seconds << " s\n  bag: " << s.bag
+          << "\n  ground truth: " << s.gt_csv << " (" << s.gt_rows << " rows)\n";
+  if (!s.preview.empty()) summary << "  contact sheet: " << s.preview << "\n";
+  return summary.str();
+}
+
+}  // namespace sag_hand_tracker

@@ -1,0 +1,267 @@
+#include "sag_hand_tracker/apps/track_runner.h"
+
+#include <cerrno>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <set>
+#include <sstream>
+
+#include "sag_hand_tracker/ros/package_config.h"
+
+#include "sag_hand_tracker/model/pose.h"
+#include "sag_hand_tracker/optimization/optimizer.h"
+#include "sag_hand_tracker/ros/package_config.h"
+#include "sag_hand_tracker/util/timing.h"
+#include "sag_hand_tracker/util/types.h"
+
+namespace sag_hand_tracker {
+namespace {
+
+std::vector<int> parseCameraList(const std::string& text) {
+  std::vector<int> cameras;
+  std::set<int> seen;
+  for (const std::string& item : parseListOption("--cameras", text, "camera numbers like 0,2,4")) {
+    const int id = parseIntOption("--cameras", item, 0);
+    if (!seen.insert(id).second) {
+      throw UsageError("--cameras lists camera " + std::to_string(id) + " twice");
+    }
+    cameras.push_back(id);
+  }
+  return cameras;
+}
+
+std::string formatSeconds(double seconds) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof(buffer), "%.2f s", seconds);
+  return buffer;
+}
+
+std::string formatMillis(double seconds, int frames) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof(buffer), "%.2f ms", frames > 0 ? 1e3 * seconds / frames : 0.0);
+  return buffer;
+}
+
+}  // namespace
+
+std::string trackBagUsage() {
+  return R"(Usage: track_bag --bag IN.bag --out OUT.csv [options]
+
+Tracks the hand in a bag of calibrated cameras (/cam<i>/image_raw rgb8|bgr8, /cam<i>/camera_info,
+/tf_static) without a ROS master, as fast as the CPU allows, and writes one CSV row per tracked
+frame: stamp, the 5 fingertips (x,y,z in metres in the root frame), the 26 pose parameters, the
+energy.
+
+Options:
+  --bag FILE               input bag (required)
+  --out FILE               output CSV (required)
+  --model sag|sog|FILE     hand model: the SAG model, the SoG baseline, or a model YAML (sag)
+  --hand left|right        handedness; the model is mirrored if needed (right)
+  --iterations N           optimiser iterations per frame (10)
+  --step-control rprop|fixed  optimiser step control (rprop)
+  --cameras 0,2,4          track with these cameras only (all)
+  --background-frames N    first N frames show no hand: learn the background plates (10);
+                           0 = no plate, a skin-colour gate instead
+  --root-frame FRAME       express the output in this tf frame (the root of the bag's tf tree)
+  --quiet                  no progress bar
+  --help                   this text
+)";
+}
+
+TrackBagOptions parseTrackBagArguments(const std::vector<std::string>& args) {
+  TrackBagOptions options;
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    const std::string& arg = args[i];
+    auto value = [&]() -> const std::string& { return nextOptionValue(args, &i); };
+    if (arg == "--help" || arg == "-h") {
+      options.help = true;
+    } else if (arg == "--bag") {
+      options.bag = value();
+    } else if (arg == "--out") {
+      options.out = value();
+    } else if (arg == "--model") {
+      options.model = value();
+    } else if (arg == "--iterations") {
+      options.iterations = parseIntOption(arg, value(), 1);
+    } else if (arg == "--step-control") {
+      options.step_control = value();
+      if (options.step_control != "rprop" && options.step_control != "fixed") {
+        throw UsageError("--step-control expects rprop or fixed, got '" + options.step_control +
+                         "'");
+      }
+    } else if (arg == "--cameras") {
+      options.cameras = parseCameraList(value());
+    } else if (arg == "--background-frames") {
+      options.background_frames = parseIntOption(arg, value(), 0);
+    } else if (arg == "--hand") {
+      const std::string hand = value();
+      if (hand == "left") {
+        options.hand = Handedness::kLeft;
+      } else if (hand == "right") {
+        options.hand = Handedness::kRight;
+      } else {
+        throw UsageError("--hand expects left or right, got '" + hand + "'");
+      }
+    } else if (arg == "--root-frame") {
+      options.root_frame = value();
+    } else if (arg == "--quiet") {
+      options.quiet = true;
+    } else {
+      throw UsageError("unknown argument '" + arg + "'");
+    }
+  }
+  if (options.help) return options;
+  if (options.bag.empty()) throw UsageError("--bag is required");
+  if (options.out.empty()) throw UsageError("--out is required");
+  return options;
+}
+
+double TrackBagSummary::pipelineFps() const {
+  const int frames_after_background = frames - background_frames;
+  if (frames_after_background <= 0 || pipeline_seconds <= 0.0) return 0.0;
+  return frames_after_background / pipeline_seconds;
+}
+
+std::string formatSummary(const TrackBagSummary& summary) {
+  std::ostringstream out;
+  std::string names;
+  for (const std::string& name : summary.cameras) names += (names.empty() ? "" : " ") + name;
+  const int after_background = summary.frames - summary.background_frames;
+  char fps[32];
+  std::snprintf(fps, sizeof(fps), "%.1f", summary.pipelineFps());
+
+  out << "track_bag: " << summary.bag << (summary.interrupted ? " (interrupted)" : "") << "\n";
+  out << "  frames:    " << summary.frames << " (" << summary.background_frames << " background, "
+      << summary.tracked_frames << " tracked, " << summary.waiting_frames
+      << " without a hand pose)";
+  if (summary.incomplete_sets > 0) {
+    out << ", " << summary.incomplete_sets << " with a camera missing";
+  }
+  if (summary.dropped_images > 0) out << ", " << summary.dropped_images << " images dropped";
+  out << "\n";
+  out << "  cameras:   " << summary.cameras.size() << " (" << names << ")\n";
+  out << "  speed:     " << fps << " frames/s (segmentation + optimisation over "
+      << after_background << " frames, decode excluded); per frame: segmentation "
+      << formatMillis(summary.segmentation_seconds, after_background) << ", optimisation "
+      << formatMillis(summary.tracking_seconds, after_background) << "\n";
+  out << "  excluded:  decode " << formatSeconds(summary.decode_seconds) << " ("
+      << formatMillis(summary.decode_seconds, summary.frames) << " per frame), background "
+      << formatSeconds(summary.background_seconds) << "\n";
+  out << "  track:     lost in " << summary.lost_frames << " frames, restarted in "
+      << summary.restarted_frames << " frames\n";
+  out << "  output:    " << summary.tracked_frames << " rows in " << summary.csv << "\n";
+  return out.str();
+}
+
+TrackingCsvRow toCsvRow(const FrameResult& result) {
+  TrackingCsvRow row;
+  row.stamp = result.stamp;
+  row.fingertips = result.fingertips;
+  row.parameters = result.pose.toVector();
+  row.energy = result.energy.total;
+  return row;
+}
+
+TrackBagSummary runTrackBag(BagReader& reader, const TrackFrameFunction& track,
+                            TrackingCsvWriter& csv, ProgressBar* progress,
+                            const std::atomic<bool>* stop) {
+  TrackBagSummary summary;
+  summary.bag = reader.path();
+  summary.csv = csv.path();
+  for (const Camera& camera : reader.cameras()) summary.cameras.push_back(camera.name);
+
+  FrameSet set;
+  while (reader.next(&set)) {
+    if (stop && stop->load()) {
+      summary.interrupted = true;
+      break;
+    }
+    const auto start = std::chrono::steady_clock::now();
+    const ProcessedFrame processed = track(set);
+    const double seconds = secondsSince(start);
+    ++summary.frames;
+    if (processed.background) {
+      ++summary.background_frames;
+      summary.background_seconds += seconds;
+    } else {
+      summary.pipeline_seconds += seconds;
+      summary.segmentation_seconds += processed.segmentation_seconds;
+      summary.tracking_seconds += processed.tracking_seconds;
+      summary.image_gaussians += processed.image_gaussians;
+      const FrameResult& result = processed.result;
+      if (result.has_pose) {
+        csv.write(toCsvRow(result));
+        ++summary.tracked_frames;
+      } else {
+        ++summary.waiting_frames;
+      }
+      if (result.status == TrackStatus::kLost) ++summary.lost_frames;
+      if (result.restarted) ++summary.restarted_frames;
+    }
+    if (progress) {
+      std::string status = "frame " + std::to_string(summary.frames) + ", " +
+                           std::to_string(set.images.size()) +
+                           (set.images.size() == 1 ? " camera, " : " cameras, ");
+      status += processed.background ? "background" : toString(processed.result.status);
+      progress->update(reader.progress(), status);
+    }
+  }
+  const BagReaderStatistics& stats = reader.statistics();
+  summary.decode_seconds = stats.decode_seconds;
+  summary.incomplete_sets = static_cast<int>(stats.incomplete_sets);
+  summary.dropped_images = static_cast<int>(stats.dropped_images);
+  if (progress) {
+    progress->finish(std::to_string(summary.frames) + " frames" +
+                     (summary.interrupted ? " (interrupted)" : ""));
+  }
+  csv.close();
+  return summary;
+}
+
+std::string trackBagModelPath(const std::string& name_or_path, const std::string& config_dir) {
+  if (name_or_path != "sag" && name_or_path != "sog") return name_or_path;
+  return resolveModelPath(name_or_path, packageConfigDir(config_dir));
+}
+
+PipelineParams trackBagPipelineParams(const TrackBagOptions& options) {
+  PipelineParams params;
+  params.tracker.optimizer.iterations = options.iterations;
+  params.tracker.optimizer.step_control = parseStepControl(options.step_control);
+  params.background_frames = options.background_frames;
+  return params;
+}
+
+// =================================================================================================
+// THE TRACKING CALL. One synchronized set of camera images in, one result out: the first
+// background_frames sets train each camera's background plate; every later set is segmented per
+// camera (image -> foreground image SoG, undistorted) and handed to HandTracker::update (automatic
+// start, warm-started optimisation, restart when lost). Everything else here is input and output.
+// =================================================================================================
+TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
+                         const std::atomic<bool>* stop) {
+  const HandModel model =
+      loadHandModel(trackBagModelPath(options.model, options.config_dir), options.hand);
+
+  BagReaderOptions reader_options;
+  reader_options.cameras = options.cameras;
+  reader_options.root_frame = options.root_frame;
+  BagReader reader(options.bag, reader_options);
+
+  TrackingPipeline pipeline(model, reader.cameras(), trackBagPipelineParams(options));
+
+  try {
+    TrackingCsvWriter csv(options.out, model.parameterNames());
+    return runTrackBag(
+        reader, [&pipeline](const FrameSet& set) { return pipeline.process(set); }, csv, progress,
+        stop);
+  } catch (...) {
+    // A run that failed half way leaves no CSV that could pass for a result.
+    std::error_code ignored;
+    std::filesystem::remove(options.out, ignored);
+    throw;
+  }
+}
+
+}  // namespace sag_hand_tracker

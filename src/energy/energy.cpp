@@ -1,0 +1,222 @@
+#include "sag_hand_tracker/energy/energy.h"
+
+#include <unsupported/Eigen/AutoDiff>
+
+#include "projection_impl.h"
+
+namespace sag_hand_tracker {
+namespace {
+
+// Forward-mode AD over the 9 inputs of a projection: mean (3) and unique covariance entries (6).
+using Derivatives9 = Eigen::Matrix<double, 9, 1>;
+using Dual = Eigen::AutoDiffScalar<Derivatives9>;
+
+// A model Gaussian projected into one camera, with the Jacobian of (mean_x, mean_y, cov_xx,
+// cov_xy, cov_yy) with respect to (mu_c, unique Sigma_c) when a gradient is wanted.
+struct ProjectionWithJacobian {
+  ProjectedGaussian projected;
+  Eigen::Matrix<double, 5, 9> jacobian;
+};
+
+void unique6(const Eigen::Matrix3d& cov, double* out) {
+  out[0] = cov(0, 0);
+  out[1] = cov(1, 1);
+  out[2] = cov(2, 2);
+  out[3] = cov(0, 1);
+  out[4] = cov(0, 2);
+  out[5] = cov(1, 2);
+}
+
+ProjectionWithJacobian projectInCamera(ProjectionMode mode, const Eigen::Vector3d& mean,
+                                       const Eigen::Matrix3d& cov, const Eigen::Matrix3d& K,
+                                       bool with_jacobian) {
+  ProjectionWithJacobian result;
+  double sigma[6];
+  unique6(cov, sigma);
+  if (!with_jacobian) {
+    const double mu[3] = {mean.x(), mean.y(), mean.z()};
+    detail::Projection2D<double> p;
+    const bool ok = mode == ProjectionMode::kPerspective
+                        ? detail::projectPerspectiveGeneric(mu, sigma, K, &p)
+                        : detail::projectScaledOrthographicGeneric(mu, sigma, K, &p);
+    if (!ok) return result;
+    result.projected.mean = Eigen::Vector2d(p.mean_x, p.mean_y);
+    result.projected.cov << p.cov_xx, p.cov_xy, p.cov_xy, p.cov_yy;
+    result.projected.valid = true;
+    return result;
+  }
+  Dual mu[3], sigma_dual[6];
+  for (int i = 0; i < 3; ++i) mu[i] = Dual(mean[i], 9, i);
+  for (int i = 0; i < 6; ++i) sigma_dual[i] = Dual(sigma[i], 9, 3 + i);
+  detail::Projection2D<Dual> p;
+  const bool ok = mode == ProjectionMode::kPerspective
+                      ? detail::projectPerspectiveGeneric(mu, sigma_dual, K, &p)
+                      : detail::projectScaledOrthographicGeneric(mu, sigma_dual, K, &p);
+  if (!ok) return result;
+  result.projected.mean = Eigen::Vector2d(p.mean_x.value(), p.mean_y.value());
+  result.projected.cov << p.cov_xx.value(), p.cov_xy.value(), p.cov_xy.value(), p.cov_yy.value();
+  result.projected.valid = true;
+  result.jacobian.row(0) = p.mean_x.derivatives().transpose();
+  result.jacobian.row(1) = p.mean_y.derivatives().transpose();
+  result.jacobian.row(2) = p.cov_xx.derivatives().transpose();
+  result.jacobian.row(3) = p.cov_xy.derivatives().transpose();
+  result.jacobian.row(4) = p.cov_yy.derivatives().transpose();
+  return result;
+}
+
+Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return m;
+}
+
+}  // namespace
+
+PoseEnergy::PoseEnergy(const HandModel& model, const EnergyParams& params)
+    : model_(model), params_(params), ancestor_dofs_(model.ancestorJointDofs()) {
+  validateHandModel(model_);
+}
+
+void PoseEnergy::setFrame(const std::vector<CameraObservation>& observations) {
+  cameras_.clear();
+  const size_t num_gaussians = model_.gaussians.size();
+  for (const CameraObservation& observation : observations) {
+    validateCamera(observation.camera);
+    FrameCamera camera;
+    camera.rotation = observation.camera.world_to_camera.linear();
+    camera.translation = observation.camera.world_to_camera.translation();
+    camera.K = observation.camera.K;
+    ImageGaussianArrays& q = camera.image_gaussians;
+    std::vector<const ImageGaussian*> kept;
+    double self_overlap_sum = 0.0;
+    for (const ImageGaussian& g : observation.sog.gaussians) {
+      if (!g.mean.allFinite() || !(g.sigma > 0.0) || !std::isfinite(g.sigma) ||
+          !g.hsv.allFinite()) {
+        continue;
+      }
+      kept.push_back(&g);
+      q.mean_x.push_back(g.mean.x());
+      q.mean_y.push_back(g.mean.y());
+      q.variance.push_back(g.sigma * g.sigma);
+      q.self_overlap.push_back(M_PI * g.sigma * g.sigma);  // E_qq: D_qq with d(c_q, c_q) = 1
+      self_overlap_sum += q.self_overlap.back();
+    }
+    // A camera that sees nothing carries no information: it is left out of the mean.
+    if (kept.empty()) continue;
+    camera.weights.resize(num_gaussians * kept.size());
+    for (size_t p = 0; p < num_gaussians; ++p) {
+      const double model_weight = model_.gaussians[p].weight * params_.model_weight;
+      for (size_t i = 0; i < kept.size(); ++i) {
+        camera.weights[p * kept.size() + i] =
+            model_weight * colourSimilarity(model_.gaussians[p].hsv, kept[i]->hsv, params_.colour);
+      }
+    }
+    camera.normaliser = 1.0 / self_overlap_sum;
+    cameras_.push_back(std::move(camera));
+  }
+}
+
+double PoseEnergy::evaluate(const Pose& pose, PoseVector* gradient, EnergyTerms* terms) const {
+  const PosedHand hand = forwardKinematics(model_, pose);
+  const size_t num_gaussians = model_.gaussians.size();
+  const bool with_gradient = gradient != nullptr;
+
+  // Gradient of E_sim with respect to each Gaussian's world mean and covariance (symmetric
+  // full-matrix form: dE = g_mean . d_mean + tr(G_cov d_cov)).
+  std::vector<Eigen::Vector3d> g_mean(num_gaussians, Eigen::Vector3d::Zero());
+  std::vector<Eigen::Matrix3d> g_cov(num_gaussians, Eigen::Matrix3d::Zero());
+  std::vector<ProjectionWithJacobian> projections(num_gaussians);
+  std::vector<OverlapTerm> overlap_terms(num_gaussians);
+  std::vector<double> weighted, active, sums;
+
+  double similarity = 0.0;
+  if (terms) terms->per_camera.assign(cameras_.size(), 0.0);
+  for (size_t c = 0; c < cameras_.size(); ++c) {
+    const FrameCamera& camera = cameras_[c];
+    const ImageGaussianArrays& q = camera.image_gaussians;
+    const int n = q.size();
+    weighted.assign(num_gaussians * n, 0.0);
+    sums.assign(n, 0.0);
+    for (size_t p = 0; p < num_gaussians; ++p) {
+      const Eigen::Vector3d mean = camera.rotation * hand.gaussians[p].mean + camera.translation;
+      const Eigen::Matrix3d cov =
+          camera.rotation * hand.gaussians[p].cov * camera.rotation.transpose();
+      projections[p] = projectInCamera(model_.projection, mean, cov, camera.K, with_gradient);
+      if (!projections[p].projected.valid) continue;  // contributes nothing in this camera
+      overlap_terms[p] = prepareOverlapTerm(projections[p].projected);
+      double* row = weighted.data() + p * n;
+      overlapRow(overlap_terms[p], q, camera.weights.data() + p * n, params_.max_mahalanobis_sq,
+                 row);
+      for (int i = 0; i < n; ++i) sums[i] += row[i];
+    }
+
+    // Paper eq. 8: sum over image Gaussians of min(sum_p w_p E_pq, E_qq). A saturated image
+    // Gaussian passes no gradient.
+    double camera_similarity = 0.0;
+    active.resize(n);
+    for (int i = 0; i < n; ++i) {
+      const bool saturated = sums[i] >= q.self_overlap[i];
+      camera_similarity += saturated ? q.self_overlap[i] : sums[i];
+      active[i] = saturated ? 0.0 : 1.0;
+    }
+    camera_similarity *= camera.normaliser;
+    similarity += camera_similarity;
+    if (terms) terms->per_camera[c] = camera_similarity;
+    if (!with_gradient) continue;
+
+    // Accumulate dE/d(mu_p, Sigma_p) over all image Gaussians, then chain once per (Gaussian,
+    // camera) through the projection (forward-mode Jacobian) and the camera rotation.
+    for (size_t p = 0; p < num_gaussians; ++p) {
+      if (!projections[p].projected.valid) continue;
+      Eigen::Matrix<double, 5, 1> g_projected = Eigen::Matrix<double, 5, 1>::Zero();
+      accumulateOverlapGradient(overlap_terms[p], q, weighted.data() + p * n, active.data(),
+                                g_projected.data());
+      const Eigen::Matrix<double, 9, 1> g_input =
+          projections[p].jacobian.transpose() * (g_projected * camera.normaliser);
+      const Eigen::Vector3d g_mean_camera = g_input.head<3>();
+      Eigen::Matrix3d g_cov_camera;
+      g_cov_camera << g_input[3], 0.5 * g_input[6], 0.5 * g_input[7],  //
+          0.5 * g_input[6], g_input[4], 0.5 * g_input[8],              //
+          0.5 * g_input[7], 0.5 * g_input[8], g_input[5];
+      g_mean[p] += camera.rotation.transpose() * g_mean_camera;
+      g_cov[p] += camera.rotation.transpose() * g_cov_camera * camera.rotation;
+    }
+  }
+
+  const double camera_count = cameras_.empty() ? 1.0 : static_cast<double>(cameras_.size());
+  similarity /= camera_count;
+  PoseVector limit_gradient;
+  const double penalty = limitPenalty(model_, pose, with_gradient ? &limit_gradient : nullptr);
+  const double total = similarity - params_.limit_weight * penalty;  // paper eq. 9
+
+  if (terms) {
+    terms->similarity = similarity;
+    terms->limit_penalty = penalty;
+    terms->total = total;
+    for (double& value : terms->per_camera) value /= camera_count;
+  }
+  if (!with_gradient) return total;
+
+  // Chain through the kinematics: each parameter moves a Gaussian rigidly (translation, or rotation
+  // about a world axis through a pivot).
+  gradient->setZero();
+  for (size_t p = 0; p < num_gaussians; ++p) {
+    const Eigen::Vector3d gm = g_mean[p] / camera_count;
+    const Eigen::Matrix3d gc = g_cov[p] / camera_count;
+    const WorldGaussian& world = hand.gaussians[p];
+    for (int i = 0; i < 3; ++i) (*gradient)[kRootTranslation + i] += gm[i];
+    auto add_rotation = [&](int parameter) {
+      const Eigen::Vector3d& axis = hand.dof_axis[parameter];
+      const Eigen::Vector3d d_mean = axis.cross(world.mean - hand.dof_pivot[parameter]);
+      const Eigen::Matrix3d axis_skew = skew(axis);
+      const Eigen::Matrix3d d_cov = axis_skew * world.cov - world.cov * axis_skew;
+      (*gradient)[parameter] += gm.dot(d_mean) + gc.cwiseProduct(d_cov).sum();
+    };
+    for (int i = 0; i < 3; ++i) add_rotation(kRootRotation + i);
+    for (int dof : ancestor_dofs_[model_.gaussians[p].bone]) add_rotation(kFirstJointDof + dof);
+  }
+  *gradient -= params_.limit_weight * limit_gradient;
+  return total;
+}
+
+}  // namespace sag_hand_tracker

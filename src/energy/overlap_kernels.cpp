@@ -1,0 +1,48 @@
+// The energy's pair loops over the image Gaussians of one camera, written for SIMD: this file is
+// compiled with -ffast-math (CMakeLists.txt) so that exp and sqrt vectorise (glibc's libmvec).
+// Inputs are finite by construction (PoseEnergy::setFrame filters them, invalid projections are
+// skipped), which is what -ffast-math assumes.
+#include "sag_hand_tracker/energy/overlap.h"
+
+namespace sag_hand_tracker {
+
+void overlapRow(const OverlapTerm& term, const ImageGaussianArrays& q, const double* weight,
+                double max_mahalanobis_sq, double* weighted_out) {
+  const int n = q.size();
+  const OverlapTerm p = term;  // a local copy: no aliasing with the output
+  const double* __restrict mean_x = q.mean_x.data();
+  const double* __restrict mean_y = q.mean_y.data();
+  const double* __restrict variance = q.variance.data();
+  double* __restrict weighted = weighted_out;
+  for (int i = 0; i < n; ++i) {
+    const OverlapGeometry g = overlapGeometry(p, mean_x[i], mean_y[i], variance[i]);
+    weighted[i] = weight[i] * overlapValue(p, g, variance[i], max_mahalanobis_sq);
+  }
+}
+
+void accumulateOverlapGradient(const OverlapTerm& term, const ImageGaussianArrays& q,
+                               const double* weighted, const double* active, double gradient[5]) {
+  const OverlapTerm p = term;
+  const int n = q.size();
+  const double* mean_x = q.mean_x.data();
+  const double* mean_y = q.mean_y.data();
+  const double* variance = q.variance.data();
+  double g0 = 0.0, g1 = 0.0, g2 = 0.0, g3 = 0.0, g4 = 0.0;
+#pragma omp simd reduction(+ : g0, g1, g2, g3, g4)
+  for (int i = 0; i < n; ++i) {
+    const OverlapGeometry geometry = overlapGeometry(p, mean_x[i], mean_y[i], variance[i]);
+    const OverlapGradient d = overlapGradient(p, geometry, weighted[i] * active[i]);
+    g0 += d.d_mean_x;
+    g1 += d.d_mean_y;
+    g2 += d.d_cov_xx;
+    g3 += d.d_cov_xy;
+    g4 += d.d_cov_yy;
+  }
+  gradient[0] += g0;
+  gradient[1] += g1;
+  gradient[2] += g2;
+  gradient[3] += g3;
+  gradient[4] += g4;
+}
+
+}  // namespace sag_hand_tracker

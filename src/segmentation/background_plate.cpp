@@ -1,0 +1,209 @@
+// Background plate, shadow test, dark-sleeve rejection and skin-colour gate (doc/design.md
+// section 3). See background_plate.h for the tests and their parameters.
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <string>
+
+#include "sag_hand_tracker/energy/colour.h"
+#include "sag_hand_tracker/segmentation/background_plate.h"
+#include "segmentation_internal.h"
+
+namespace sag_hand_tracker {
+
+bool isSkinColour(const Eigen::Vector3d& rgb, const SkinParams& params) {
+  const Hsv hsv = rgbToHsv(rgb[0], rgb[1], rgb[2]);
+  if (hsv[2] < params.value_min) return false;
+  if (hsv[1] < params.saturation_min || hsv[1] > params.saturation_max) return false;
+  // Circular hue range: the offset from hue_min, in [0, 360), must not exceed the range's width.
+  double offset = std::fmod(hsv[0] - params.hue_min_deg, 360.0);
+  if (offset < 0.0) offset += 360.0;
+  return offset <= params.hue_max_deg - params.hue_min_deg;
+}
+
+bool isDarkNonSkin(const Eigen::Vector3d& rgb, const BackgroundParams& params) {
+  const double max = rgb.maxCoeff();
+  const double min = rgb.minCoeff();
+  const double value = max / 255.0;
+  if (value < params.dark_max_value) return true;
+  const double saturation = max > 0.0 ? (max - min) / max : 0.0;
+  return value < params.sleeve_max_value && saturation < params.sleeve_max_saturation;
+}
+
+// ---- BackgroundPlate -------------------------------------------------------------------------
+
+BackgroundPlate::BackgroundPlate(int cell_size) { reset(cell_size); }
+
+void BackgroundPlate::reset(int cell_size) {
+  if (cell_size < 1 || (cell_size & (cell_size - 1)) != 0) {
+    throw InputError("BackgroundPlate: the cell size must be a power of two >= 1, got " +
+                     std::to_string(cell_size));
+  }
+  cell_size_ = cell_size;
+  width_ = height_ = cells_x_ = cells_y_ = frames_ = 0;
+  sum_.clear();
+  sum_sq_.clear();
+  cells_.clear();
+}
+
+void BackgroundPlate::addFrame(int width, int height, const std::vector<float>& cell_means) {
+  if (width <= 0 || height <= 0) throw InputError("BackgroundPlate: empty frame");
+  if (frames_ > 0 && (width != width_ || height != height_)) {
+    throw InputError("BackgroundPlate: the frame is " + std::to_string(width) + "x" +
+                     std::to_string(height) + " but the plate is " + std::to_string(width_) + "x" +
+                     std::to_string(height_));
+  }
+  const int cells_x = detail::cellCount(width, cell_size_);
+  const int cells_y = detail::cellCount(height, cell_size_);
+  const std::size_t values = static_cast<std::size_t>(cells_x) * cells_y * 3;
+  if (cell_means.size() != values) {
+    throw InputError("BackgroundPlate: expected " + std::to_string(values) +
+                     " cell mean values for a " + std::to_string(width) + "x" +
+                     std::to_string(height) + " frame, got " + std::to_string(cell_means.size()));
+  }
+  if (frames_ == 0) {
+    width_ = width;
+    height_ = height;
+    cells_x_ = cells_x;
+    cells_y_ = cells_y;
+    sum_.assign(values, 0.0);
+    sum_sq_.assign(values, 0.0);
+    cells_.assign(values / 3, Cell());
+  }
+  for (std::size_t i = 0; i < values; ++i) {
+    const double m = cell_means[i];
+    sum_[i] += m;
+    sum_sq_[i] += m * m;
+  }
+  ++frames_;
+  for (int cell = 0; cell < cells_x_ * cells_y_; ++cell) updateCell(cell);
+}
+
+void BackgroundPlate::updateCell(int cell) {
+  Cell& c = cells_[cell];
+  const double n = frames_;
+  double brightness = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    const double mean = sum_[3 * cell + k] / n;
+    const double variance = std::max(0.0, sum_sq_[3 * cell + k] / n - mean * mean);
+    c.mean[k] = static_cast<float>(mean);
+    c.spread[k] = static_cast<float>(std::sqrt(variance));
+    brightness += mean;
+  }
+  c.brightness = static_cast<float>(brightness);
+  for (int k = 0; k < 3; ++k) {
+    c.chroma[k] = brightness > 0.0 ? static_cast<float>(c.mean[k] / brightness) : 1.0f / 3.0f;
+  }
+}
+
+bool BackgroundPlate::isBackground(int cell, const float* rgb,
+                                   const BackgroundParams& params) const {
+  const Cell& p = cells_[cell];
+  double distance_sq = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    const double tolerance = std::max(params.k_sigma * p.spread[k], params.min_tolerance);
+    const double d = (rgb[k] - p.mean[k]) / tolerance;
+    distance_sq += d * d;
+  }
+  if (distance_sq <= 1.0) return true;
+  // Shadow: darker, same chromaticity.
+  if (p.brightness < params.shadow_min_plate_brightness) return false;
+  const double brightness = static_cast<double>(rgb[0]) + rgb[1] + rgb[2];
+  const double ratio = brightness / p.brightness;
+  if (ratio < params.shadow_min_ratio || ratio > 1.0 || brightness <= 0.0) return false;
+  for (int k = 0; k < 3; ++k) {
+    if (std::fabs(rgb[k] / brightness - p.chroma[k]) > params.shadow_chroma_tolerance) return false;
+  }
+  return true;
+}
+
+cv::Mat BackgroundPlate::mean() const {
+  cv::Mat out(cells_y_, cells_x_, CV_32FC3);
+  for (int cell = 0; cell < cells_x_ * cells_y_; ++cell) {
+    out.at<cv::Vec3f>(cell / cells_x_, cell % cells_x_) =
+        cv::Vec3f(cells_[cell].mean[0], cells_[cell].mean[1], cells_[cell].mean[2]);
+  }
+  return out;
+}
+
+cv::Mat BackgroundPlate::spread() const {
+  cv::Mat out(cells_y_, cells_x_, CV_32FC3);
+  for (int cell = 0; cell < cells_x_ * cells_y_; ++cell) {
+    out.at<cv::Vec3f>(cell / cells_x_, cell % cells_x_) =
+        cv::Vec3f(cells_[cell].spread[0], cells_[cell].spread[1], cells_[cell].spread[2]);
+  }
+  return out;
+}
+
+void BackgroundPlate::save(const std::string& path) const {
+  if (frames_ == 0) throw InputError("BackgroundPlate::save: the plate is empty (no frames)");
+  try {
+    cv::FileStorage fs(path, cv::FileStorage::WRITE);
+    if (!fs.isOpened()) throw InputError("BackgroundPlate::save: cannot write " + path);
+    fs << "sag_background_plate" << 1;
+    fs << "width" << width_ << "height" << height_ << "cell_size" << cell_size_;
+    fs << "frames" << frames_;
+    fs << "mean" << mean() << "spread" << spread();
+  } catch (const cv::Exception& e) {
+    throw InputError("BackgroundPlate::save: cannot write " + path + ": " + e.what());
+  }
+}
+
+void BackgroundPlate::load(const std::string& path) {
+  auto fail = [&path](const std::string& why) {
+    throw InputError("BackgroundPlate::load: " + path + ": " + why);
+  };
+  // Checked here so that OpenCV does not log its own error for a missing file.
+  if (!std::ifstream(path).good()) fail("cannot open the file");
+  int version = 0, width = 0, height = 0, cell_size = 0, frames = 0;
+  cv::Mat mean, spread;
+  try {
+    cv::FileStorage fs(path, cv::FileStorage::READ);
+    if (!fs.isOpened()) fail("cannot open the file");
+    if (fs["sag_background_plate"].empty()) fail("not a background plate file");
+    fs["sag_background_plate"] >> version;
+    fs["width"] >> width;
+    fs["height"] >> height;
+    fs["cell_size"] >> cell_size;
+    fs["frames"] >> frames;
+    fs["mean"] >> mean;
+    fs["spread"] >> spread;
+  } catch (const cv::Exception& e) {
+    fail(std::string("unreadable: ") + e.what());
+  }
+  if (version != 1) fail("unsupported version " + std::to_string(version));
+  if (width <= 0 || height <= 0) fail("bad image size");
+  if (cell_size < 1 || (cell_size & (cell_size - 1)) != 0) fail("bad cell size");
+  if (frames < 1) fail("bad frame count");
+  const int cells_x = detail::cellCount(width, cell_size);
+  const int cells_y = detail::cellCount(height, cell_size);
+  if (mean.type() != CV_32FC3 || spread.type() != CV_32FC3 || mean.rows != cells_y ||
+      mean.cols != cells_x || spread.size() != mean.size()) {
+    fail("mean/spread are not " + std::to_string(cells_y) + "x" + std::to_string(cells_x) +
+         " CV_32FC3 matrices");
+  }
+  // Rebuild the running sums so that more frames can be added to a loaded plate.
+  BackgroundPlate plate(cell_size);
+  plate.width_ = width;
+  plate.height_ = height;
+  plate.cells_x_ = cells_x;
+  plate.cells_y_ = cells_y;
+  plate.frames_ = frames;
+  const std::size_t cells = static_cast<std::size_t>(cells_x) * cells_y;
+  plate.sum_.resize(3 * cells);
+  plate.sum_sq_.resize(3 * cells);
+  plate.cells_.resize(cells);
+  for (std::size_t cell = 0; cell < cells; ++cell) {
+    const cv::Vec3f& m = mean.at<cv::Vec3f>(cell / cells_x, cell % cells_x);
+    const cv::Vec3f& s = spread.at<cv::Vec3f>(cell / cells_x, cell % cells_x);
+    for (int k = 0; k < 3; ++k) {
+      plate.sum_[3 * cell + k] = frames * static_cast<double>(m[k]);
+      plate.sum_sq_[3 * cell + k] =
+          frames * (static_cast<double>(s[k]) * s[k] + static_cast<double>(m[k]) * m[k]);
+    }
+    plate.updateCell(static_cast<int>(cell));
+  }
+  *this = std::move(plate);
+}
+
+}  // namespace sag_hand_tracker

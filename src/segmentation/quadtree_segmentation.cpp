@@ -1,0 +1,475 @@
+// Quad-tree clustering of an RGB image into an image SoG (paper section 4.1) and the
+// ImageSegmenter entry point. See segmentation.h for the method and its parameters.
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <string>
+
+#include "sag_hand_tracker/energy/colour.h"
+#include "sag_hand_tracker/segmentation/quadtree_segmentation.h"
+#include "segmentation_internal.h"
+
+namespace sag_hand_tracker {
+
+namespace detail {
+
+void ColourIntegral::compute(const cv::Mat& rgb, int grid_step) {
+  width = rgb.cols;
+  height = rgb.rows;
+  step = grid_step;
+  cols = (width + step - 1) / step + 1;
+  rows = (height + step - 1) / step + 1;
+  const std::size_t row_entries = static_cast<std::size_t>(cols) * kLanes;
+  data.resize(static_cast<std::size_t>(rows) * row_entries);
+  std::fill(data.begin(), data.begin() + row_entries, 0u);
+  const int elements = 3 * width;
+  column_sum.resize(elements);
+  column_sum_sq.resize(elements);
+  std::uint16_t* sum = column_sum.data();
+  std::uint32_t* sum_sq = column_sum_sq.data();
+  for (int j = 1; j < rows; ++j) {
+    // Vertical pass over the band of rows [(j - 1) step, min(j step, height)): element-wise on the
+    // interleaved R,G,B bytes, which the compiler vectorises. 256 rows of 255 fit in 16 bits.
+    const int y0 = (j - 1) * step, y1 = std::min(j * step, height);
+    {
+      const std::uint8_t* src = rgb.ptr<std::uint8_t>(y0);
+      for (int e = 0; e < elements; ++e) {
+        const std::uint32_t v = src[e];
+        sum[e] = static_cast<std::uint16_t>(v);
+        sum_sq[e] = v * v;
+      }
+    }
+    for (int y = y0 + 1; y < y1; ++y) {
+      const std::uint8_t* src = rgb.ptr<std::uint8_t>(y);
+      for (int e = 0; e < elements; ++e) {
+        const std::uint32_t v = src[e];
+        sum[e] = static_cast<std::uint16_t>(sum[e] + v);
+        sum_sq[e] += v * v;
+      }
+    }
+    // Horizontal pass: block sums, running along the row, plus the entry above.
+    const std::uint32_t* above = data.data() + (j - 1) * row_entries;
+    std::uint32_t* out = data.data() + j * row_entries;
+    std::uint32_t acc[kLanes] = {0, 0, 0, 0, 0, 0, 0, 0};
+    for (int k = 0; k < kLanes; ++k) out[k] = 0;
+    for (int i = 1; i < cols; ++i) {
+      const int x0 = (i - 1) * step, x1 = std::min(i * step, width);
+      for (int x = x0; x < x1; ++x) {
+        for (int c = 0; c < 3; ++c) {
+          acc[c] += sum[3 * x + c];
+          acc[3 + c] += sum_sq[3 * x + c];
+        }
+      }
+      const std::uint32_t* up = above + i * kLanes;
+      std::uint32_t* o = out + i * kLanes;
+      for (int k = 0; k < kLanes; ++k) o[k] = up[k] + acc[k];
+    }
+  }
+}
+
+void cellMeans(const ColourIntegral& integral, int cell_size, std::vector<float>& means) {
+  const int cells_x = cellCount(integral.width, cell_size);
+  const int cells_y = cellCount(integral.height, cell_size);
+  means.resize(static_cast<std::size_t>(cells_x) * cells_y * 3);
+  float* m = means.data();
+  std::uint32_t s[6];
+  for (int cy = 0; cy < cells_y; ++cy) {
+    const int y0 = cy * cell_size, y1 = std::min(y0 + cell_size, integral.height);
+    for (int cx = 0; cx < cells_x; ++cx) {
+      const int x0 = cx * cell_size, x1 = std::min(x0 + cell_size, integral.width);
+      integral.region(x0, y0, x1, y1, s);
+      const float inv_n = 1.0f / static_cast<float>((x1 - x0) * (y1 - y0));
+      *m++ = static_cast<float>(s[0]) * inv_n;
+      *m++ = static_cast<float>(s[1]) * inv_n;
+      *m++ = static_cast<float>(s[2]) * inv_n;
+    }
+  }
+}
+
+}  // namespace detail
+
+namespace {
+
+using detail::ColourIntegral;
+
+bool isPowerOfTwo(int v) { return v > 0 && (v & (v - 1)) == 0; }
+
+// Scratch buffers of segment(), one set per thread: large buffers are reused instead of being
+// allocated (and page-faulted in) for every image.
+struct Workspace {
+  ColourIntegral integral;
+  std::vector<float> cell_means;
+  std::vector<unsigned char> mask;
+  std::vector<unsigned char> mask_tmp;
+  std::vector<int> mask_integral;
+};
+
+Workspace& workspace() {
+  thread_local Workspace ws;
+  return ws;
+}
+
+// The foreground cells seen by the quad-tree (absent: everything is foreground).
+struct CellMask {
+  const unsigned char* cells = nullptr;
+  const int* integral = nullptr;  // (cells_y + 1) x (cells_x + 1)
+  int cells_x = 0;
+  int cells_y = 0;
+  int cell_size = 1;
+
+  // Foreground cells and all cells touched by the node at (x, y) of side s (clipped to the image).
+  void count(int x, int y, int s, int& foreground, int& total) const {
+    if (s <= cell_size) {  // nodes and cells are aligned powers of two: inside one cell
+      foreground = cells[(y / cell_size) * cells_x + x / cell_size];
+      total = 1;
+      return;
+    }
+    const int cx0 = x / cell_size, cy0 = y / cell_size;
+    const int cx1 = std::min(cx0 + s / cell_size, cells_x);
+    const int cy1 = std::min(cy0 + s / cell_size, cells_y);
+    const int stride = cells_x + 1;
+    foreground = integral[cy1 * stride + cx1] - integral[cy0 * stride + cx1] -
+                 integral[cy1 * stride + cx0] + integral[cy0 * stride + cx0];
+    total = (cx1 - cx0) * (cy1 - cy0);
+  }
+};
+
+class Quadtree {
+ public:
+  Quadtree(const ColourIntegral& integral, const QuadtreeParams& params, const CellMask* mask,
+           ImageSoG& sog, std::vector<QuadtreeLeaf>* leaves)
+      : integral_(integral),
+        params_(params),
+        mask_(mask),
+        sog_(sog),
+        leaves_(leaves),
+        max_variance_(params.max_colour_std * params.max_colour_std) {}
+
+  void run() {
+    const int root = params_.max_leaf_size;
+    for (int y = 0; y < integral_.height; y += root) {
+      for (int x = 0; x < integral_.width; x += root) visit(x, y, root);
+    }
+  }
+
+ private:
+  void visit(int x, int y, int s) {
+    if (x >= integral_.width || y >= integral_.height) return;
+    const int x1 = std::min(x + s, integral_.width);
+    const int y1 = std::min(y + s, integral_.height);
+    const bool can_split = s > params_.min_leaf_size;
+    bool split = can_split && (x1 - x < s || y1 - y < s);  // clipped by the border
+    if (mask_ != nullptr) {
+      int foreground = 0, total = 0;
+      mask_->count(x, y, s, foreground, total);
+      if (foreground == 0) return;
+      if (foreground < total) {
+        if (can_split) {
+          split = true;
+        } else if (2 * foreground < total) {
+          return;  // a smallest leaf that is mostly background
+        }
+      }
+    }
+    std::uint32_t sums[6];
+    integral_.region(x, y, x1, y1, sums);
+    const int n = (x1 - x) * (y1 - y);
+    const double inv_n = 1.0 / n;
+    double mean[3];
+    for (int k = 0; k < 3; ++k) mean[k] = sums[k] * inv_n;
+    if (!split && can_split) {
+      for (int k = 0; k < 3; ++k) {
+        if (sums[3 + k] * inv_n - mean[k] * mean[k] > max_variance_) {
+          split = true;
+          break;
+        }
+      }
+    }
+    if (split) {
+      const int h = s / 2;
+      visit(x, y, h);
+      visit(x + h, y, h);
+      visit(x, y + h, h);
+      visit(x + h, y + h, h);
+      return;
+    }
+    emit(x, y, x1 - x, y1 - y, mean);
+  }
+
+  void emit(int x, int y, int w, int h, const double mean[3]) {
+    ImageGaussian g;
+    g.mean = Eigen::Vector2d(x + 0.5 * (w - 1), y + 0.5 * (h - 1));
+    g.sigma = params_.sigma_per_leaf_size * (w == h ? w : std::sqrt(static_cast<double>(w) * h));
+    g.hsv = rgbToHsv(mean[0], mean[1], mean[2]);
+    sog_.gaussians.push_back(g);
+    if (leaves_ != nullptr) {
+      QuadtreeLeaf leaf;
+      leaf.x = x;
+      leaf.y = y;
+      leaf.width = w;
+      leaf.height = h;
+      leaf.rgb = Eigen::Vector3d(mean[0], mean[1], mean[2]);
+      leaves_->push_back(leaf);
+    }
+  }
+
+  const ColourIntegral& integral_;
+  const QuadtreeParams& params_;
+  const CellMask* mask_;
+  ImageSoG& sog_;
+  std::vector<QuadtreeLeaf>* leaves_;
+  double max_variance_;
+};
+
+ImageSoG runQuadtree(const ColourIntegral& integral, const QuadtreeParams& params,
+                     const CellMask* mask, std::vector<QuadtreeLeaf>* leaves) {
+  ImageSoG sog;
+  sog.width = integral.width;
+  sog.height = integral.height;
+  sog.gaussians.reserve(1024);
+  if (leaves != nullptr) leaves->clear();
+  Quadtree(integral, params, mask, sog, leaves).run();
+  return sog;
+}
+
+// Drops foreground cells without a foreground 8-neighbour. tmp: scratch of the same size.
+void removeIsolatedCells(std::vector<unsigned char>& mask, std::vector<unsigned char>& tmp,
+                         int cells_x, int cells_y) {
+  tmp = mask;
+  for (int cy = 0; cy < cells_y; ++cy) {
+    for (int cx = 0; cx < cells_x; ++cx) {
+      if (!tmp[cy * cells_x + cx]) continue;
+      bool neighbour = false;
+      for (int dy = -1; dy <= 1 && !neighbour; ++dy) {
+        const int ny = cy + dy;
+        if (ny < 0 || ny >= cells_y) continue;
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int nx = cx + dx;
+          if ((dx == 0 && dy == 0) || nx < 0 || nx >= cells_x) continue;
+          if (tmp[ny * cells_x + nx]) {
+            neighbour = true;
+            break;
+          }
+        }
+      }
+      if (!neighbour) mask[cy * cells_x + cx] = 0;
+    }
+  }
+}
+
+}  // namespace
+
+const char* toString(SegmentationMode mode) {
+  switch (mode) {
+    case SegmentationMode::kNone:
+      return "none";
+    case SegmentationMode::kPlate:
+      return "plate";
+    case SegmentationMode::kSkin:
+      return "skin";
+    case SegmentationMode::kPlateAndSkin:
+      return "plate_and_skin";
+  }
+  return "unknown";
+}
+
+SegmentationMode parseSegmentationMode(const std::string& name) {
+  for (SegmentationMode mode : {SegmentationMode::kNone, SegmentationMode::kPlate,
+                                SegmentationMode::kSkin, SegmentationMode::kPlateAndSkin}) {
+    if (name == toString(mode)) return mode;
+  }
+  throw InputError("unknown segmentation mode '" + name +
+                   "' (expected none, plate, skin or plate_and_skin)");
+}
+
+void checkRgbImage(const cv::Mat& rgb, const char* what) {
+  if (rgb.empty()) throw InputError(std::string(what) + ": the image is empty");
+  if (rgb.type() != CV_8UC3) {
+    throw InputError(std::string(what) + ": expected an 8-bit 3-channel RGB image (CV_8UC3), got " +
+                     cv::typeToString(rgb.type()));
+  }
+  if (rgb.dims != 2) throw InputError(std::string(what) + ": expected a 2-dimensional image");
+}
+
+void validate(const SegmentationParams& params) {
+  auto fail = [](const std::string& message) {
+    throw InputError("bad segmentation parameter: " + message);
+  };
+  const QuadtreeParams& q = params.quadtree;
+  if (!isPowerOfTwo(q.min_leaf_size)) fail("quadtree.min_leaf_size must be a power of two >= 1");
+  if (!isPowerOfTwo(q.max_leaf_size) || q.max_leaf_size < q.min_leaf_size ||
+      q.max_leaf_size > 128) {
+    fail("quadtree.max_leaf_size must be a power of two in [min_leaf_size, 128]");
+  }
+  if (!(q.max_colour_std >= 0.0)) fail("quadtree.max_colour_std must be >= 0");
+  if (!(q.sigma_per_leaf_size > 0.0)) fail("quadtree.sigma_per_leaf_size must be > 0");
+  if (!isPowerOfTwo(params.cell_size) || params.cell_size > 64) {
+    fail("cell_size must be a power of two in [1, 64]");
+  }
+  const BackgroundParams& b = params.background;
+  if (b.frames < 1) fail("background.frames must be >= 1");
+  if (!(b.k_sigma >= 0.0)) fail("background.k_sigma must be >= 0");
+  if (!(b.min_tolerance > 0.0)) fail("background.min_tolerance must be > 0");
+  if (!(b.shadow_min_ratio >= 0.0 && b.shadow_min_ratio <= 1.0)) {
+    fail("background.shadow_min_ratio must be in [0, 1]");
+  }
+  if (!(b.shadow_chroma_tolerance >= 0.0)) fail("background.shadow_chroma_tolerance must be >= 0");
+  if (!(b.shadow_min_plate_brightness >= 0.0)) {
+    fail("background.shadow_min_plate_brightness must be >= 0");
+  }
+  const SkinParams& s = params.skin;
+  if (!(s.hue_max_deg > s.hue_min_deg && s.hue_max_deg - s.hue_min_deg <= 360.0)) {
+    fail("skin.hue_min_deg < skin.hue_max_deg <= skin.hue_min_deg + 360 is required");
+  }
+  if (!(s.saturation_min <= s.saturation_max)) fail("skin.saturation_min > skin.saturation_max");
+}
+
+ImageSoG quadtreeSegment(const cv::Mat& rgb, const QuadtreeParams& params,
+                         std::vector<QuadtreeLeaf>* leaves) {
+  checkRgbImage(rgb, "quadtreeSegment");
+  SegmentationParams all;
+  all.quadtree = params;
+  validate(all);
+  Workspace& ws = workspace();
+  ws.integral.compute(rgb, params.min_leaf_size);
+  return runQuadtree(ws.integral, params, nullptr, leaves);
+}
+
+// ---- ImageSegmenter ---------------------------------------------------------------------------
+
+ImageSegmenter::ImageSegmenter(const SegmentationParams& params) : params_(params) {
+  validate(params_);
+  plate_.reset(params_.cell_size);
+}
+
+void ImageSegmenter::setParams(const SegmentationParams& params) {
+  validate(params);
+  if (params.cell_size != plate_.cellSize()) plate_.reset(params.cell_size);
+  params_ = params;
+}
+
+void ImageSegmenter::addBackgroundFrame(const cv::Mat& rgb) {
+  checkRgbImage(rgb, "addBackgroundFrame");
+  if (plate_.frameCount() > 0 && (rgb.cols != plate_.width() || rgb.rows != plate_.height())) {
+    throw InputError("addBackgroundFrame: the image is " + std::to_string(rgb.cols) + "x" +
+                     std::to_string(rgb.rows) + " but the background plate is " +
+                     std::to_string(plate_.width()) + "x" + std::to_string(plate_.height()));
+  }
+  Workspace& ws = workspace();
+  ws.integral.compute(rgb, params_.cell_size);
+  detail::cellMeans(ws.integral, params_.cell_size, ws.cell_means);
+  plate_.addFrame(rgb.cols, rgb.rows, ws.cell_means);
+}
+
+bool ImageSegmenter::backgroundReady() const {
+  return plate_.frameCount() >= params_.background.frames;
+}
+
+void ImageSegmenter::resetBackground() { plate_.reset(params_.cell_size); }
+
+void ImageSegmenter::saveBackground(const std::string& path) const { plate_.save(path); }
+
+void ImageSegmenter::loadBackground(const std::string& path) {
+  BackgroundPlate loaded;
+  loaded.load(path);
+  if (loaded.cellSize() != params_.cell_size) {
+    throw InputError("loadBackground: " + path + " has cell size " +
+                     std::to_string(loaded.cellSize()) + " but the segmenter uses cell_size " +
+                     std::to_string(params_.cell_size));
+  }
+  plate_ = loaded;
+}
+
+SegmentationMode ImageSegmenter::effectiveMode() const {
+  const SegmentationMode mode = params_.mode;
+  if ((mode == SegmentationMode::kPlate || mode == SegmentationMode::kPlateAndSkin) &&
+      !backgroundReady()) {
+    return SegmentationMode::kSkin;
+  }
+  return mode;
+}
+
+namespace {
+
+// Computes the integral image and, unless the mode is none, the cell mask; returns whether a
+// mask applies.
+bool prepare(const cv::Mat& rgb, const SegmentationParams& params, SegmentationMode mode,
+             const BackgroundPlate& plate, const char* what, Workspace& ws, CellMask& mask) {
+  checkRgbImage(rgb, what);
+  const bool use_plate =
+      mode == SegmentationMode::kPlate || mode == SegmentationMode::kPlateAndSkin;
+  const bool use_skin = mode == SegmentationMode::kSkin || mode == SegmentationMode::kPlateAndSkin;
+  if (use_plate && (rgb.cols != plate.width() || rgb.rows != plate.height())) {
+    throw InputError(std::string(what) + ": the image is " + std::to_string(rgb.cols) + "x" +
+                     std::to_string(rgb.rows) + " but the background plate was learned at " +
+                     std::to_string(plate.width()) + "x" + std::to_string(plate.height()));
+  }
+  ws.integral.compute(rgb, std::min(params.quadtree.min_leaf_size, params.cell_size));
+  if (mode == SegmentationMode::kNone) return false;
+
+  const int cell_size = params.cell_size;
+  const int cells_x = detail::cellCount(rgb.cols, cell_size);
+  const int cells_y = detail::cellCount(rgb.rows, cell_size);
+  const int cells = cells_x * cells_y;
+  detail::cellMeans(ws.integral, cell_size, ws.cell_means);
+  ws.mask.resize(cells);
+  for (int i = 0; i < cells; ++i) {
+    const float* c = &ws.cell_means[3 * i];
+    bool foreground = true;
+    if (use_plate) {
+      foreground = !plate.isBackground(i, c, params.background) &&
+                   !isDarkNonSkin(Eigen::Vector3d(c[0], c[1], c[2]), params.background);
+    }
+    if (foreground && use_skin) {
+      foreground = isSkinColour(Eigen::Vector3d(c[0], c[1], c[2]), params.skin);
+    }
+    ws.mask[i] = foreground ? 1 : 0;
+  }
+  if (params.remove_isolated_cells) removeIsolatedCells(ws.mask, ws.mask_tmp, cells_x, cells_y);
+
+  const int stride = cells_x + 1;
+  ws.mask_integral.assign(static_cast<std::size_t>(stride) * (cells_y + 1), 0);
+  for (int cy = 0; cy < cells_y; ++cy) {
+    int row = 0;
+    for (int cx = 0; cx < cells_x; ++cx) {
+      row += ws.mask[cy * cells_x + cx];
+      ws.mask_integral[(cy + 1) * stride + cx + 1] = ws.mask_integral[cy * stride + cx + 1] + row;
+    }
+  }
+  mask.cells = ws.mask.data();
+  mask.integral = ws.mask_integral.data();
+  mask.cells_x = cells_x;
+  mask.cells_y = cells_y;
+  mask.cell_size = cell_size;
+  return true;
+}
+
+}  // namespace
+
+ImageSoG ImageSegmenter::segment(const cv::Mat& rgb, std::vector<QuadtreeLeaf>* leaves) const {
+  Workspace& ws = workspace();
+  CellMask mask;
+  const bool masked = prepare(rgb, params_, effectiveMode(), plate_, "segment", ws, mask);
+  return runQuadtree(ws.integral, params_.quadtree, masked ? &mask : nullptr, leaves);
+}
+
+cv::Mat ImageSegmenter::foregroundMask(const cv::Mat& rgb) const {
+  Workspace& ws = workspace();
+  CellMask mask;
+  const bool masked = prepare(rgb, params_, effectiveMode(), plate_, "foregroundMask", ws, mask);
+  cv::Mat out(rgb.rows, rgb.cols, CV_8UC1, cv::Scalar(masked ? 0 : 255));
+  if (!masked) return out;
+  const int c = mask.cell_size;
+  for (int y = 0; y < rgb.rows; ++y) {
+    const unsigned char* cells = mask.cells + (y / c) * mask.cells_x;
+    unsigned char* row = out.ptr<unsigned char>(y);
+    for (int cx = 0; cx < mask.cells_x; ++cx) {
+      if (!cells[cx]) continue;
+      const int x0 = cx * c;
+      std::fill(row + x0, row + std::min(x0 + c, rgb.cols), static_cast<unsigned char>(255));
+    }
+  }
+  return out;
+}
+
+}  // namespace sag_hand_tracker
