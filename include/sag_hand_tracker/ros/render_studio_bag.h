@@ -28,7 +28,9 @@ struct RenderBagOptions {
   int motion_blur = 1;                // --motion-blur N sub-frames (1: none)
   double exposure = 0.010;            // --exposure SECONDS (motion blur)
   double noise = 2.0;                 // --noise SIGMA (8-bit levels)
-  double hand_scale = 1.0;            // --hand-scale S
+  double hand_scale = 1.0;            // --hand-scale S (on top of the shape's scale)
+  std::string shape = "default";      // --shape NAME|FILE (config/hand_shapes.yaml)
+  bool bare_forearm = false;          // --bare-forearm: no sleeve up to the elbow region
   std::string preview;                // --preview PNG: contact sheet of one frame
   int preview_frame = -1;             // --preview-frame N (default: the middle frame)
   double start_stamp = 1400000000.0;  // --start-stamp SECONDS of the first frame
@@ -48,6 +50,8 @@ std::string renderConfigDir(const std::string& config_dir);
 
 struct RenderBagSummary {
   std::string sequence;        // the motion's name
+  std::string shape;           // the hand shape's name
+  bool bare_forearm = false;   // rendered with a bare forearm
   std::string bag;
   std::string gt_csv;
   std::string preview;         // empty: none
