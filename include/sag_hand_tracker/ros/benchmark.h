@@ -45,11 +45,6 @@ struct BenchmarkOptions {
   std::string config_dir;                    // --config-dir DIR (default: the package's config/)
   bool plots = true;                         // --no-plots
   bool help = false;
-};  // --models sag,sog (or model files)
-  bool rerender = false;   // --rerender (default --reuse: keep matching bags)
-  std::string config_dir;  // --config-dir DIR (default: the package's config/)
-  bool plots = true;       // --no-plots
-  bool help = false;
 };
 
 // The seven sequences of Dexter 1, in the paper's order, then issue 9's harder ones (raised,
@@ -89,12 +84,6 @@ struct ErrorStats {
   double mean_mm = 0.0;  // over the tracked frames (NaN if none)
   double sd_mm = 0.0;    // over the tracked frames (NaN if none)
   std::array<double, 5> percent_below{};  // errorBoundsMm(), over all frames
-  // Over the tracked frames with root parameters (NaN if none), see the file comment.
-  int oriented_frames = 0;
-  double reversed_pct = std::numeric_limits<double>::quiet_NaN();
-  double rolled_pct = std::numeric_limits<double>::quiet_NaN();
-  double wrist_mean_mm = std::numeric_limits<double>::quiet_NaN();
-};  // errorBoundsMm(), over all frames
   // Over the tracked frames with root parameters (NaN if none), see the file comment.
   int oriented_frames = 0;
   double reversed_pct = std::numeric_limits<double>::quiet_NaN();
