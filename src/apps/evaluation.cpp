@@ -14,12 +14,16 @@
 #include <sstream>
 
 #include "sag_hand_tracker/apps/csv.h"
+#include "sag_hand_tracker/model/hand_model.h"
 #include "sag_hand_tracker/apps/metrics.h"
 #include "sag_hand_tracker/apps/plot.h"
-#include "sag_hand_tracker/apps/render_runner.h"
+#include "sag_hand_tracker/model/pose.h"
 #include "sag_hand_tracker/ros/bag_input.h"
-#include "sag_hand_tracker/util/timing.h"
+#include "sag_hand_tracker/apps/render_runner.h"
+#include "sag_hand_tracker/studio/hand_shapes.h"
+#include "sag_hand_tracker/studio/motion.h"
 #include "sag_hand_tracker/util/types.h"
+#include "sag_hand_tracker/util/timing.h"
 
 namespace sag_hand_tracker {
 namespace {
@@ -57,16 +61,42 @@ std::string cameraList(const std::vector<int>& cameras) {
 // ---- bags ---------------------------------------------------------------------------------------
 
 struct SequenceBag {
-  std::string name;
+  std::string name;   // the sequence (motion file stem)
+  std::string shape;  // the hand shape
   std::string bag;
   std::string gt_csv;
+  bool rendered = false;  // by this run (not reused)
 };
 
+// File stem of a sequence on a shape: the sequence alone for the default hand (the names of the
+// benchmark before issue 9), `<sequence>__<shape>` otherwise.
+std::string runStem(const std::string& sequence, const std::string& shape) {
+  return shape == "default" ? sequence : sequence + "__" + shape;
+}
+
+std::string describeShape(const studio::StudioHand& hand) {
+  std::ostringstream out;
+  out.precision(9);
+  const studio::HandShape& s = hand.shape;
+  out << "shape " << hand.name << " scale " << s.scale << " palm " << s.palm_width << " "
+      << s.palm_length << " thickness " << s.thickness << " fingers";
+  for (int f = 0; f < kNumFingers; ++f) {
+    out << " " << s.finger_length[f];
+    for (double p : s.phalanx_length[f]) out << "/" << p;
+  }
+  out << " skin";
+  for (const Eigen::Vector3f* c : {&hand.skin.dorsal, &hand.skin.palmar, &hand.skin.nail}) {
+    out << " " << c->x() << "," << c->y() << "," << c->z();
+  }
+  return out.str();
+}
+
 // What a bag was rendered with; a bag is reused only when this matches.
-std::string renderStamp(const RenderBagOptions& render) {
+std::string renderStamp(const RenderBagOptions& render, const studio::StudioHand& hand) {
   std::ostringstream out;
   out << "sequence " << render.sequence << "\nrig " << render.rig << "\nframes " << render.frames
-      << "\nseed " << render.seed << "\nfps " << render.fps << "\n";
+      << "\nseed " << render.seed << "\nfps " << render.fps << "\n"
+      << describeShape(hand) << "\n";
   return out.str();
 }
 
@@ -78,11 +108,13 @@ std::string readFile(const std::string& path) {
 }
 
 SequenceBag prepareBag(const BenchmarkOptions& options, const std::string& sequence,
-                       std::ostream& log) {
+                       const studio::StudioHand& hand, std::ostream& log) {
   const fs::path dir = fs::path(options.out_dir) / "bags";
   fs::create_directories(dir);
-  const std::string stem = fs::path(sequence).stem().string();
-  SequenceBag bag{stem, (dir / (stem + ".bag")).string(), (dir / (stem + "_gt.csv")).string()};
+  const std::string seq = fs::path(sequence).stem().string();
+  const std::string stem = runStem(seq, hand.name);
+  SequenceBag bag{seq, hand.name, (dir / (stem + ".bag")).string(),
+                  (dir / (stem + "_gt.csv")).string()};
   const std::string stamp_path = (dir / (stem + ".render.txt")).string();
 
   RenderBagOptions render;
@@ -93,7 +125,9 @@ SequenceBag prepareBag(const BenchmarkOptions& options, const std::string& seque
   render.config_dir = options.config_dir;
   render.frames = options.frames;
   render.quiet = true;
-  const std::string stamp = renderStamp(render);
+  // The benchmark's shapes come from the config's list; a shape file would do as well.
+  render.shape = hand.name;
+  const std::string stamp = renderStamp(render, hand);
   if (!options.rerender && fs::exists(bag.bag) && fs::exists(bag.gt_csv) &&
       fs::exists(stamp_path) && readFile(stamp_path) == stamp) {
     log << "benchmark: reusing " << bag.bag << "\n" << std::flush;
@@ -102,9 +136,10 @@ SequenceBag prepareBag(const BenchmarkOptions& options, const std::string& seque
   fs::remove(stamp_path);
   const RenderBagSummary summary = renderStudioBag(render, nullptr);
   std::ofstream(stamp_path) << stamp;
-  log << "benchmark: rendered " << summary.sequence << ": " << summary.frames << " frames x "
-      << summary.cameras << " cameras in " << fixed(summary.total_seconds, 1) << " s -> " << bag.bag
-      << "\n"
+  bag.rendered = true;
+  log << "benchmark: rendered " << summary.sequence << " (hand " << hand.name
+      << "): " << summary.frames << " frames x " << summary.cameras << " cameras in "
+      << fixed(summary.total_seconds, 1) << " s -> " << bag.bag << "\n"
       << std::flush;
   return bag;
 }
@@ -124,12 +159,17 @@ BenchmarkRun trackRun(const BenchmarkOptions& options, const SequenceBag& bag,
   track.quiet = true;
   const TrackBagSummary summary = trackBag(track, nullptr, nullptr);
 
+  const std::string config = packageConfigDir(options.config_dir);
+  const Eigen::Vector3d forward =
+      middleKnuckleDirection(loadHandModel(resolveModelPath(model, config)));
+
   BenchmarkRun run;
   run.sequence = bag.name;
+  run.shape = bag.shape;
   run.tracker = trackerLabel(model);
   run.cameras = cameras;
-  run.errors = matchToGroundTruth(bag.gt_csv, out_csv);
-  run.stats = errorStats(run.errors.errors_mm);
+  run.errors = matchToGroundTruth(bag.gt_csv, out_csv, forward);
+  run.stats = errorStats(run.errors);
   run.fps = summary.pipelineFps();
   run.pipeline_frames = summary.frames - summary.background_frames;
   run.pipeline_seconds = summary.pipeline_seconds;
@@ -140,9 +180,12 @@ BenchmarkRun trackRun(const BenchmarkOptions& options, const SequenceBag& bag,
 
 std::string runLine(const BenchmarkRun& run) {
   std::ostringstream out;
-  out << run.sequence << " " << run.tracker << " (cameras " << cameraList(run.cameras)
-      << "): " << fixed(run.stats.mean_mm, 1) << " mm mean, " << run.stats.failed << "/"
-      << run.stats.frames << " failed, " << fixed(run.fps, 0) << " fps";
+  out << run.sequence << " " << run.shape << " " << run.tracker << " (cameras "
+      << cameraList(run.cameras) << "): " << fixed(run.stats.mean_mm, 1) << " mm mean, "
+      << run.stats.failed << "/" << run.stats.frames << " failed, reversed "
+      << fixed(run.stats.reversed_pct, 1) << " %, rolled over " << fixed(run.stats.rolled_pct, 1)
+      << " %, wrist " << fixed(run.stats.wrist_mean_mm, 1) << " mm, " << fixed(run.fps, 0)
+      << " fps";
   return out.str();
 }
 
@@ -158,11 +201,11 @@ struct Pooled {
 
 Pooled pool(const std::vector<const BenchmarkRun*>& runs) {
   Pooled pooled;
-  std::vector<double> errors;
+  RunErrors errors;
   int frames = 0;
   double seconds = 0.0, segmentation = 0.0, tracking = 0.0;
   for (const BenchmarkRun* run : runs) {
-    errors.insert(errors.end(), run->errors.errors_mm.begin(), run->errors.errors_mm.end());
+    errors.append(run->errors);
     frames += run->pipeline_frames;
     seconds += run->pipeline_seconds;
     segmentation += run->segmentation_seconds;
@@ -223,41 +266,106 @@ std::string report(const BenchmarkOptions& options, const BenchmarkResults& resu
                    const std::map<int, int>& combinations_per_count) {
   std::ostringstream md;
   const auto& trackers = results.trackers;
+  const bool several_shapes = results.shapes.size() > 1;
+  std::string shape_list;
+  for (const std::string& shape : results.shapes) {
+    shape_list += (shape_list.empty() ? "" : ", ") + ("`" + shape + "`");
+  }
   md << "# Benchmark: SAG against SoG on the synthetic studio\n\n";
   md << "Rig `" << options.rig << "` (" << results.rig_cameras << " cameras), "
      << options.iterations << " optimiser iterations per frame, "
      << (options.frames > 0 ? std::to_string(options.frames) + " frames per sequence"
                             : std::string("full-length sequences"))
-     << ". Error: mean over the 5 fingertips per frame (mm), against the rendered ground truth. "
+     << "; rendered hand" << (several_shapes ? "s " : " ") << shape_list
+     << " (config/hand_shapes.yaml; the trackers keep their default models). Error: mean over "
+        "the 5 fingertips per frame (mm), against the rendered ground truth. "
         "A frame without a pose (before the start, or lost) is a failed frame: left out of the "
-        "mean and sd, counted against every bound of Table 1.\n\n";
+        "mean and sd, counted against every bound of Table 1. **rev %**: tracked frames whose "
+        "wrist -> middle-knuckle direction is more than 90 deg from the truth's (reversed hand); "
+        "**roll %**: tracked frames whose back-of-hand normal is more than 90 deg from the "
+        "truth's (rolled over); **wrist**: mean wrist (root position) error of the tracked frames "
+        "(mm).\n\n";
 
-  // Error table.
-  md << "## Fingertip error per sequence (mm)\n\n";
-  std::vector<std::string> header{"sequence", "frames"};
+  // Error tables: one row per selection of runs, the columns of every tracker.
+  std::vector<std::string> columns{"frames"};
   for (const std::string& t : trackers) {
-    header.push_back(displayName(t) + " mean");
-    header.push_back(displayName(t) + " sd");
-    header.push_back(displayName(t) + " failed");
+    for (const char* c : {" mean", " sd", " failed", " rev %", " roll %", " wrist"}) {
+      columns.push_back(displayName(t) + c);
+    }
   }
-  md << markdownRow(header) << markdownRule(header.size());
-  auto errorCells = [&](const std::string& label, const std::vector<std::string>& sequences) {
+  auto errorCells = [&](const std::string& label,
+                        const std::function<bool(const BenchmarkRun&)>& in) {
     std::vector<std::string> cells{label, ""};
     for (const std::string& t : trackers) {
-      const Pooled p = pool(select(results.runs, [&](const BenchmarkRun& r) {
-        return r.tracker == t &&
-               std::find(sequences.begin(), sequences.end(), r.sequence) != sequences.end();
-      }));
+      const Pooled p = pool(
+          select(results.runs, [&](const BenchmarkRun& r) { return r.tracker == t && in(r); }));
       cells[1] = std::to_string(p.stats.frames);
       cells.push_back(fixed(p.stats.mean_mm, 1));
       cells.push_back(fixed(p.stats.sd_mm, 1));
       cells.push_back(std::to_string(p.stats.failed));
+      cells.push_back(fixed(p.stats.reversed_pct, 1));
+      cells.push_back(fixed(p.stats.rolled_pct, 1));
+      cells.push_back(fixed(p.stats.wrist_mean_mm, 1));
     }
     return cells;
   };
-  for (const std::string& s : results.sequences) md << markdownRow(errorCells(s, {s}));
-  md << markdownRow(errorCells("**all**", results.sequences));
-  md << "\n(**all**: over every frame of every sequence.)\n\n";
+  auto header = [&](const std::string& first) {
+    std::vector<std::string> h{first};
+    h.insert(h.end(), columns.begin(), columns.end());
+    return markdownRow(h) + markdownRule(h.size());
+  };
+  const auto everything = [](const BenchmarkRun&) { return true; };
+  md << "## Fingertip error per sequence (mm)" << (several_shapes ? ", all hand shapes" : "")
+     << "\n\n";
+  md << header("sequence");
+  for (const std::string& s : results.sequences) {
+    md << markdownRow(errorCells(s, [&](const BenchmarkRun& r) { return r.sequence == s; }));
+  }
+  md << markdownRow(errorCells("**all**", everything));
+  md << "\n(**all**: over every frame of every sequence"
+     << (several_shapes ? " and hand shape" : "") << ".)\n\n";
+
+  if (several_shapes) {
+    md << "## Fingertip error per hand shape (mm), all sequences\n\n";
+    md << header("hand shape");
+    for (const std::string& h : results.shapes) {
+      md << markdownRow(errorCells(h, [&](const BenchmarkRun& r) { return r.shape == h; }));
+    }
+    md << markdownRow(errorCells("**all**", everything)) << "\n";
+
+    // Per tracker: sequence x shape matrices of the mean error and of the orientation failures.
+    for (const std::string& t : trackers) {
+      auto matrix = [&](const std::string& title,
+                        const std::function<std::string(const ErrorStats&)>& cell) {
+        md << "## " << displayName(t) << ": " << title << " per sequence and hand shape\n\n";
+        std::vector<std::string> h{"sequence"};
+        h.insert(h.end(), results.shapes.begin(), results.shapes.end());
+        h.push_back("all shapes");
+        md << markdownRow(h) << markdownRule(h.size());
+        std::vector<std::string> rows = results.sequences;
+        rows.push_back("**all**");
+        for (const std::string& s : rows) {
+          std::vector<std::string> cells{s};
+          std::vector<std::string> shapes = results.shapes;
+          shapes.push_back("");
+          for (const std::string& h : shapes) {
+            const Pooled p = pool(select(results.runs, [&](const BenchmarkRun& r) {
+              return r.tracker == t && (s == "**all**" || r.sequence == s) &&
+                     (h.empty() || r.shape == h);
+            }));
+            cells.push_back(cell(p.stats));
+          }
+          md << markdownRow(cells);
+        }
+        md << "\n";
+      };
+      matrix("mean fingertip error (mm)",
+             [](const ErrorStats& st) { return fixed(st.mean_mm, 1); });
+      matrix("reversed % / rolled-over %", [](const ErrorStats& st) {
+        return fixed(st.reversed_pct, 1) + " / " + fixed(st.rolled_pct, 1);
+      });
+    }
+  }
 
   // Table 1: rows = bounds, columns = sequence x tracker (SoG beside SAG as in the paper).
   std::vector<std::string> ordered = trackers;
@@ -349,15 +457,42 @@ std::string report(const BenchmarkOptions& options, const BenchmarkResults& resu
   return md.str();
 }
 
+// One row per sequence, shape and tracker, then the pooled rows: per sequence over the shapes
+// (shape "all"), per shape over the sequences (sequence "all"), and over everything ("all",
+// "all"). Without several shapes only the per-run rows and the "all,all" rows.
 void writeResultsCsv(const std::string& path, const BenchmarkResults& results) {
   std::ofstream out(path);
   if (!out) throw InputError("cannot write '" + path + "'");
-  out << "sequence,tracker,frames,mean_mm,sd_mm,pct15,pct20,pct25,pct30,pct45,fps,failed\n";
+  out << "sequence,shape,tracker,frames,mean_mm,sd_mm,pct15,pct20,pct25,pct30,pct45,fps,failed,"
+         "reversed_pct,rolled_pct,wrist_mm\n";
+  auto row = [&](const std::string& sequence, const std::string& shape, const std::string& tracker,
+                 const ErrorStats& stats, double fps) {
+    out << sequence << "," << shape << "," << tracker << "," << stats.frames << ","
+        << fixed(stats.mean_mm, 3) << "," << fixed(stats.sd_mm, 3);
+    for (double p : stats.percent_below) out << "," << fixed(p, 2);
+    out << "," << fixed(fps, 1) << "," << stats.failed << "," << fixed(stats.reversed_pct, 2) << ","
+        << fixed(stats.rolled_pct, 2) << "," << fixed(stats.wrist_mean_mm, 3) << "\n";
+  };
   for (const BenchmarkRun& run : results.runs) {
-    out << run.sequence << "," << run.tracker << "," << run.stats.frames << ","
-        << fixed(run.stats.mean_mm, 3) << "," << fixed(run.stats.sd_mm, 3);
-    for (double p : run.stats.percent_below) out << "," << fixed(p, 2);
-    out << "," << fixed(run.fps, 1) << "," << run.stats.failed << "\n";
+    row(run.sequence, run.shape, run.tracker, run.stats, run.fps);
+  }
+  for (const std::string& t : results.trackers) {
+    if (results.shapes.size() > 1) {
+      for (const std::string& s : results.sequences) {
+        const Pooled p = pool(select(results.runs, [&](const BenchmarkRun& r) {
+          return r.tracker == t && r.sequence == s;
+        }));
+        row(s, "all", t, p.stats, p.fps);
+      }
+      for (const std::string& h : results.shapes) {
+        const Pooled p = pool(select(
+            results.runs, [&](const BenchmarkRun& r) { return r.tracker == t && r.shape == h; }));
+        row("all", h, t, p.stats, p.fps);
+      }
+    }
+    const Pooled p =
+        pool(select(results.runs, [&](const BenchmarkRun& r) { return r.tracker == t; }));
+    row("all", "all", t, p.stats, p.fps);
   }
   if (!out) throw InputError("cannot write '" + path + "'");
 }
@@ -400,28 +535,101 @@ cv::Scalar trackerColour(const std::string& tracker, size_t index) {
 
 void writePlots(const std::string& dir, const BenchmarkResults& results,
                 const std::map<int, int>& combinations_per_count) {
-  std::vector<cv::Mat> panels;
+  // Per frame, on one hand (the default one when it was run, else the first): the fingertip
+  // error, and the orientation angles whose excursions above 90 deg are the reversed and
+  // rolled-over frames.
+  const std::string hand =
+      std::find(results.shapes.begin(), results.shapes.end(), "default") != results.shapes.end()
+          ? std::string("default")
+          : results.shapes.front();
+  const std::string on_hand = results.shapes.size() > 1 ? " (hand " + hand + ")" : "";
+  std::vector<cv::Mat> panels, orientation_panels;
   for (const std::string& s : results.sequences) {
-    std::vector<PlotSeries> series;
+    std::vector<PlotSeries> series, angles;
     for (size_t i = 0; i < results.trackers.size(); ++i) {
       const std::string& t = results.trackers[i];
       for (const BenchmarkRun& run : results.runs) {
-        if (run.sequence != s || run.tracker != t) continue;
+        if (run.sequence != s || run.tracker != t || run.shape != hand) continue;
         PlotSeries line;
         line.label = displayName(t) + " (" + fixed(run.stats.mean_mm, 1) + " mm)";
         line.colour = trackerColour(t, i);
+        PlotSeries forward, normal;
+        forward.label =
+            displayName(t) + " hand axis (" + fixed(run.stats.reversed_pct, 0) + " % rev)";
+        normal.label =
+            displayName(t) + " back normal (" + fixed(run.stats.rolled_pct, 0) + " % roll)";
+        forward.colour = line.colour;
+        normal.colour = line.colour * 0.5 + cv::Scalar(128, 128, 128);
         for (size_t k = 0; k < run.errors.errors_mm.size(); ++k) {
           line.x.push_back(static_cast<double>(k));
           const double e = run.errors.errors_mm[k];
           line.y.push_back(std::isfinite(e) ? e : kNaN);  // failed frames: a gap
+          forward.x.push_back(static_cast<double>(k));
+          forward.y.push_back(run.errors.forward_deg[k]);
+          normal.x.push_back(static_cast<double>(k));
+          normal.y.push_back(run.errors.back_normal_deg[k]);
         }
         series.push_back(line);
+        angles.push_back(forward);
+        angles.push_back(normal);
       }
     }
-    panels.push_back(linePlot(series, s + ": fingertip error per frame (gaps: no pose)",
+    if (series.empty()) continue;
+    panels.push_back(linePlot(series, s + on_hand + ": fingertip error per frame (gaps: no pose)",
                               "frame (with the hand)", "error (mm)", 900, 260));
+    PlotSeries threshold;  // the 90 deg line: above it a frame is reversed / rolled over
+    threshold.x = {0.0, static_cast<double>(series.front().x.size())};
+    threshold.y = {90.0, 90.0};
+    threshold.colour = cv::Scalar(0, 0, 0);
+    angles.push_back(threshold);
+    PlotSeries range;  // the axis up to 180 deg
+    range.x = {0.0, 0.0};
+    range.y = {180.0 / 1.05, kNaN};
+    angles.push_back(range);
+    orientation_panels.push_back(
+        linePlot(angles, s + on_hand + ": angle to the truth's hand axis / back normal (deg)",
+                 "frame (with the hand)", "angle (deg)", 900, 260));
   }
   if (!panels.empty()) writePng(dir + "/error_per_frame.png", stackVertically(panels));
+  if (!orientation_panels.empty()) {
+    writePng(dir + "/orientation_per_frame.png", stackVertically(orientation_panels));
+  }
+
+  // Per hand shape (x: the shape's index in the tables), pooled over the sequences.
+  if (results.shapes.size() > 1) {
+    std::vector<PlotSeries> series;
+    for (size_t i = 0; i < results.trackers.size(); ++i) {
+      const std::string& t = results.trackers[i];
+      PlotSeries mean, reversed, rolled;
+      mean.label = displayName(t) + " mean error (mm)";
+      reversed.label = displayName(t) + " reversed (%)";
+      rolled.label = displayName(t) + " rolled over (%)";
+      mean.colour = trackerColour(t, i);
+      reversed.colour = mean.colour * 0.6;
+      rolled.colour = mean.colour * 0.4 + cv::Scalar(150, 150, 150);
+      for (size_t h = 0; h < results.shapes.size(); ++h) {
+        const Pooled p = pool(select(results.runs, [&](const BenchmarkRun& r) {
+          return r.tracker == t && r.shape == results.shapes[h];
+        }));
+        for (PlotSeries* line : {&mean, &reversed, &rolled}) {
+          line->x.push_back(static_cast<double>(h + 1));
+          line->error_bars.push_back(0.0);  // dots on the values
+        }
+        mean.y.push_back(p.stats.mean_mm);
+        reversed.y.push_back(p.stats.reversed_pct);
+        rolled.y.push_back(p.stats.rolled_pct);
+      }
+      series.push_back(mean);
+      series.push_back(reversed);
+      series.push_back(rolled);
+    }
+    std::string names;
+    for (size_t h = 0; h < results.shapes.size(); ++h) {
+      names += (h ? ", " : "") + std::to_string(h + 1) + " " + results.shapes[h];
+    }
+    writePng(dir + "/shapes.png", linePlot(series, "All sequences per hand shape: " + names,
+                                           "hand shape", "mm / %", 1400, 420));
+  }
 
   if (!results.camera_runs.empty()) {
     std::vector<PlotSeries> series;
@@ -459,23 +667,30 @@ void writePlots(const std::string& dir, const BenchmarkResults& results,
 }  // namespace
 
 const std::vector<std::string>& benchmarkSequences() {
-  static const std::vector<std::string> sequences{"adbadd", "fingercount", "fingerwave", "flexex1",
-                                                  "pinch",  "random",      "tigergrasp"};
+  static const std::vector<std::string> sequences = [] {
+    std::vector<std::string> all = studio::builtinMotionNames();
+    const auto& hard = studio::hardMotionNames();
+    all.insert(all.end(), hard.begin(), hard.end());
+    return all;
+  }();
   return sequences;
 }
 
 std::string benchmarkUsage() {
   return R"(Usage: benchmark [options]
 
-Renders the studio sequences (render_bag's code), tracks each with SAG and with SoG (track_bag's
-code), and prints the fingertip error per sequence, the paper's Table 1, the speed, and with
+Renders the studio sequences on each hand shape (render_bag's code), tracks each with SAG and
+with SoG (track_bag's code), and prints the fingertip error, the reversed and rolled-over frames
+and the wrist error per sequence and per hand shape, the paper's Table 1, the speed, and with
 --camera-counts the paper's Figure 6. Writes DIR/results.md, the CSVs and PNG plots.
 
 Options:
   --sequences a,b,..   sequences (names or motion files; default: adbadd fingercount fingerwave
-                       flexex1 pinch random tigergrasp)
-  --camera-counts      also track every combination of 2..N of the N cameras, on every sequence
-                       but random (Figure 6)
+                       flexex1 pinch random tigergrasp raised pronation wristflex fastturn)
+  --shapes a,b,..      rendered hands from config/hand_shapes.yaml (default: all of them); the
+                       trackers keep their default models
+  --camera-counts      also track every combination of 2..N of the N cameras, on the Dexter 1
+                       sequences but random, on the default hand (Figure 6)
   --frames N           render N frames per sequence, the first 10 without the hand (full length)
   --out-dir DIR        where the bags, tracks, tables and plots go (benchmark)
   --csv FILE           the per-sequence CSV (DIR/results.csv)
@@ -484,6 +699,8 @@ Options:
   --models a,b         models to compare (sag,sog; or model files)
   --reuse              reuse the bags in DIR/bags rendered with the same settings (default)
   --rerender           render the bags again
+  --discard-bags       remove each bag this run rendered once it is tracked (a full run renders
+                       77 bags of ~350 MB; the ground-truth CSVs and tracks stay)
   --config-dir DIR     the built-in motions, rigs and models (the package's config/)
   --no-plots           no PNG plots
   --help               this text
@@ -499,6 +716,10 @@ BenchmarkOptions parseBenchmarkArguments(const std::vector<std::string>& args) {
       options.help = true;
     } else if (arg == "--sequences") {
       options.sequences = parseListOption(arg, value());
+    } else if (arg == "--shapes") {
+      options.shapes = parseListOption(arg, value());
+    } else if (arg == "--discard-bags") {
+      options.discard_bags = true;
     } else if (arg == "--camera-counts") {
       options.camera_counts = true;
     } else if (arg == "--frames") {
@@ -532,15 +753,47 @@ BenchmarkOptions parseBenchmarkArguments(const std::vector<std::string>& args) {
       throw UsageError("--models names '" + trackerLabel(model) + "' twice");
     }
   }
+  {
+    std::set<std::string> shapes;
+    for (const std::string& shape : options.shapes) {
+      if (!shapes.insert(shape).second) throw UsageError("--shapes names '" + shape + "' twice");
+    }
+  }
   if (options.frames > 0 && options.frames <= 10) {
     throw UsageError("--frames must be more than the 10 frames without the hand");
   }
   return options;
 }
 
-RunErrors matchToGroundTruth(const std::string& ground_truth_csv, const std::string& tracked_csv) {
+void RunErrors::append(const RunErrors& other) {
+  stamps.insert(stamps.end(), other.stamps.begin(), other.stamps.end());
+  errors_mm.insert(errors_mm.end(), other.errors_mm.begin(), other.errors_mm.end());
+  forward_deg.insert(forward_deg.end(), other.forward_deg.begin(), other.forward_deg.end());
+  back_normal_deg.insert(back_normal_deg.end(), other.back_normal_deg.begin(),
+                         other.back_normal_deg.end());
+  wrist_mm.insert(wrist_mm.end(), other.wrist_mm.begin(), other.wrist_mm.end());
+}
+
+namespace {
+
+// Whether the CSV's first six parameters are the root's (root_tx .. root_rz).
+bool hasRootParameters(const TrackingCsv& csv) {
+  static const char* const kRoot[] = {"root_tx", "root_ty", "root_tz",
+                                      "root_rx", "root_ry", "root_rz"};
+  if (csv.parameter_names.size() < 6) return false;
+  for (int i = 0; i < 6; ++i) {
+    if (csv.parameter_names[i] != kRoot[i]) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+RunErrors matchToGroundTruth(const std::string& ground_truth_csv, const std::string& tracked_csv,
+                             const Eigen::Vector3d& forward_in_palm) {
   const TrackingCsv truth = readTrackingCsv(ground_truth_csv);
   TrackingCsv tracked = readTrackingCsv(tracked_csv);
+  const bool oriented = hasRootParameters(truth) && hasRootParameters(tracked);
   std::sort(tracked.rows.begin(), tracked.rows.end(),
             [](const TrackingCsvRow& a, const TrackingCsvRow& b) { return a.stamp < b.stamp; });
   RunErrors errors;
@@ -549,11 +802,26 @@ RunErrors matchToGroundTruth(const std::string& ground_truth_csv, const std::str
     const auto it =
         std::lower_bound(tracked.rows.begin(), tracked.rows.end(), gt.stamp - 1e-4,
                          [](const TrackingCsvRow& row, double stamp) { return row.stamp < stamp; });
+    double forward = kNaN, normal = kNaN, wrist = kNaN;
     if (it != tracked.rows.end() && std::fabs(it->stamp - gt.stamp) <= 1e-4) {
       errors.errors_mm.push_back(1e3 * meanFingertipError(it->fingertips, gt.fingertips));
+      if (oriented) {
+        const Eigen::VectorXd& q = it->parameters;
+        const Eigen::VectorXd& t = gt.parameters;
+        const OrientationError e =
+            orientationError(rotationFromVector(q.segment<3>(3)), q.segment<3>(0),
+                             rotationFromVector(t.segment<3>(3)), t.segment<3>(0), forward_in_palm);
+        // A non-finite tracked pose is a failure of both kinds, never a NaN that drops out.
+        forward = std::isfinite(e.forward_deg) ? e.forward_deg : 180.0;
+        normal = std::isfinite(e.back_normal_deg) ? e.back_normal_deg : 180.0;
+        wrist = std::isfinite(e.wrist_m) ? 1e3 * e.wrist_m : kInf;
+      }
     } else {
       errors.errors_mm.push_back(kInf);
     }
+    errors.forward_deg.push_back(forward);
+    errors.back_normal_deg.push_back(normal);
+    errors.wrist_mm.push_back(wrist);
   }
   return errors;
 }
@@ -574,6 +842,26 @@ ErrorStats errorStats(const std::vector<double>& errors_mm) {
   return stats;
 }
 
+ErrorStats errorStats(const RunErrors& errors) {
+  ErrorStats stats = errorStats(errors.errors_mm);
+  int reversed = 0, rolled = 0;
+  double wrist_sum = 0.0;
+  const size_t n = std::min(errors.forward_deg.size(), errors.back_normal_deg.size());
+  for (size_t k = 0; k < n && k < errors.wrist_mm.size(); ++k) {
+    if (std::isnan(errors.forward_deg[k]) || std::isnan(errors.back_normal_deg[k])) continue;
+    ++stats.oriented_frames;
+    reversed += errors.forward_deg[k] > 90.0 ? 1 : 0;
+    rolled += errors.back_normal_deg[k] > 90.0 ? 1 : 0;
+    wrist_sum += errors.wrist_mm[k];
+  }
+  if (stats.oriented_frames > 0) {
+    stats.reversed_pct = 100.0 * reversed / stats.oriented_frames;
+    stats.rolled_pct = 100.0 * rolled / stats.oriented_frames;
+    stats.wrist_mean_mm = wrist_sum / stats.oriented_frames;
+  }
+  return stats;
+}
+
 BenchmarkResults runBenchmark(const BenchmarkOptions& options, std::ostream& log) {
   const auto start = std::chrono::steady_clock::now();
   BenchmarkResults results;
@@ -581,27 +869,67 @@ BenchmarkResults runBenchmark(const BenchmarkOptions& options, std::ostream& log
   const fs::path dir(options.out_dir);
   fs::create_directories(dir / "tracks");
 
-  std::vector<SequenceBag> bags;
-  for (const std::string& sequence : options.sequences) {
-    bags.push_back(prepareBag(options, sequence, log));
-    results.sequences.push_back(bags.back().name);
+  // The hands: the asked-for names (or all) from the config's list.
+  const std::string config = packageConfigDir(options.config_dir);
+  std::vector<studio::StudioHand> hands;
+  if (options.shapes.empty()) {
+    hands = studio::loadHandShapes(studio::handShapesPath(config));
+  } else {
+    for (const std::string& shape : options.shapes) {
+      hands.push_back(studio::resolveHandShape(shape, config));
+      if (hands.back().name != shape) {
+        throw InputError("--shapes: the file " + shape + " names its shape '" + hands.back().name +
+                         "'; give the names of config/hand_shapes.yaml");
+      }
+    }
   }
-  {
-    BagReader reader(bags.front().bag, BagReaderOptions());
-    results.rig_cameras = static_cast<int>(reader.cameras().size());
+  for (const studio::StudioHand& hand : hands) results.shapes.push_back(hand.name);
+  for (const std::string& sequence : options.sequences) {
+    results.sequences.push_back(fs::path(sequence).stem().string());
   }
 
-  const int total_main = static_cast<int>(bags.size() * options.models.size());
+  // Figure 6 runs on the default hand (the first one if there is no default) and the Dexter 1
+  // sequences but random; those bags are kept until then.
+  const std::string camera_hand =
+      std::find(results.shapes.begin(), results.shapes.end(), "default") != results.shapes.end()
+          ? std::string("default")
+          : results.shapes.front();
+  const auto& dexter = studio::builtinMotionNames();
+  auto usedByCameraCounts = [&](const SequenceBag& bag) {
+    return options.camera_counts && bag.shape == camera_hand && bag.name != "random" &&
+           std::find(dexter.begin(), dexter.end(), bag.name) != dexter.end();
+  };
+
+  std::vector<SequenceBag> camera_bags;
+  const int total_main =
+      static_cast<int>(options.sequences.size() * hands.size() * options.models.size());
   int done = 0;
-  for (const SequenceBag& bag : bags) {
-    for (const std::string& model : options.models) {
-      const std::string csv =
-          (dir / "tracks" / (bag.name + "_" + trackerLabel(model) + ".csv")).string();
-      results.runs.push_back(trackRun(options, bag, model, {}, csv));
-      log << "benchmark: [" << ++done << "/" << total_main << "] " << runLine(results.runs.back())
-          << "\n"
-          << std::flush;
+  for (const std::string& sequence : options.sequences) {
+    for (const studio::StudioHand& hand : hands) {
+      const SequenceBag bag = prepareBag(options, sequence, hand, log);
+      if (results.rig_cameras == 0) {
+        BagReader reader(bag.bag, BagReaderOptions());
+        results.rig_cameras = static_cast<int>(reader.cameras().size());
+      }
+      for (const std::string& model : options.models) {
+        const std::string csv =
+            (dir / "tracks" / (runStem(bag.name, bag.shape) + "_" + trackerLabel(model) + ".csv"))
+                .string();
+        results.runs.push_back(trackRun(options, bag, model, {}, csv));
+        log << "benchmark: [" << ++done << "/" << total_main << "] " << runLine(results.runs.back())
+            << "\n"
+            << std::flush;
+      }
+      if (usedByCameraCounts(bag)) {
+        camera_bags.push_back(bag);
+      } else if (options.discard_bags && bag.rendered) {
+        fs::remove(bag.bag);
+      }
     }
+  }
+  if (options.camera_counts && camera_bags.empty()) {
+    // None of the Dexter 1 sequences but random was asked for: the first sequence's bag.
+    camera_bags.push_back(prepareBag(options, options.sequences.front(), hands.front(), log));
   }
 
   std::map<int, int> combinations_per_count;
@@ -613,10 +941,7 @@ BenchmarkResults runBenchmark(const BenchmarkOptions& options, std::ostream& log
       combos.insert(combos.end(), of_k.begin(), of_k.end());
     }
     std::vector<const SequenceBag*> sequences;
-    for (const SequenceBag& bag : bags) {
-      if (bag.name != "random") sequences.push_back(&bag);
-    }
-    if (sequences.empty()) sequences.push_back(&bags.front());  // only random was asked for
+    for (const SequenceBag& bag : camera_bags) sequences.push_back(&bag);
     const std::string scratch = (dir / "tracks" / "camera_count_run.csv").string();
     const int total = static_cast<int>(combos.size() * sequences.size() * options.models.size());
     int run_index = 0;
@@ -632,6 +957,11 @@ BenchmarkResults runBenchmark(const BenchmarkOptions& options, std::ostream& log
     }
     std::error_code ignored;
     fs::remove(scratch, ignored);
+    if (options.discard_bags) {
+      for (const SequenceBag& bag : camera_bags) {
+        if (bag.rendered) fs::remove(bag.bag, ignored);
+      }
+    }
   }
 
   results.markdown = report(options, results, combinations_per_count);

@@ -15,11 +15,11 @@
 #include <string>
 #include <vector>
 
-#include "sag_hand_tracker/apps/csv.h"
 #include "sag_hand_tracker/camera/calibration.h"
+#include "sag_hand_tracker/apps/csv.h"
 #include "sag_hand_tracker/model/hand_model.h"
 #include "sag_hand_tracker/ros/conversions.h"
-#include "sag_hand_tracker/ros/package_config.h"
+#include "sag_hand_tracker/studio/hand_shapes.h"
 #include "sag_hand_tracker/studio/motion.h"
 #include "sag_hand_tracker/studio/renderer.h"
 #include "sag_hand_tracker/studio/sequence.h"
@@ -84,7 +84,13 @@ std::string renderBagUsage() {
          "  --motion-blur N    sub-frames averaged per frame (default 1: none)\n"
          "  --exposure T       exposure time in seconds for motion blur (default 0.010)\n"
          "  --noise SIGMA      sensor noise, 8-bit levels (default 2)\n"
-         "  --hand-scale S     size of the rendered hand relative to the model (default 1)\n"
+         "  --hand-scale S     size of the rendered hand relative to the model (default 1;\n"
+         "                     multiplies the shape's scale)\n"
+         "  --shape NAME|FILE  the rendered hand's proportions and skin: a name from\n"
+         "                     config/hand_shapes.yaml (default, long_distal, ...) or a file in\n"
+         "                     that format holding one shape (default: default)\n"
+         "  --bare-forearm     a bare forearm up to the elbow region instead of the black sleeve\n"
+         "                     (motions with `forearm: {bare: true}` always have one)\n"
          "  --model M          hand skeleton: sag (default) or a model file\n"
          "  --preview PNG      also write a contact sheet of one frame (all views + labels)\n"
          "  --preview-frame N  the frame of the contact sheet (default: the middle one)\n"
@@ -156,6 +162,11 @@ RenderBagOptions parseRenderBagArguments(const std::vector<std::string>& args) {
     } else if (a == "--hand-scale") {
       options.hand_scale = number(&i);
       if (!(options.hand_scale > 0.0)) throw UsageError("--hand-scale must be positive");
+    } else if (a == "--shape") {
+      options.shape = value(&i);
+      if (options.shape.empty()) throw UsageError("--shape needs a name or a file");
+    } else if (a == "--bare-forearm") {
+      options.bare_forearm = true;
     } else if (a == "--preview") {
       options.preview = value(&i);
     } else if (a == "--preview-frame") {
@@ -207,7 +218,11 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
   params.seed = options.seed;
   params.motion_blur_samples = options.motion_blur;
   params.exposure = std::min(options.exposure, 1.0 / options.fps);
-  params.shape.scale = options.hand_scale;
+  const studio::StudioHand hand = studio::resolveHandShape(options.shape, config);
+  params.shape = hand.shape;
+  params.shape.scale *= options.hand_scale;
+  params.surface.skin = hand.skin;
+  params.surface.bare_forearm = options.bare_forearm;
   const studio::StudioSequence sequence(model, std::move(motion), params);
   const int frames = sequence.frameCount();
   const int preview_frame = options.preview.empty()
@@ -252,7 +267,7 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
     }
     if (k == preview_frame) {
       writeContactSheet(options.preview, images, rig.cameras, frame,
-                        sequence.motion().name + " frame " + std::to_string(k));
+                        sequence.motion().name + " / " + hand.name + " frame " + std::to_string(k));
     }
     if (progress) {
       progress->update(static_cast<double>(k + 1) / frames,
@@ -267,6 +282,8 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
 
   RenderBagSummary summary;
   summary.sequence = sequence.motion().name;
+  summary.shape = hand.name;
+  summary.bare_forearm = sequence.params().surface.bare_forearm;
   summary.bag = options.out;
   summary.gt_csv = options.gt_csv;
   summary.preview = options.preview;
@@ -284,7 +301,8 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
 
 std::string formatRenderBagSummary(const RenderBagSummary& s) {
   std::ostringstream summary;
-  summary << std::fixed << std::setprecision(1) << "render_bag: " << s.sequence << ": " << s.frames
+  summary << std::fixed << std::setprecision(1) << "render_bag: " << s.sequence << " on the hand '"
+          << s.shape << "'" << (s.bare_forearm ? " (bare forearm)" : "") << ": " << s.frames
           << " frames (" << s.empty_frames << " without the hand) x " << s.cameras << " cameras at "
           << s.fps << " fps, seed " << s.seed << "\n  rendering "
           << s.frames / std::max(s.render_seconds, 1e-9) << " frames/s ("

@@ -76,22 +76,27 @@ std::array<std::vector<int>, kNumFingers> fingerChains(const HandModel& model) {
 
 HandModel shapeHandModel(const HandModel& model, const HandShape& shape) {
   auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
-  bool ok = positive(shape.scale) && positive(shape.palm_width) && positive(shape.thickness);
+  bool ok = positive(shape.scale) && positive(shape.palm_width) && positive(shape.palm_length) &&
+            positive(shape.thickness);
   for (double f : shape.finger_length) ok = ok && positive(f);
+  for (const auto& finger : shape.phalanx_length) {
+    for (double f : finger) ok = ok && positive(f);
+  }
   if (!ok) throw InputError("hand shape: every scale factor must be positive and finite");
 
   const auto chains = fingerChains(model);
   HandModel out = model;
-  // Per bone: the factor on its length and on its children's offsets along it.
+  // Per bone: the factor on its length and on its children's offsets along it, and across it.
   std::vector<double> factor(model.bones.size(), shape.scale);
-  std::vector<int> finger_of(model.bones.size(), -1);
+  std::vector<double> across(model.bones.size(), shape.scale);
   for (int f = 0; f < kNumFingers; ++f) {
-    for (int b : chains[f]) {
-      factor[b] = shape.scale * shape.finger_length[f];
-      finger_of[b] = f;
+    for (int k = 0; k < 3; ++k) {
+      factor[chains[f][k]] = shape.boneFactor(f, k);
+      across[chains[f][k]] = shape.scale * shape.finger_length[f];
     }
   }
-  const Eigen::Vector3d palm_factor(shape.scale, shape.scale * shape.palm_width, shape.scale);
+  const Eigen::Vector3d palm_factor(shape.scale * shape.palm_length, shape.scale * shape.palm_width,
+                                    shape.scale);
   for (size_t b = 0; b < out.bones.size(); ++b) {
     Bone& bone = out.bones[b];
     bone.length *= factor[b];
@@ -100,12 +105,12 @@ HandModel shapeHandModel(const HandModel& model, const HandShape& shape) {
     } else if (bone.parent == 0) {
       bone.offset = bone.offset.cwiseProduct(palm_factor);
     } else {
-      bone.offset *= factor[b];
+      bone.offset *= factor[bone.parent];  // the parent's length
     }
   }
   for (ModelGaussian& g : out.gaussians) {
     if (g.bone < 0 || g.bone >= static_cast<int>(out.bones.size())) continue;
-    Eigen::Vector3d s = Eigen::Vector3d::Constant(factor[g.bone]);
+    Eigen::Vector3d s(factor[g.bone], across[g.bone], across[g.bone]);
     if (g.bone == 0) s = palm_factor;
     g.mean = g.mean.cwiseProduct(s);
     g.cov = s.asDiagonal() * g.cov * s.asDiagonal();
@@ -243,10 +248,22 @@ std::vector<SurfacePart> buildHandSurface(const HandModel& model,
                          params.wrist_radius * rs, params.wrist_radius * 1.05 * rs};
     parts.push_back(skinPart(wrist_cone, kLabelForearm, Eigen::Vector3d::Zero(), 1.0f));
   }
+  double sleeve_from = params.sleeve_start;
+  double sleeve_radius = params.sleeve_radius;
+  if (params.bare_forearm) {
+    // The forearm in skin, its palmar side (inner arm) lighter as on the hand; the sleeve starts
+    // near the elbow.
+    RoundCone arm{wrist + (params.sleeve_start + 0.005) * ls * direction,
+                  wrist + params.bare_forearm_length * ls * direction, params.forearm_radius * rs,
+                  params.forearm_end_radius * rs};
+    parts.push_back(skinPart(arm, kLabelForearm, palm_z, 1.0f));
+    sleeve_from = params.bare_forearm_length;
+    sleeve_radius = std::max(params.sleeve_radius, params.forearm_end_radius + 0.004);
+  }
   SurfacePart sleeve;
-  sleeve.cone = RoundCone{wrist + params.sleeve_start * ls * direction,
-                          wrist + params.forearm_length * ls * direction, params.sleeve_radius * rs,
-                          params.sleeve_end_radius * rs};
+  sleeve.cone = RoundCone{wrist + sleeve_from * ls * direction,
+                          wrist + params.forearm_length * ls * direction, sleeve_radius * rs,
+                          std::max(sleeve_radius, params.sleeve_end_radius) * rs};
   sleeve.label = kLabelSleeve;
   sleeve.albedo_dorsal = skin.sleeve;
   sleeve.albedo_palmar = skin.sleeve;

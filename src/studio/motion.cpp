@@ -225,9 +225,10 @@ Motion parseMotion(const std::string& yaml_text, const std::string& source, cons
                      ": not valid YAML: " + e.msg);
   }
   if (!root.IsMap()) parser.fail("the document must be a map with a 'keyframes' list");
-  parser.checkKeys(
-      root, {"name", "description", "duration", "interpolation", "shapes", "keyframes", "random"},
-      "the motion");
+  parser.checkKeys(root,
+                   {"name", "description", "duration", "interpolation", "shapes", "keyframes",
+                    "random", "forearm"},
+                   "the motion");
 
   Motion motion;
   motion.source = source;
@@ -246,6 +247,23 @@ Motion parseMotion(const std::string& yaml_text, const std::string& source, cons
     } else {
       parser.fail(root["interpolation"],
                   "interpolation must be 'cubic' or 'linear', not '" + mode + "'");
+    }
+  }
+
+  if (const YAML::Node forearm = root["forearm"]) {
+    parser.checkKeys(forearm, {"bare", "bend"}, "forearm");
+    if (const YAML::Node bare = forearm["bare"]) {
+      try {
+        motion.bare_forearm = bare.as<bool>();
+      } catch (const YAML::Exception&) {
+        parser.fail(bare, "forearm bare must be true or false");
+      }
+    }
+    if (forearm["bend"]) {
+      motion.forearm_bend = parser.number(forearm["bend"], "forearm bend");
+      if (*motion.forearm_bend < 0.0 || *motion.forearm_bend > 10.0) {
+        parser.fail(forearm["bend"], "forearm bend must lie in [0, 10]");
+      }
     }
   }
 
@@ -410,10 +428,16 @@ const std::vector<std::string>& builtinMotionNames() {
   return names;
 }
 
+const std::vector<std::string>& hardMotionNames() {
+  static const std::vector<std::string> names{"raised", "pronation", "wristflex", "fastturn"};
+  return names;
+}
+
 std::string resolveMotionPath(const std::string& name_or_path, const std::string& config_dir) {
-  const auto& names = builtinMotionNames();
-  if (std::find(names.begin(), names.end(), name_or_path) != names.end()) {
-    return config_dir + "/motions/" + name_or_path + ".yaml";
+  for (const auto* names : {&builtinMotionNames(), &hardMotionNames()}) {
+    if (std::find(names->begin(), names->end(), name_or_path) != names->end()) {
+      return config_dir + "/motions/" + name_or_path + ".yaml";
+    }
   }
   return name_or_path;
 }

@@ -25,6 +25,9 @@ StudioSequence::StudioSequence(const HandModel& model, Motion motion, const Sequ
   if (params_.exposure < 0.0 || params_.exposure > 1.0 / params_.fps) {
     throw InputError("studio sequence: the exposure must lie within one frame period");
   }
+  // A motion made for a bare forearm keeps it; the caller can make any motion bare.
+  if (motion_.bare_forearm.value_or(false)) params_.surface.bare_forearm = true;
+  if (motion_.forearm_bend) params_.surface.forearm_bend = *motion_.forearm_bend;
   frames_ = params_.frames > 0 ? params_.frames
                                : static_cast<int>(std::lround(motion_.duration * params_.fps));
 }

@@ -20,6 +20,9 @@
 #include <sstream>
 
 #include "sag_hand_tracker/apps/csv.h"
+#include "sag_hand_tracker/model/hand_model.h"
+#include "sag_hand_tracker/apps/metrics.h"
+#include "sag_hand_tracker/model/pose.h"
 #include "sag_hand_tracker/apps/evaluation.h"
 #include "sag_hand_tracker/util/types.h"
 
@@ -68,6 +71,11 @@ class BenchmarkTool : public sag_test::TempDirTest {
     std::stringstream stream(extra);
     std::string word;
     while (stream >> word) args.push_back(word);
+    // The default hand only, unless a test asks for shapes: keeps the tests fast.
+    if (extra.find("--shapes") == std::string::npos) {
+      args.push_back("--shapes");
+      args.push_back("default");
+    }
     return parseBenchmarkArguments(args);
   }
 };
@@ -77,7 +85,13 @@ class BenchmarkTool : public sag_test::TempDirTest {
 TEST(BenchmarkArguments, BenchmarkParsesOptionsAndRejectsBadOnes) {
   const BenchmarkOptions defaults = parseBenchmarkArguments({});
   EXPECT_EQ(defaults.sequences, benchmarkSequences());
-  EXPECT_EQ(defaults.sequences.size(), 7u);
+  // The 7 of Dexter 1 first, then issue 9's 4 harder ones.
+  ASSERT_EQ(defaults.sequences.size(), 11u);
+  EXPECT_EQ(defaults.sequences[0], "adbadd");
+  EXPECT_EQ(defaults.sequences[6], "tigergrasp");
+  EXPECT_EQ(defaults.sequences[7], "raised");
+  EXPECT_TRUE(defaults.shapes.empty());  // all of config/hand_shapes.yaml
+  EXPECT_FALSE(defaults.discard_bags);
   EXPECT_EQ(defaults.models, (std::vector<std::string>{"sag", "sog"}));
   EXPECT_EQ(defaults.iterations, 10);
   EXPECT_FALSE(defaults.camera_counts);
@@ -93,6 +107,13 @@ TEST(BenchmarkArguments, BenchmarkParsesOptionsAndRejectsBadOnes) {
   EXPECT_EQ(o.iterations, 5);
   EXPECT_EQ(o.models, (std::vector<std::string>{"sag"}));
   EXPECT_TRUE(o.rerender);
+
+  const BenchmarkOptions shaped =
+      parseBenchmarkArguments({"--shapes", "default,stocky", "--discard-bags"});
+  EXPECT_EQ(shaped.shapes, (std::vector<std::string>{"default", "stocky"}));
+  EXPECT_TRUE(shaped.discard_bags);
+  EXPECT_THROW(parseBenchmarkArguments({"--shapes", "stocky,stocky"}), UsageError);
+  EXPECT_THROW(parseBenchmarkArguments({"--shapes", ""}), UsageError);
 
   EXPECT_THROW(parseBenchmarkArguments({"--frames", "0"}), UsageError);
   EXPECT_THROW(parseBenchmarkArguments({"--frames", "10"}), UsageError);  // no hand frame
@@ -160,12 +181,19 @@ TEST_F(BenchmarkTool, BenchmarkShortRunWritesTablesCsvAndPlots) {
                                    "pct20", "pct25", "pct30", "pct45", "fps"}) {
     EXPECT_NE(std::find(header.begin(), header.end(), column), header.end()) << column;
   }
-  ASSERT_EQ(rows.size(), 2u);  // one row per tracker for the one sequence
+  ASSERT_EQ(rows.size(), 4u);  // one row per tracker for the one sequence, then the pooled ones
+  EXPECT_EQ(rows[2].at("sequence"), "all");
+  EXPECT_EQ(rows[2].at("shape"), "all");
+  for (int i : {0, 1}) {  // one sequence and one hand: the pooled rows repeat the runs'
+    EXPECT_EQ(rows[i].at("shape"), "default");
+    EXPECT_EQ(rows[i + 2].at("mean_mm"), rows[i].at("mean_mm"));
+    EXPECT_EQ(rows[i + 2].at("reversed_pct"), rows[i].at("reversed_pct"));
+  }
   std::set<std::string> trackers;
   for (const auto& row : rows) {
     SCOPED_TRACE(row.at("tracker"));
     trackers.insert(row.at("tracker"));
-    EXPECT_EQ(row.at("sequence"), "fingerwave");
+    EXPECT_TRUE(row.at("sequence") == "fingerwave" || row.at("sequence") == "all");
     EXPECT_EQ(number(row, "frames"), 30.0);  // 40 rendered, the first 10 without the hand
     const double mean = number(row, "mean_mm"), sd = number(row, "sd_mm");
     EXPECT_TRUE(std::isfinite(mean));
@@ -183,6 +211,12 @@ TEST_F(BenchmarkTool, BenchmarkShortRunWritesTablesCsvAndPlots) {
     EXPECT_GT(number(row, "fps"), 0.0);
     EXPECT_GE(number(row, "failed"), 0.0);
     EXPECT_LT(number(row, "failed"), 30.0);
+    for (const std::string column : {"reversed_pct", "rolled_pct"}) {
+      EXPECT_GE(number(row, column), 0.0) << column;
+      EXPECT_LE(number(row, column), 100.0) << column;
+    }
+    EXPECT_GE(number(row, "wrist_mm"), 0.0);
+    EXPECT_LT(number(row, "wrist_mm"), 200.0);
   }
   EXPECT_EQ(trackers, (std::set<std::string>{"sag", "sog"}));
 
@@ -193,8 +227,9 @@ TEST_F(BenchmarkTool, BenchmarkShortRunWritesTablesCsvAndPlots) {
   std::stringstream md;
   md << md_file.rdbuf();
   EXPECT_EQ(md.str(), results.markdown);
-  for (const char* part : {"Fingertip error per sequence", "Table 1", "fingerwave SoG",
-                           "fingerwave SAG", "Speed", "| **all** |"}) {
+  for (const char* part :
+       {"Fingertip error per sequence", "Table 1", "fingerwave SoG", "fingerwave SAG", "Speed",
+        "| **all** |", "SAG rev %", "SAG roll %", "SoG wrist"}) {
     EXPECT_NE(md.str().find(part), std::string::npos) << part;
   }
   EXPECT_EQ(md.str().find("Figure 6"), std::string::npos);  // not asked for
@@ -202,7 +237,9 @@ TEST_F(BenchmarkTool, BenchmarkShortRunWritesTablesCsvAndPlots) {
   const cv::Mat plot = cv::imread((dir_ / "error_per_frame.png").string());
   ASSERT_FALSE(plot.empty());
   EXPECT_EQ(plot.cols, 900);
+  EXPECT_FALSE(cv::imread((dir_ / "orientation_per_frame.png").string()).empty());
   EXPECT_FALSE(fs::exists(dir_ / "camera_counts.png"));
+  EXPECT_FALSE(fs::exists(dir_ / "shapes.png"));  // one hand only
 
   // A second run reuses the bag (same settings); --rerender renders it again.
   const auto written = fs::last_write_time(dir_ / "bags" / "fingerwave.bag");
@@ -218,7 +255,7 @@ TEST_F(BenchmarkTool, BenchmarkShortRunWritesTablesCsvAndPlots) {
                log3);
   EXPECT_NE(log3.str().find("rendered fingerwave"), std::string::npos) << log3.str();
   const auto rows12 = readCsv((dir_ / "r.csv").string(), &header);
-  ASSERT_EQ(rows12.size(), 1u);
+  ASSERT_EQ(rows12.size(), 2u);  // the run and the pooled row
   EXPECT_EQ(number(rows12[0], "frames"), 2.0);
 }
 
@@ -276,4 +313,149 @@ TEST_F(BenchmarkTool, BenchmarkGroundTruthCsvAgreesWithTheBag) {
       EXPECT_GT(csv.rows[i].stamp, csv.rows[i - 1].stamp);
     }
   }
+}
+
+namespace {
+
+// A tracking CSV row with the model's 26 parameters: the root at `wrist` turned by `rotation`
+// (a rotation vector), the joints at 0, and fingertips `offset` metres off along x.
+TrackingCsvRow poseRow(double stamp, const Eigen::Vector3d& wrist, const Eigen::Vector3d& rotation,
+                       double offset) {
+  TrackingCsvRow row;
+  row.stamp = stamp;
+  for (int f = 0; f < kNumFingers; ++f) row.fingertips[f] = Eigen::Vector3d(offset, 0.01 * f, 0.2);
+  row.parameters = Eigen::VectorXd::Zero(26);
+  row.parameters.segment<3>(0) = wrist;
+  row.parameters.segment<3>(3) = rotation;
+  return row;
+}
+
+}  // namespace
+
+TEST_F(BenchmarkTool, BenchmarkFlagsReversedAndRolledOverFramesFromThePoseColumns) {
+  const HandModel model = loadHandModel(resolveModelPath("sag", kConfig));
+  const std::vector<std::string> names = model.parameterNames();
+  ASSERT_EQ(names.size(), 26u);
+  const Eigen::Vector3d wrist(0.0, -0.06, 0.15);
+  const Eigen::Vector3d turn(0.3, -0.2, 1.1);  // the truth's orientation
+  const Eigen::Matrix3d truth = rotationFromVector(turn);
+  // In the palm frame: a roll of 180 deg about the hand's axis, a turn of 180 deg in the palm's
+  // plane, a small error; as rotation vectors of truth * R.
+  auto tracked = [&](const Eigen::Vector3d& palm_axis, double degrees) {
+    const Eigen::Matrix3d r =
+        truth * Eigen::AngleAxisd(degrees * M_PI / 180.0, palm_axis).toRotationMatrix();
+    return rotationToVector(r);
+  };
+  {
+    TrackingCsvWriter gt((dir_ / "gt.csv").string(), names);
+    TrackingCsvWriter track((dir_ / "track.csv").string(), names);
+    for (int k = 0; k < 5; ++k) gt.write(poseRow(100.0 + 0.04 * k, wrist, turn, 0.0));
+    track.write(
+        poseRow(100.00, wrist + Eigen::Vector3d(0.003, 0.004, 0), tracked({1, 0, 0}, 10), 0.005));
+    track.write(poseRow(100.04, wrist, tracked({1, 0, 0}, 180), 0.005));  // rolled over
+    track.write(poseRow(100.08, wrist, tracked({0, 0, 1}, 170), 0.005));  // reversed
+    track.write(poseRow(100.12, wrist, tracked({0, 1, 0}, 120), 0.005));  // both
+    // frame 4 (100.16): no pose
+  }
+  const Eigen::Vector3d forward = middleKnuckleDirection(model);
+  EXPECT_GT(forward.x(), 0.9);
+  const RunErrors errors =
+      matchToGroundTruth((dir_ / "gt.csv").string(), (dir_ / "track.csv").string(), forward);
+  ASSERT_EQ(errors.forward_deg.size(), 5u);
+  ASSERT_EQ(errors.back_normal_deg.size(), 5u);
+  ASSERT_EQ(errors.wrist_mm.size(), 5u);
+  EXPECT_NEAR(errors.wrist_mm[0], 5.0, 1e-6);
+  EXPECT_NEAR(errors.back_normal_deg[1], 180.0, 1e-4);
+  EXPECT_LT(errors.forward_deg[1],
+            10.0);  // a roll keeps the hand's axis (up to the knuckle offset)
+  EXPECT_GT(errors.forward_deg[2], 150.0);
+  EXPECT_LT(errors.back_normal_deg[2], 1e-4);
+  EXPECT_GT(errors.forward_deg[3], 90.0);
+  EXPECT_GT(errors.back_normal_deg[3], 90.0);
+  EXPECT_TRUE(std::isnan(errors.forward_deg[4]));
+  EXPECT_TRUE(std::isinf(errors.errors_mm[4]));
+
+  const ErrorStats stats = errorStats(errors);
+  EXPECT_EQ(stats.frames, 5);
+  EXPECT_EQ(stats.failed, 1);
+  EXPECT_EQ(stats.oriented_frames, 4);          // over the tracked frames
+  EXPECT_NEAR(stats.reversed_pct, 50.0, 1e-9);  // frames 2 and 3
+  EXPECT_NEAR(stats.rolled_pct, 50.0, 1e-9);    // frames 1 and 3
+  EXPECT_NEAR(stats.wrist_mean_mm, 5.0 / 4.0, 1e-6);
+  EXPECT_NEAR(stats.mean_mm, 5.0, 1e-6);
+
+  // CSVs without the root columns: no orientation figures, not zeros.
+  {
+    TrackingCsvWriter gt((dir_ / "gt1.csv").string(), {"p"});
+    TrackingCsvRow row;
+    row.stamp = 1.0;
+    for (auto& tip : row.fingertips) tip = Eigen::Vector3d(0, 0, 0.1);
+    row.parameters = Eigen::VectorXd::Zero(1);
+    gt.write(row);
+  }
+  const ErrorStats none =
+      errorStats(matchToGroundTruth((dir_ / "gt1.csv").string(), (dir_ / "gt1.csv").string()));
+  EXPECT_EQ(none.oriented_frames, 0);
+  EXPECT_TRUE(std::isnan(none.reversed_pct));
+  EXPECT_NEAR(none.mean_mm, 0.0, 1e-12);
+}
+
+TEST_F(BenchmarkTool, BenchmarkReportsPerHandShapeAndPooled) {
+  std::ostringstream log;
+  const BenchmarkResults results = runBenchmark(
+      options("--shapes default,dark_small --models sag --frames 24 --discard-bags"), log);
+  EXPECT_EQ(results.shapes, (std::vector<std::string>{"default", "dark_small"}));
+  ASSERT_EQ(results.runs.size(), 2u);
+  EXPECT_EQ(results.runs[0].shape, "default");
+  EXPECT_EQ(results.runs[1].shape, "dark_small");
+  EXPECT_NE(log.str().find("rendered fingerwave (hand dark_small)"), std::string::npos)
+      << log.str();
+  // The ground truth follows each hand: the small hand's fingertips are elsewhere.
+  const TrackingCsv gt_default = readTrackingCsv((dir_ / "bags" / "fingerwave_gt.csv").string());
+  const TrackingCsv gt_small =
+      readTrackingCsv((dir_ / "bags" / "fingerwave__dark_small_gt.csv").string());
+  ASSERT_EQ(gt_default.rows.size(), gt_small.rows.size());
+  EXPECT_GT((gt_default.rows[0].fingertips[2] - gt_small.rows[0].fingertips[2]).norm(), 0.005);
+  EXPECT_EQ(gt_default.rows[0].parameters, gt_small.rows[0].parameters);  // the same motion
+  // --discard-bags: the bags are gone, the ground truth and the tracks stay.
+  EXPECT_FALSE(fs::exists(dir_ / "bags" / "fingerwave.bag"));
+  EXPECT_FALSE(fs::exists(dir_ / "bags" / "fingerwave__dark_small.bag"));
+  EXPECT_TRUE(fs::exists(dir_ / "tracks" / "fingerwave__dark_small_sag.csv"));
+
+  std::vector<std::string> header;
+  const auto rows = readCsv((dir_ / "results.csv").string(), &header);
+  for (const std::string column : {"sequence", "shape", "tracker", "reversed_pct", "rolled_pct",
+                                   "wrist_mm", "mean_mm", "pct20", "failed"}) {
+    EXPECT_NE(std::find(header.begin(), header.end(), column), header.end()) << column;
+  }
+  // 2 runs, then per sequence over the shapes (1), per shape over the sequences (2), all (1).
+  ASSERT_EQ(rows.size(), 6u);
+  std::map<std::pair<std::string, std::string>, std::map<std::string, std::string>> by_key;
+  for (const auto& row : rows) by_key[{row.at("sequence"), row.at("shape")}] = row;
+  ASSERT_EQ(by_key.size(), 6u);
+  using Key = std::pair<std::string, std::string>;
+  const auto& all = by_key[Key("all", "all")];
+  EXPECT_EQ(number(all, "frames"), 28.0);  // 2 x 14 frames with the hand
+  EXPECT_EQ(by_key[Key("fingerwave", "all")].at("mean_mm"), all.at("mean_mm"));
+  EXPECT_EQ(by_key[Key("all", "dark_small")].at("mean_mm"),
+            by_key[Key("fingerwave", "dark_small")].at("mean_mm"));
+  // The pooled mean is the frame-weighted mean of the two runs.
+  const auto& on_default = by_key[Key("fingerwave", "default")];
+  const auto& on_small = by_key[Key("fingerwave", "dark_small")];
+  const double pooled = (number(on_default, "mean_mm") * (14 - number(on_default, "failed")) +
+                         number(on_small, "mean_mm") * (14 - number(on_small, "failed"))) /
+                        (28 - number(all, "failed"));
+  EXPECT_NEAR(number(all, "mean_mm"), pooled, 2e-3);
+
+  for (const char* part : {"Fingertip error per hand shape", "| dark_small |",
+                           "SAG: mean fingertip error (mm) per sequence and hand shape",
+                           "SAG: reversed % / rolled-over %", "all shapes"}) {
+    EXPECT_NE(results.markdown.find(part), std::string::npos) << part;
+  }
+  EXPECT_FALSE(cv::imread((dir_ / "shapes.png").string()).empty());
+  EXPECT_FALSE(cv::imread((dir_ / "orientation_per_frame.png").string()).empty());
+
+  std::ostringstream bad;
+  EXPECT_THROW(runBenchmark(options("--shapes no_such_hand --models sag --no-plots"), bad),
+               InputError);
 }

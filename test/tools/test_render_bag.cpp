@@ -137,6 +137,7 @@ TEST_F(RenderBagTool, BadInputGetsAOneLineErrorAndNonZeroExit) {
     int status;
     std::string message;
   };
+  std::ofstream(path("bad_shape.yaml")) << "shapes:\n  - {name: big, scale: 15}\n";
   std::ofstream(path("bad_motion.yaml"))
       << "keyframes:\n  - {time: 0, position: [0, 0, 0.15], joints: {index_pip_flex: 130}}\n";
   const std::vector<Case> cases{
@@ -146,6 +147,10 @@ TEST_F(RenderBagTool, BadInputGetsAOneLineErrorAndNonZeroExit) {
       {"--sequence pinch --model '" + path("none.yaml") + "'" + out, 1, "none.yaml"},
       {"--sequence pinch --frames 5 --preview-frame 7 --preview '" + path("x.png") + "'" + out, 1,
        "--preview-frame 7 is past the last frame 4"},
+      {"--sequence pinch --shape nosuch" + out, 1, "no hand shape 'nosuch'"},
+      {"--sequence pinch --shape '" + path("bad_shape.yaml") + "'" + out, 1,
+       "bad_shape.yaml:2: shape 'big' scale = 15 is outside [0.3, 3]"},
+      {"--sequence pinch --shape ''" + out, 2, "--shape needs a name or a file"},
       {"--sequence pinch", 2, "--out is required"},
       {"--out x.bag", 2, "--sequence is required"},
       {"--sequence pinch --fps 0" + out, 2, "--fps must be in (0, 1000]"},
@@ -162,4 +167,25 @@ TEST_F(RenderBagTool, BadInputGetsAOneLineErrorAndNonZeroExit) {
       EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
     }
   }
+}
+
+TEST_F(RenderBagTool, RendersAnotherHandWithABareForearm) {
+  // The same motion on the default hand and on `stocky` with a bare forearm: the same poses, other
+  // fingertips (the ground truth follows the shaped hand), and the summary names the hand.
+  const std::string common = "--sequence pinch --frames 12 --quiet --out ";
+  ASSERT_EQ(renderBag(common + "'" + path("d.bag") + "'").status, 0);
+  const ToolRun run =
+      renderBag(common + "'" + path("s.bag") + "' --shape stocky --bare-forearm");
+  ASSERT_EQ(run.status, 0) << run.err;
+  EXPECT_NE(run.err.find("pinch on the hand 'stocky' (bare forearm)"), std::string::npos)
+      << run.err;
+  const TrackingCsv d = readTrackingCsv(path("d.gt.csv"));
+  const TrackingCsv s = readTrackingCsv(path("s.gt.csv"));
+  ASSERT_EQ(d.rows.size(), 2u);
+  ASSERT_EQ(s.rows.size(), 2u);
+  EXPECT_EQ(d.rows[1].parameters, s.rows[1].parameters);
+  // stocky's fingers are 13 % shorter: the middle fingertip is centimetres closer to the wrist.
+  const Eigen::Vector3d wrist = d.rows[1].parameters.head<3>();
+  EXPECT_LT((s.rows[1].fingertips[2] - wrist).norm(),
+            (d.rows[1].fingertips[2] - wrist).norm() - 0.01);
 }

@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "sag_hand_tracker/apps/command_line.h"
 #include "sag_hand_tracker/apps/progress.h"
 #include "sag_hand_tracker/ros/bag_output.h"
+#include "sag_hand_tracker/apps/command_line.h"
 
 namespace sag_hand_tracker {
 
@@ -28,7 +28,9 @@ struct RenderBagOptions {
   int motion_blur = 1;                // --motion-blur N sub-frames (1: none)
   double exposure = 0.010;            // --exposure SECONDS (motion blur)
   double noise = 2.0;                 // --noise SIGMA (8-bit levels)
-  double hand_scale = 1.0;            // --hand-scale S
+  double hand_scale = 1.0;            // --hand-scale S (on top of the shape's scale)
+  std::string shape = "default";      // --shape NAME|FILE (config/hand_shapes.yaml)
+  bool bare_forearm = false;          // --bare-forearm: no sleeve up to the elbow region
   std::string preview;                // --preview PNG: contact sheet of one frame
   int preview_frame = -1;             // --preview-frame N (default: the middle frame)
   double start_stamp = 1400000000.0;  // --start-stamp SECONDS of the first frame
@@ -43,15 +45,17 @@ RenderBagOptions parseRenderBagArguments(const std::vector<std::string>& args);
 std::string renderBagUsage();
 
 struct RenderBagSummary {
-  std::string sequence;  // the motion's name
+  std::string sequence;        // the motion's name
+  std::string shape;           // the hand shape's name
+  bool bare_forearm = false;   // rendered with a bare forearm
   std::string bag;
   std::string gt_csv;
-  std::string preview;   // empty: none
-  int frames = 0;        // sets written
-  int empty_frames = 0;  // of which without the hand
-  int gt_rows = 0;       // ground-truth rows (= frames with the hand)
+  std::string preview;         // empty: none
+  int frames = 0;              // sets written
+  int empty_frames = 0;        // of which without the hand
+  int gt_rows = 0;             // ground-truth rows (= frames with the hand)
   int cameras = 0;
-  double fps = 0.0;  // the sequence's frame rate
+  double fps = 0.0;            // the sequence's frame rate
   std::uint64_t seed = 0;
   double render_seconds = 0.0;  // rendering the images only
   double total_seconds = 0.0;   // the frame loop, with the bag and the CSV

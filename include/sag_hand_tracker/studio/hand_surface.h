@@ -23,18 +23,35 @@ namespace studio {
 std::array<std::vector<int>, kNumFingers> fingerChains(const HandModel& model);
 
 // Size and proportions of the rendered hand. They change the skeleton (bone offsets and lengths)
-// so that the ground truth follows the rendered hand, see shapeHandModel.
+// so that the ground truth follows the rendered hand, see shapeHandModel. Named shapes with skin
+// tones are in config/hand_shapes.yaml (hand_shapes.h).
 struct HandShape {
   double scale = 1.0;  // overall size
   // Per finger (thumb..pinky): factor on the bone lengths of that finger.
   std::array<double, kNumFingers> finger_length{{1.0, 1.0, 1.0, 1.0, 1.0}};
-  double palm_width = 1.0;  // factor on the knuckles' spread across the palm
-  double thickness = 1.0;   // factor on all radii (fingers, palm, wrist)
+  // Per finger and bone, proximal to distal (for the thumb: metacarpal, proximal, distal): a
+  // further factor on that one bone's length, e.g. shorter proximal and longer distal phalanges.
+  std::array<std::array<double, 3>, kNumFingers> phalanx_length{{{{1.0, 1.0, 1.0}},
+                                                                 {{1.0, 1.0, 1.0}},
+                                                                 {{1.0, 1.0, 1.0}},
+                                                                 {{1.0, 1.0, 1.0}},
+                                                                 {{1.0, 1.0, 1.0}}}};
+  double palm_width = 1.0;   // factor on the knuckles' spread across the palm
+  double palm_length = 1.0;  // factor on the knuckles' distance from the wrist, along the palm
+  double thickness = 1.0;    // factor on all radii (fingers, palm, wrist, forearm)
+
+  // The factor on the length of bone `phalanx` (0..2) of finger `finger`.
+  double boneFactor(int finger, int phalanx) const {
+    return scale * finger_length[finger] * phalanx_length[finger][phalanx];
+  }
 };
 
-// The model with the skeleton scaled by `shape` (bone offsets and lengths, and the Gaussians with
-// their bones so that the result stays a consistent model). Throws InputError on non-positive
-// factors.
+// The model with the skeleton scaled by `shape`: each finger bone's length by
+// shape.boneFactor(finger, phalanx), a child's offset along its parent by the parent's factor, the
+// palm's children (the first bone of each finger) across the palm by scale * palm_width and along
+// it by scale * palm_length; the Gaussians move and stretch with their bones (along the bone by
+// its factor, across by scale * finger_length) so that the result stays a consistent model.
+// Throws InputError on non-positive or non-finite factors.
 HandModel shapeHandModel(const HandModel& model, const HandShape& shape);
 
 // Fingertips of the rendered hand (thumb..pinky): the distal bone's end, origin + length * x. The
@@ -93,6 +110,13 @@ struct HandSurfaceParams {
   double sleeve_radius = 0.031;  // at the cuff; it widens towards the elbow
   double sleeve_end_radius = 0.040;
   double forearm_length = 0.30;
+  // A bare forearm (issue 9: users do not wear the paper's black sleeve): skin from the wrist to
+  // `bare_forearm_length` from it, radius `forearm_radius` there growing to
+  // `forearm_end_radius`; the sleeve then covers only the elbow region beyond.
+  bool bare_forearm = false;
+  double bare_forearm_length = 0.24;
+  double forearm_radius = 0.021;
+  double forearm_end_radius = 0.031;
 };
 
 // One surface primitive with its material.

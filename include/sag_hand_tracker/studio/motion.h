@@ -13,6 +13,8 @@
 //       orientation: [0, 0, 0]          # roll, pitch, yaw in degrees, see motionOrientation()
 //       shape: fist                     # optional: start from a named shape
 //       joints: {index_dip_flexion: 20} # optional: degrees, override the shape
+//   forearm: {bare: true, bend: 1.5}    # optional: a bare forearm (no sleeve up to the elbow
+//                                       # region) and how far it bends towards the body
 //   random:                             # optional, drawn from the seed
 //     keyframes:                        # extra keyframes drawn uniformly every `interval` s
 //       from: 2.0                       # in [from, to]; a list of such blocks is allowed too
@@ -36,6 +38,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -74,6 +77,10 @@ struct Motion {
   bool cubic = true;
   std::vector<MotionKeyframe> keyframes;  // sorted by time, random ones included
   MotionJitter jitter;
+  // The motion's forearm, when it sets one (`forearm:` key): `bare: true` renders a bare forearm
+  // (HandSurfaceParams::bare_forearm) whatever the caller asked; `bend` overrides forearm_bend.
+  std::optional<bool> bare_forearm;
+  std::optional<double> forearm_bend;
   JointVector joint_min = JointVector::Zero();  // the model's limits (radians)
   JointVector joint_max = JointVector::Zero();
 
@@ -99,7 +106,11 @@ Motion loadMotion(const std::string& path, const HandModel& model, std::uint64_t
 // The built-in sequences, named after Dexter 1's: adbadd, fingercount, fingerwave, flexex1,
 // pinch, random, tigergrasp.
 const std::vector<std::string>& builtinMotionNames();
-// A built-in name -> `<config_dir>/motions/<name>.yaml`; anything else is taken as a path.
+// Issue 9's harder motions (natural, not palm-down over the table): raised, pronation,
+// wristflex, fastturn.
+const std::vector<std::string>& hardMotionNames();
+// A built-in name (of either list) -> `<config_dir>/motions/<name>.yaml`; anything else is taken
+// as a path.
 std::string resolveMotionPath(const std::string& name_or_path, const std::string& config_dir);
 
 }  // namespace studio

@@ -1,0 +1,56 @@
+// Named hands of the synthetic studio (issue 9): proportions (HandShape) and skin tone
+// (SkinAlbedo), read from config/hand_shapes.yaml, so that the benchmark measures the tracker on
+// hands other than its own model. Format (the file documents every key):
+//
+//   shapes:
+//     - name: long_distal                 # [A-Za-z0-9_] only; `default` is the model's own hand
+//       description: short proximal, long distal phalanges, lighter skin
+//       scale: 1.0                        # overall size (optional, default 1)
+//       finger_length: [1, 1, 1, 1, 1]    # thumb..pinky, or one number for all (default 1)
+//       phalanx_length: [0.8, 1.0, 1.5]   # proximal, middle, distal for every finger, or a map
+//                                         # {thumb: [..], index: [..], ...} (default 1)
+//       palm_width: 1.0                   # across the knuckles (default 1)
+//       palm_length: 1.0                  # wrist to knuckles (default 1)
+//       thickness: 1.0                    # all radii (default 1)
+//       skin:                             # linear RGB albedos in [0, 1] (default: SkinAlbedo())
+//         dorsal: [0.73, 0.41, 0.27]
+//         palmar: [0.78, 0.44, 0.33]
+//         nail: [0.82, 0.56, 0.50]
+//
+// Everything is explicit numbers: the same file gives the same hands.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "sag_hand_tracker/studio/hand_surface.h"
+
+namespace sag_hand_tracker {
+namespace studio {
+
+struct StudioHand {
+  std::string name = "default";
+  std::string description;
+  HandShape shape;
+  SkinAlbedo skin;
+};
+
+// Parses a hand-shapes document. `source` names it in errors. Throws InputError naming the
+// source, the line and the problem (unknown keys, factors that are not positive, colours outside
+// [0, 1], duplicate or malformed names, an empty list).
+std::vector<StudioHand> parseHandShapes(const std::string& yaml_text, const std::string& source);
+std::vector<StudioHand> loadHandShapes(const std::string& path);
+
+// `<config_dir>/hand_shapes.yaml`.
+std::string handShapesPath(const std::string& config_dir);
+
+// A hand by name from `<config_dir>/hand_shapes.yaml` ("default" is always known, even without
+// the file), or a file in the same format holding exactly one shape. Throws InputError naming the
+// known shapes when the name is unknown.
+StudioHand resolveHandShape(const std::string& name_or_file, const std::string& config_dir);
+
+// The names in `<config_dir>/hand_shapes.yaml`, in file order.
+std::vector<std::string> handShapeNames(const std::string& config_dir);
+
+}  // namespace studio
+}  // namespace sag_hand_tracker
