@@ -84,6 +84,10 @@ std::string renderBagUsage() {
          "  --exposure T       exposure time in seconds for motion blur (default 0.010)\n"
          "  --noise SIGMA      sensor noise, 8-bit levels (default 2)\n"
          "  --hand-scale S     size of the rendered hand relative to the model (default 1)\n"
+         "  --palm-width F     factor on the knuckles' spread across the palm (default 1)\n"
+         "  --finger-length F  factor on the finger bones' lengths: one for all fingers or five\n"
+         "                     (thumb,index,middle,ring,pinky) (default 1)\n"
+         "  --thickness F      factor on the radii of the fingers, palm and wrist (default 1)\n"
          "  --model M          hand skeleton: sag (default) or a model file\n"
          "  --preview PNG      also write a contact sheet of one frame (all views + labels)\n"
          "  --preview-frame N  the frame of the contact sheet (default: the middle one)\n"
@@ -155,6 +159,28 @@ RenderBagOptions parseRenderBagArguments(const std::vector<std::string>& args) {
     } else if (a == "--hand-scale") {
       options.hand_scale = number(&i);
       if (!(options.hand_scale > 0.0)) throw UsageError("--hand-scale must be positive");
+    } else if (a == "--palm-width") {
+      options.palm_width = number(&i);
+      if (!(options.palm_width > 0.0)) throw UsageError("--palm-width must be positive");
+    } else if (a == "--thickness") {
+      options.thickness = number(&i);
+      if (!(options.thickness > 0.0)) throw UsageError("--thickness must be positive");
+    } else if (a == "--finger-length") {
+      const std::string text = value(&i);
+      const std::vector<std::string> items =
+          parseListOption("--finger-length", text, "one factor or five, like 1.1,1,1,0.9,1");
+      if (items.size() != 1 && items.size() != kNumFingers) {
+        throw UsageError("--finger-length expects one factor or five, got '" + text + "'");
+      }
+      for (int f = 0; f < kNumFingers; ++f) {
+        const std::string& item = items[items.size() == 1 ? 0 : f];
+        char* end = nullptr;
+        const double factor = std::strtod(item.c_str(), &end);
+        if (end != item.c_str() + item.size() || !(factor > 0.0) || !std::isfinite(factor)) {
+          throw UsageError("--finger-length needs positive numbers, not '" + item + "'");
+        }
+        options.finger_length[f] = factor;
+      }
     } else if (a == "--preview") {
       options.preview = value(&i);
     } else if (a == "--preview-frame") {
@@ -218,6 +244,9 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
   params.motion_blur_samples = options.motion_blur;
   params.exposure = std::min(options.exposure, 1.0 / options.fps);
   params.shape.scale = options.hand_scale;
+  params.shape.palm_width = options.palm_width;
+  params.shape.finger_length = options.finger_length;
+  params.shape.thickness = options.thickness;
   const studio::StudioSequence sequence(model, std::move(motion), params);
   const int frames = sequence.frameCount();
   const int preview_frame = options.preview.empty()

@@ -5,6 +5,7 @@
 // /ground_truth/fingertips) and in a CSV with track_bag's columns. No ROS master needed.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -12,6 +13,7 @@
 #include "sag_hand_tracker/progress.h"
 #include "sag_hand_tracker/ros/bag_output.h"
 #include "sag_hand_tracker/command_line.h"
+#include "sag_hand_tracker/types.h"
 
 namespace sag_hand_tracker {
 
@@ -29,6 +31,9 @@ struct RenderBagOptions {
   double exposure = 0.010;            // --exposure SECONDS (motion blur)
   double noise = 2.0;                 // --noise SIGMA (8-bit levels)
   double hand_scale = 1.0;            // --hand-scale S
+  double palm_width = 1.0;            // --palm-width F
+  std::array<double, kNumFingers> finger_length{{1, 1, 1, 1, 1}};  // --finger-length F[,F x4]
+  double thickness = 1.0;             // --thickness F
   std::string preview;                // --preview PNG: contact sheet of one frame
   int preview_frame = -1;             // --preview-frame N (default: the middle frame)
   double start_stamp = 1400000000.0;  // --start-stamp SECONDS of the first frame
