@@ -21,20 +21,26 @@ namespace sag_hand_tracker {
 
 // The shape of a fitted hand relative to the start model: factors, 1 = unchanged.
 struct HandShapeParameters {
-  double scale = 1.0;                           // overall size (every offset, length and Gaussian)
-  double palm_width = 1.0;                      // the knuckles' spread across the palm
-  double finger_length = 1.0;                   // every finger bone (thumb included)
-  std::vector<double> bone_length;              // per bone (the palm's entry is unused)
-  std::vector<Eigen::Vector3d> gaussian_scale;  // per Gaussian: its std devs along its axes
+  double scale = 1.0;          // overall size (every offset, length and Gaussian)
+  double palm_width = 1.0;     // the knuckles' spread across the palm
+  double finger_length = 1.0;  // every finger bone (thumb included)
+  // Ours, beside the paper's three: every Gaussian's width across its bone (the fingers' y and
+  // z, the palm's z). Real hands differ in thickness as much as in length.
+  double thickness = 1.0;
+  // Per bone: its length (for the palm: the distance from the wrist to the finger roots).
+  std::vector<double> bone_length;
+  // Per Gaussian: its std devs along its principal axes (x along the bone, then y, z).
+  std::vector<Eigen::Vector3d> gaussian_scale;
 
   // All factors 1 for `model`.
   static HandShapeParameters identity(const HandModel& model);
 };
 
 // The start model with the shape applied: Gaussians scaled along their principal axes (the start
-// model's), then each bone's length (the bone, its children's offsets, its Gaussians along the
-// bone axis), then the global parameters (studio::shapeHandModel's scale, palm width, finger
-// length). Throws InputError for a non-positive factor or parameters that do not fit the model.
+// model's; thickness included), then each bone's length (the bone, its children's offsets along
+// its x axis, its Gaussians along x), then the global parameters (studio::shapeHandModel's scale,
+// palm width, finger length). Throws InputError for a non-positive factor or parameters that do
+// not fit the model.
 HandModel applyHandShape(const HandModel& start, const HandShapeParameters& shape);
 
 // One frame of the calibration recording: what the cameras saw and the tracked pose.
@@ -87,8 +93,15 @@ struct HandFitParams {
   std::vector<double> gaussian_steps{0.12, 0.06};
   double min_factor = 0.6;  // every factor stays in [min_factor, max_factor]
   double max_factor = 1.6;
+  // The shape score's model mass M = model_mass_weight * sum_p 2 pi sqrt(det Sigma_p) (see
+  // shapeScore). 0.25: half the area of the projected 1-sigma ellipses (the hand's surface passes
+  // at 1 sigma), as sum_q E_qq = pi sigma_q^2 is half the area of the foreground's quad-tree
+  // leaves.
+  double model_mass_weight = 0.25;
   double min_gain = 1e-5;  // a step is taken when it raises the shape score by more
   bool fit_bones = true;
+  // Each finger bone on its own; by default the bones of a finger share one factor.
+  bool per_bone_lengths = false;
   bool fit_gaussians = true;
   bool fit_colours = true;
 };
@@ -112,13 +125,14 @@ struct HandFitResult {
 // The frames the fit uses: up to `max_frames`, evenly spread (by index) over `frames`.
 std::vector<int> selectCalibrationFrames(int frame_count, int max_frames);
 
-// The shape score of a model at a pose in a frame, in [0, 1]: per camera the Dice-like
+// The shape score of a model at a pose in a frame: per camera the Dice-like
 // 2 O / (sum_q E_qq + M), O the overlap of eq. 8 (with colours), M the model's own projected mass
-// sum_p w_p * 2 pi sqrt(det Sigma_p); averaged over the cameras that see anything. E_sim alone
-// grows without bound with the Gaussians' size (a larger model overlaps more image Gaussians and
-// nothing penalises mass over the background); M is that penalty.
+// model_mass_weight * sum_p 2 pi sqrt(det Sigma_p); averaged over the cameras that see anything.
+// E_sim alone grows without bound with the Gaussians' size (a larger model overlaps more image
+// Gaussians and nothing penalises mass over the background); M is that penalty.
 double shapeScore(const HandModel& model, const EnergyParams& params,
-                  const std::vector<CameraObservation>& observations, const Pose& pose);
+                  const std::vector<CameraObservation>& observations, const Pose& pose,
+                  double model_mass_weight = 0.25);
 
 // Each Gaussian's HSV colour: the area-weighted mean colour of the image Gaussians whose centres
 // fall inside its projected 1-sigma ellipse, where it is the nearest model Gaussian to the

@@ -41,12 +41,13 @@ std::vector<CameraGaussian> projectModel(const HandModel& model, const PosedHand
 }
 
 // The mean over the frames of the shape score at the given poses.
-double meanShapeScore(const HandModel& model, const EnergyParams& params,
+double meanShapeScore(const HandModel& model, const HandFitParams& params,
                       const std::vector<const CalibrationFrame*>& frames,
                       const std::vector<Pose>& poses) {
   double sum = 0.0;
   for (size_t f = 0; f < frames.size(); ++f) {
-    sum += shapeScore(model, params, frames[f]->observations, poses[f]);
+    sum += shapeScore(model, params.energy, frames[f]->observations, poses[f],
+                      params.model_mass_weight);
   }
   return frames.empty() ? 0.0 : sum / frames.size();
 }
@@ -108,7 +109,7 @@ HandModel applyHandShape(const HandModel& start, const HandShapeParameters& shap
                      " bones and " + std::to_string(start.gaussians.size()) + " Gaussians");
   }
   bool ok = positiveFactor(shape.scale) && positiveFactor(shape.palm_width) &&
-            positiveFactor(shape.finger_length);
+            positiveFactor(shape.finger_length) && positiveFactor(shape.thickness);
   for (double f : shape.bone_length) ok = ok && positiveFactor(f);
   for (const Eigen::Vector3d& s : shape.gaussian_scale) {
     ok = ok && positiveFactor(s.x()) && positiveFactor(s.y()) && positiveFactor(s.z());
@@ -132,19 +133,21 @@ HandModel applyHandShape(const HandModel& start, const HandShapeParameters& shap
         if (best < 0 || std::abs(axes(bone_axis, e)) > std::abs(axes(bone_axis, best))) best = e;
       }
       used[best] = true;
-      factor_per_eigen[best] = shape.gaussian_scale[g][bone_axis];
+      const bool across = model.gaussians[g].bone == 0 ? bone_axis == 2 : bone_axis > 0;
+      factor_per_eigen[best] =
+          shape.gaussian_scale[g][bone_axis] * (across ? shape.thickness : 1.0);
     }
     variances = variances.cwiseProduct(factor_per_eigen.cwiseAbs2());
     model.gaussians[g].cov = axes * variances.asDiagonal() * axes.transpose();
     model.gaussians[g].cov = 0.5 * (model.gaussians[g].cov + model.gaussians[g].cov.transpose());
   }
   // Per bone: its length, the offsets of its children, its Gaussians along the bone axis.
-  for (size_t b = 1; b < model.bones.size(); ++b) {
+  for (size_t b = 0; b < model.bones.size(); ++b) {
     const double k = shape.bone_length[b];
     if (k == 1.0) continue;
     model.bones[b].length *= k;
     for (Bone& child : model.bones) {
-      if (child.parent == static_cast<int>(b)) child.offset *= k;
+      if (child.parent == static_cast<int>(b)) child.offset.x() *= k;
     }
     const Eigen::Vector3d s(k, 1.0, 1.0);
     for (ModelGaussian& g : model.gaussians) {
@@ -161,7 +164,8 @@ HandModel applyHandShape(const HandModel& start, const HandShapeParameters& shap
 }
 
 double shapeScore(const HandModel& model, const EnergyParams& params,
-                  const std::vector<CameraObservation>& observations, const Pose& pose) {
+                  const std::vector<CameraObservation>& observations, const Pose& pose,
+                  double model_mass_weight) {
   PoseEnergy energy(model, params);
   energy.setFrame(observations);
   EnergyTerms terms;
@@ -188,7 +192,7 @@ double shapeScore(const HandModel& model, const EnergyParams& params,
     for (const CameraGaussian& g : projectModel(model, hand, observation.camera)) {
       if (!g.projected.valid) continue;
       const double det = g.projected.cov.determinant();
-      if (det > 0.0) model_mass += params.model_weight * 2.0 * M_PI * std::sqrt(det);
+      if (det > 0.0) model_mass += model_mass_weight * 2.0 * M_PI * std::sqrt(det);
     }
     score += 2.0 * overlap / (image_mass + model_mass);
   }
@@ -371,7 +375,7 @@ HandFitResult fitHandModel(const HandModel& start, const std::vector<Calibration
   // The tracked poses came from the start model frame by frame; refine them once.
   poses = optimizePoses(model, params, used, poses, initial, nullptr);
   result.energy_before = meanEnergy(model, params.energy, used, poses);
-  result.score_before = meanShapeScore(model, params.energy, used, poses);
+  result.score_before = meanShapeScore(model, params, used, poses);
 
   auto sampleColours = [&]() {
     if (!params.fit_colours) return;
@@ -389,29 +393,47 @@ HandFitResult fitHandModel(const HandModel& start, const std::vector<Calibration
   HandModel base = model;  // the start model with the person's colours: what the shape acts on
   HandShapeParameters shape = HandShapeParameters::identity(base);
   poses = optimizePoses(model, params, used, poses, params.pose_optimizer, nullptr);
-  double score = meanShapeScore(model, params.energy, used, poses);
+  double score = meanShapeScore(model, params, used, poses);
 
   // The parameters, as pointers into `shape`, in the paper's order: global, then (ours) the
   // bone lengths, then the per-Gaussian principal-axis scales.
   struct Block {
     std::string name;
-    std::vector<double*> parameters;
+    std::vector<std::vector<double*>> parameters;  // each group of factors moves together
     const std::vector<double>* steps;
   };
   std::vector<Block> blocks;
-  blocks.push_back({"global shape",
-                    {&shape.scale, &shape.palm_width, &shape.finger_length},
-                    &params.global_steps});
+  // Thickness first: it is the largest and least ambiguous difference, and while it is wrong the
+  // size would shrink the whole hand to thin it.
+  blocks.push_back(
+      {"global shape",
+       {{&shape.thickness}, {&shape.scale}, {&shape.palm_width}, {&shape.finger_length}},
+       &params.global_steps});
   if (params.fit_bones) {
     Block bones{"bone lengths", {}, &params.bone_steps};
-    for (size_t b = 1; b < shape.bone_length.size(); ++b)
-      bones.parameters.push_back(&shape.bone_length[b]);
+    // The palm's length; then per finger either all its bones together (the default: the split
+    // between the phalanges is not determined by the energy, doc/calibration.md) or each bone.
+    bones.parameters.push_back({&shape.bone_length[0]});
+    for (const std::vector<int>& chain : studio::fingerChains(base)) {
+      std::vector<double*> finger;
+      for (int b : chain) finger.push_back(&shape.bone_length[b]);
+      if (params.per_bone_lengths) {
+        for (double* bone : finger) bones.parameters.push_back({bone});
+      } else {
+        bones.parameters.push_back(finger);
+      }
+    }
     blocks.push_back(bones);
   }
   if (params.fit_gaussians) {
     Block gaussians{"Gaussian scales", {}, &params.gaussian_steps};
-    for (Eigen::Vector3d& s : shape.gaussian_scale) {
-      for (int axis = 0; axis < 3; ++axis) gaussians.parameters.push_back(&s[axis]);
+    // A finger Gaussian spans its bone (mean = sigma_x = length / 2 in the start model), so its
+    // extent along the bone is the bone length's; only its two widths are free. The palm's
+    // Gaussians have all three.
+    for (size_t g = 0; g < shape.gaussian_scale.size(); ++g) {
+      for (int axis = base.gaussians[g].bone == 0 ? 0 : 1; axis < 3; ++axis) {
+        gaussians.parameters.push_back({&shape.gaussian_scale[g][axis]});
+      }
     }
     blocks.push_back(gaussians);
   }
@@ -426,7 +448,7 @@ HandFitResult fitHandModel(const HandModel& start, const std::vector<Calibration
   for (int round = 0; round < params.rounds; ++round) {
     for (const Block& block : blocks) {
       for (double step : *block.steps) {
-        for (double* parameter : block.parameters) {
+        for (const std::vector<double*>& group : block.parameters) {
           ++done_sweeps;
           report(static_cast<double>(done_sweeps) / total_sweeps,
                  block.name + ", step " +
@@ -435,16 +457,18 @@ HandFitResult fitHandModel(const HandModel& start, const std::vector<Calibration
           for (double direction : {1.0, -1.0}) {
             bool improved = false;
             for (int repeat = 0; repeat < 4; ++repeat) {
-              const double old_value = *parameter;
-              const double new_value = std::clamp(old_value * (1.0 + direction * step),
-                                                  params.min_factor, params.max_factor);
-              if (new_value == old_value) break;
-              *parameter = new_value;
+              std::vector<double> old_values;
+              for (double* factor : group) old_values.push_back(*factor);
+              const double change = std::clamp(old_values[0] * (1.0 + direction * step),
+                                               params.min_factor, params.max_factor) /
+                                    old_values[0];
+              if (change == 1.0) break;
+              for (double* factor : group) *factor *= change;
               const HandModel candidate = applyHandShape(base, shape);
               const std::vector<Pose> candidate_poses =
                   optimizePoses(candidate, params, used, poses, params.pose_optimizer, nullptr);
               const double candidate_score =
-                  meanShapeScore(candidate, params.energy, used, candidate_poses);
+                  meanShapeScore(candidate, params, used, candidate_poses);
               ++result.trials;
               if (candidate_score > score + params.min_gain) {
                 score = candidate_score;
@@ -453,7 +477,7 @@ HandFitResult fitHandModel(const HandModel& start, const std::vector<Calibration
                 improved = true;
                 ++result.accepted;
               } else {
-                *parameter = old_value;
+                for (size_t i = 0; i < group.size(); ++i) *group[i] = old_values[i];
                 break;
               }
             }
@@ -474,7 +498,7 @@ HandFitResult fitHandModel(const HandModel& start, const std::vector<Calibration
   result.model = model;
   result.shape = shape;
   result.poses = poses;
-  result.score_after = meanShapeScore(model, params.energy, used, poses);
+  result.score_after = meanShapeScore(model, params, used, poses);
   result.energy_after = meanEnergy(model, params.energy, used, poses);
   report(1.0, "fitted");
   return result;
@@ -517,7 +541,7 @@ cv::Mat drawModelOverlay(const cv::Mat& rgb, const Camera& camera, const HandMod
     const Eigen::Vector2d radii = eigen.eigenvalues().cwiseMax(0.0).cwiseSqrt();
     const Eigen::Vector2d major = eigen.eigenvectors().col(1);
     const double angle = std::atan2(major.y(), major.x()) * kRadToDeg;
-    const Eigen::Vector3d colour = hsvToRgb(model.gaussians[p].hsv) * 255.0;
+    const Eigen::Vector3d colour(255.0, 230.0, 0.0);  // yellow: seen on skin and on the table
     const cv::Point2d centre(projected[p].projected.mean.x(), projected[p].projected.mean.y());
     cv::ellipse(out, cv::RotatedRect(centre, cv::Size2f(2 * radii[1], 2 * radii[0]), angle),
                 cv::Scalar(colour[0], colour[1], colour[2]), 1, cv::LINE_AA);

@@ -300,9 +300,11 @@ std::string formatCalibrateHandSummary(const CalibrateHandSummary& s) {
   out << "  routine:      open hand " << s.routine.open_frames << ", palm to a camera "
       << s.routine.palm_frames << ", back to a camera " << s.routine.back_frames << ", fist "
       << s.routine.fist_frames << " frames\n";
-  out << "  global shape: size x" << fixed(fit.shape.scale, 3) << ", palm width x"
-      << fixed(fit.shape.palm_width, 3) << ", finger length x" << fixed(fit.shape.finger_length, 3)
-      << "\n";
+  out << "  global shape: thickness x" << fixed(fit.shape.thickness, 3) << ", size x"
+      << fixed(fit.shape.scale, 3) << ", palm width x" << fixed(fit.shape.palm_width, 3)
+      << ", finger length x" << fixed(fit.shape.finger_length, 3) << "\n";
+  out << "  palm length:  x" << fixed(fit.shape.bone_length.at(0), 3)
+      << " (wrist to the finger roots, beside the size)\n";
   out << "  finger bones (mm, start -> fitted):\n";
   const auto chains = studio::fingerChains(s.start_model);
   for (int f = 0; f < kNumFingers; ++f) {
