@@ -312,21 +312,21 @@ const HandFitResult& fitFor(int shape_case) {
   const RoutineCheck check = checkCalibrationRoutine(handModel(), routine.frames, 5);
   EXPECT_TRUE(check.ok) << joined(check.missing);
   HandFitParams params;
-  params.max_frames = 12;
+  params.max_frames = 10;
   params.rounds = 1;
   return fits.emplace(shape_case, fitHandModel(handModel(), routine.frames, params)).first->second;
 }
 
 class FitOnStudioHands : public ::testing::TestWithParam<int> {};
 
-// Tracking a sequence of that hand (the first 2 s of pinch) with the fitted model beats the
+// Tracking a sequence of that hand (the first 1.6 s of pinch) with the fitted model beats the
 // default model.
 TEST_P(FitOnStudioHands, TrackingWithTheFittedModelBeatsTheDefault) {
   const ShapeCase& shape_case = shapeCases()[GetParam()];
   const HandFitResult& fit = fitFor(GetParam());
   EXPECT_GT(fit.score_after, fit.score_before);
   const std::vector<Recording> pinch =
-      renderAndTrack("pinch", shape_case.shape, {handModel(), fit.model}, 60);
+      renderAndTrack("pinch", shape_case.shape, {handModel(), fit.model}, 50);
   const double default_error = meanTipError(handModel(), pinch[0]);
   const double fitted_error = meanTipError(fit.model, pinch[1]);
   RecordProperty("default_mm", std::to_string(default_error));
