@@ -102,6 +102,8 @@ struct HandFitParams {
   bool fit_bones = true;
   // Each finger bone on its own; by default the bones of a finger share one factor.
   bool per_bone_lengths = false;
+  // The palm's length on its own (beside the overall size); off by default, doc/calibration.md.
+  bool fit_palm_length = false;
   bool fit_gaussians = true;
   bool fit_colours = true;
 };

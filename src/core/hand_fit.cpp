@@ -411,9 +411,11 @@ HandFitResult fitHandModel(const HandModel& start, const std::vector<Calibration
        &params.global_steps});
   if (params.fit_bones) {
     Block bones{"bone lengths", {}, &params.bone_steps};
-    // The palm's length; then per finger either all its bones together (the default: the split
-    // between the phalanges is not determined by the energy, doc/calibration.md) or each bone.
-    bones.parameters.push_back({&shape.bone_length[0]});
+    // Per finger either all its bones together (the default: the split between the phalanges is
+    // not determined by the energy, doc/calibration.md) or each bone; the palm's length (wrist to
+    // the knuckles) only on request: the open hand's silhouette does not mark the knuckles, and
+    // the search trades palm length for finger length (doc/calibration.md).
+    if (params.fit_palm_length) bones.parameters.push_back({&shape.bone_length[0]});
     for (const std::vector<int>& chain : studio::fingerChains(base)) {
       std::vector<double*> finger;
       for (int b : chain) finger.push_back(&shape.bone_length[b]);
