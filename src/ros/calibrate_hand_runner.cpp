@@ -304,7 +304,7 @@ std::string formatCalibrateHandSummary(const CalibrateHandSummary& s) {
       << fixed(fit.shape.scale, 3) << ", palm width x" << fixed(fit.shape.palm_width, 3)
       << ", finger length x" << fixed(fit.shape.finger_length, 3) << "\n";
   out << "  palm length:  x" << fixed(fit.shape.bone_length.at(0), 3)
-      << " (wrist to the finger roots, beside the size)\n";
+      << " (wrist to the finger roots; follows the size unless fitted)\n";
   out << "  finger bones (mm, start -> fitted):\n";
   const auto chains = studio::fingerChains(s.start_model);
   for (int f = 0; f < kNumFingers; ++f) {
@@ -323,8 +323,8 @@ std::string formatCalibrateHandSummary(const CalibrateHandSummary& s) {
     across_min = std::min(across_min, g.tail<2>().minCoeff());
     across_max = std::max(across_max, g.tail<2>().maxCoeff());
   }
-  out << "  Gaussians:    widths along the bone x" << fixed(along_min, 2) << "..x"
-      << fixed(along_max, 2) << ", across x" << fixed(across_min, 2) << "..x"
+  out << "  Gaussians:    own factors beside the thickness: along the bone x" << fixed(along_min, 2)
+      << "..x" << fixed(along_max, 2) << ", across x" << fixed(across_min, 2) << "..x"
       << fixed(across_max, 2) << "; colours sampled (palm hsv "
       << fixed(fit.model.gaussians[0].hsv[0], 0) << ", " << fixed(fit.model.gaussians[0].hsv[1], 2)
       << ", " << fixed(fit.model.gaussians[0].hsv[2], 2) << ")\n";
