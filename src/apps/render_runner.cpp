@@ -91,6 +91,11 @@ std::string renderBagUsage() {
          "                     that format holding one shape (default: default)\n"
          "  --bare-forearm     a bare forearm up to the elbow region instead of the black sleeve\n"
          "                     (motions with `forearm: {bare: true}` always have one)\n"
+         "  --palm-width F     factor on the knuckles' spread across the palm (default 1; on\n"
+         "                     top of the shape's, like the two below)\n"
+         "  --finger-length F  factor on the finger bones' lengths: one for all fingers or five\n"
+         "                     (thumb,index,middle,ring,pinky) (default 1)\n"
+         "  --thickness F      factor on the radii of the fingers, palm and wrist (default 1)\n"
          "  --model M          hand skeleton: sag (default) or a model file\n"
          "  --preview PNG      also write a contact sheet of one frame (all views + labels)\n"
          "  --preview-frame N  the frame of the contact sheet (default: the middle one)\n"
@@ -167,6 +172,28 @@ RenderBagOptions parseRenderBagArguments(const std::vector<std::string>& args) {
       if (options.shape.empty()) throw UsageError("--shape needs a name or a file");
     } else if (a == "--bare-forearm") {
       options.bare_forearm = true;
+    } else if (a == "--palm-width") {
+      options.palm_width = number(&i);
+      if (!(options.palm_width > 0.0)) throw UsageError("--palm-width must be positive");
+    } else if (a == "--thickness") {
+      options.thickness = number(&i);
+      if (!(options.thickness > 0.0)) throw UsageError("--thickness must be positive");
+    } else if (a == "--finger-length") {
+      const std::string text = value(&i);
+      const std::vector<std::string> items =
+          parseListOption("--finger-length", text, "one factor or five, like 1.1,1,1,0.9,1");
+      if (items.size() != 1 && items.size() != kNumFingers) {
+        throw UsageError("--finger-length expects one factor or five, got '" + text + "'");
+      }
+      for (int f = 0; f < kNumFingers; ++f) {
+        const std::string& item = items[items.size() == 1 ? 0 : f];
+        char* end = nullptr;
+        const double factor = std::strtod(item.c_str(), &end);
+        if (end != item.c_str() + item.size() || !(factor > 0.0) || !std::isfinite(factor)) {
+          throw UsageError("--finger-length needs positive numbers, not '" + item + "'");
+        }
+        options.finger_length[f] = factor;
+      }
     } else if (a == "--preview") {
       options.preview = value(&i);
     } else if (a == "--preview-frame") {
@@ -223,6 +250,9 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
   params.shape.scale *= options.hand_scale;
   params.surface.skin = hand.skin;
   params.surface.bare_forearm = options.bare_forearm;
+  params.shape.palm_width *= options.palm_width;
+  for (int f = 0; f < kNumFingers; ++f) params.shape.finger_length[f] *= options.finger_length[f];
+  params.shape.thickness *= options.thickness;
   const studio::StudioSequence sequence(model, std::move(motion), params);
   const int frames = sequence.frameCount();
   const int preview_frame = options.preview.empty()

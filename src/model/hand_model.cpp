@@ -3,8 +3,10 @@
 #include <yaml-cpp/yaml.h>
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <iomanip>
 #include <map>
 #include <sstream>
 
@@ -149,16 +151,20 @@ class ModelParser {
           JointDof dof;
           dof.name = scalar<std::string>(dof_node, "name");
           dof.bone = static_cast<int>(model->bones.size());
+          // A leading '-' reverses the axis (mirrored models, see mirrorHandModel).
           const std::string axis = scalar<std::string>(dof_node, "axis");
-          if (axis == "x") {
+          const bool negative = !axis.empty() && axis[0] == '-';
+          const std::string name = negative ? axis.substr(1) : axis;
+          if (name == "x") {
             dof.axis = Eigen::Vector3d::UnitX();
-          } else if (axis == "y") {
+          } else if (name == "y") {
             dof.axis = Eigen::Vector3d::UnitY();
-          } else if (axis == "z") {
+          } else if (name == "z") {
             dof.axis = Eigen::Vector3d::UnitZ();
           } else {
-            fail(dof_node, "axis", "must be x, y or z, not '" + axis + "'");
+            fail(dof_node, "axis", "must be x, y or z (or -x, -y, -z), not '" + axis + "'");
           }
+          if (negative) dof.axis = -dof.axis;
           dof.min = scalar<double>(dof_node, "min_deg") * kDegToRad;
           dof.max = scalar<double>(dof_node, "max_deg") * kDegToRad;
           if (!(dof.min <= dof.max)) fail(dof_node, "min_deg", "must not exceed max_deg");
@@ -305,6 +311,107 @@ HandModel mirrorHandModel(const HandModel& model) {
     gaussian.cov = S * gaussian.cov * S;
   }
   return mirrored;
+}
+
+namespace {
+
+// Rz(yaw) Ry(pitch) Rx(roll) -> (roll, pitch, yaw) in degrees, as the file's rest_rpy_deg.
+Eigen::Vector3d rpyDegreesOf(const Eigen::Matrix3d& rotation) {
+  const double pitch = std::asin(std::clamp(-rotation(2, 0), -1.0, 1.0));
+  const double roll = std::atan2(rotation(2, 1), rotation(2, 2));
+  const double yaw = std::atan2(rotation(1, 0), rotation(0, 0));
+  return Eigen::Vector3d(roll, pitch, yaw) / kDegToRad;
+}
+
+std::string number(double value) {
+  if (std::abs(value) < 1e-12) value = 0.0;
+  std::ostringstream out;
+  out << std::setprecision(6) << value;
+  return out.str();
+}
+
+std::string list3(const Eigen::Vector3d& v) {
+  return "[" + number(v[0]) + ", " + number(v[1]) + ", " + number(v[2]) + "]";
+}
+
+std::string axisName(const Eigen::Vector3d& axis) {
+  for (int i = 0; i < 3; ++i) {
+    const char* names[] = {"x", "y", "z"};
+    if (std::abs(std::abs(axis[i]) - 1.0) < 1e-9) {
+      return std::string(axis[i] < 0.0 ? "-" : "") + names[i];
+    }
+  }
+  throw InputError("a joint axis that is not a bone axis (x, y or z) cannot be written");
+}
+
+}  // namespace
+
+std::string formatHandModel(const HandModel& model, const std::string& comment) {
+  validateHandModel(model);
+  std::ostringstream out;
+  if (!comment.empty()) {
+    std::istringstream lines(comment);
+    for (std::string line; std::getline(lines, line);) out << "# " << line << "\n";
+  }
+  out << "name: " << model.name << "\n";
+  out << "handedness: " << (model.handedness == Handedness::kRight ? "right" : "left") << "\n";
+  out << "projection: "
+      << (model.projection == ProjectionMode::kPerspective ? "perspective" : "scaled_orthographic")
+      << "\n";
+  out << "bones:\n";
+  for (const Bone& bone : model.bones) {
+    out << "  - name: " << bone.name << "\n";
+    out << "    parent: \"" << (bone.parent >= 0 ? model.bones[bone.parent].name : "") << "\"\n";
+    out << "    offset: " << list3(bone.offset) << "\n";
+    out << "    rest_rpy_deg: " << list3(rpyDegreesOf(bone.rest_rotation)) << "\n";
+    out << "    length: " << number(bone.length) << "\n";
+    if (!bone.joint_dofs.empty()) {
+      out << "    dofs:\n";
+      for (int j : bone.joint_dofs) {
+        const JointDof& dof = model.joints[j];
+        out << "      - {name: " << dof.name << ", axis: " << axisName(dof.axis)
+            << ", min_deg: " << number(dof.min / kDegToRad)
+            << ", max_deg: " << number(dof.max / kDegToRad) << "}\n";
+      }
+    }
+  }
+  out << "gaussians:\n";
+  for (const ModelGaussian& g : model.gaussians) {
+    // sigma along the rotated axes: the eigen-decomposition, each eigenvector assigned to the
+    // bone axis it is closest to, as a proper rotation.
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(g.cov);
+    Eigen::Matrix3d rotation;
+    Eigen::Vector3d sigma;
+    std::array<bool, 3> used{{false, false, false}};
+    for (int axis = 0; axis < 3; ++axis) {
+      int best = -1;
+      for (int e = 0; e < 3; ++e) {
+        if (used[e]) continue;
+        if (best < 0 ||
+            std::abs(eigen.eigenvectors()(axis, e)) > std::abs(eigen.eigenvectors()(axis, best))) {
+          best = e;
+        }
+      }
+      used[best] = true;
+      Eigen::Vector3d column = eigen.eigenvectors().col(best);
+      if (column[axis] < 0.0) column = -column;
+      rotation.col(axis) = column;
+      sigma[axis] = std::sqrt(std::max(eigen.eigenvalues()[best], 0.0));
+    }
+    if (rotation.determinant() < 0.0) rotation.col(2) = -rotation.col(2);
+    out << "  - {bone: " << model.bones[g.bone].name << ", mean: " << list3(g.mean);
+    const Eigen::Vector3d rpy = rpyDegreesOf(rotation);
+    if (rpy.norm() > 1e-6) out << ", rpy_deg: " << list3(rpy);
+    out << ", sigma: " << list3(sigma) << ", hsv: " << list3(g.hsv);
+    if (g.weight != 1.0) out << ", weight: " << number(g.weight);
+    out << "}\n";
+  }
+  out << "fingertips:\n";
+  for (int finger = 0; finger < kNumFingers; ++finger) {
+    out << "  " << fingerNames()[finger] << ": "
+        << model.bones[model.gaussians[model.fingertip_gaussians[finger]].bone].name << "\n";
+  }
+  return out.str();
 }
 
 std::string resolveModelPath(const std::string& name_or_path, const std::string& config_dir) {

@@ -56,8 +56,10 @@ void TrackingPipeline::checkImage(const CameraImage& image) const {
   }
 }
 
-ProcessedFrame TrackingPipeline::process(const FrameSet& set) {
+ProcessedFrame TrackingPipeline::process(const FrameSet& set,
+                                         std::vector<CameraObservation>* observations_out) {
   for (const CameraImage& image : set.images) checkImage(image);
+  if (observations_out) observations_out->clear();
   ProcessedFrame processed;
   processed.result.stamp = set.stamp();
   processed.result.num_cameras = static_cast<int>(set.images.size());
@@ -89,6 +91,7 @@ ProcessedFrame TrackingPipeline::process(const FrameSet& set) {
   const auto tracking_start = std::chrono::steady_clock::now();
   processed.result = tracker_.update(observations, set.stamp());
   processed.tracking_seconds = secondsSince(tracking_start);
+  if (observations_out) *observations_out = std::move(observations);
   return processed;
 }
 

@@ -5,6 +5,7 @@
 // /ground_truth/fingertips) and in a CSV with track_bag's columns. No ROS master needed.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -12,6 +13,7 @@
 #include "sag_hand_tracker/apps/progress.h"
 #include "sag_hand_tracker/ros/bag_output.h"
 #include "sag_hand_tracker/apps/command_line.h"
+#include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
 
@@ -31,6 +33,9 @@ struct RenderBagOptions {
   double hand_scale = 1.0;            // --hand-scale S (on top of the shape's scale)
   std::string shape = "default";      // --shape NAME|FILE (config/hand_shapes.yaml)
   bool bare_forearm = false;          // --bare-forearm: no sleeve up to the elbow region
+  double palm_width = 1.0;             // --palm-width F (on top of the shape's)
+  std::array<double, kNumFingers> finger_length{{1, 1, 1, 1, 1}};  // --finger-length F[,F x4]
+  double thickness = 1.0;              // --thickness F (on top of the shape's)
   std::string preview;                // --preview PNG: contact sheet of one frame
   int preview_frame = -1;             // --preview-frame N (default: the middle frame)
   double start_stamp = 1400000000.0;  // --start-stamp SECONDS of the first frame

@@ -77,6 +77,12 @@ HandModel mirrorHandModel(const HandModel& model);
 // and throws InputError naming what is wrong.
 void validateHandModel(const HandModel& model);
 
+// The model as a model file (the format loadHandModel reads; loading the text gives the same
+// model up to rounding to 6 significant digits), e.g. for calibrate_hand's fitted models.
+// `comment` becomes '#' lines at the top. Throws InputError for a model that fails
+// validateHandModel.
+std::string formatHandModel(const HandModel& model, const std::string& comment = "");
+
 // Resolves "sag", "sog" or a path to a model file, looking in `config_dir` for the built-ins.
 std::string resolveModelPath(const std::string& name_or_path, const std::string& config_dir);
 

@@ -42,8 +42,11 @@ class TrackingPipeline {
                    const PipelineParams& params);
 
   // Processes one set; CameraImage::camera indexes the cameras given to the constructor. Throws
-  // InputError for an unknown camera index or an image whose size is not its camera's.
-  ProcessedFrame process(const FrameSet& set);
+  // InputError for an unknown camera index or an image whose size is not its camera's. With
+  // `observations`, a tracked set's cameras and image SoGs (what the tracker saw) are copied there
+  // (cleared for a background set).
+  ProcessedFrame process(const FrameSet& set,
+                         std::vector<CameraObservation>* observations = nullptr);
 
   // Forgets the track and the background plates: the next sets are background again.
   void reset();

@@ -1,0 +1,161 @@
+// Fitting the hand model to a person (paper section 4, "Hand Model Initialization"): from a short
+// recording of the calibration routine (open hand, palm and back turned to the cameras, a fist),
+// a greedy search over 3 global shape parameters (size, palm width, finger length), then the bone
+// lengths, then 3 scales per Gaussian along its principal axes, jointly with the pose of every
+// selected frame, and each Gaussian's colour sampled from the images at the fitted pose.
+// doc/calibration.md explains the numerics. No ROS.
+#pragma once
+
+#include <Eigen/Core>
+#include <functional>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "sag_hand_tracker/energy/energy.h"
+#include "sag_hand_tracker/model/hand_model.h"
+#include "sag_hand_tracker/optimization/optimizer.h"
+#include "sag_hand_tracker/model/pose.h"
+
+namespace sag_hand_tracker {
+
+// The shape of a fitted hand relative to the start model: factors, 1 = unchanged.
+struct HandShapeParameters {
+  double scale = 1.0;          // overall size (every offset, length and Gaussian)
+  double palm_width = 1.0;     // the knuckles' spread across the palm
+  double finger_length = 1.0;  // every finger bone (thumb included)
+  // Ours, beside the paper's three: every Gaussian's width across its bone (the fingers' y and
+  // z, the palm's z). Real hands differ in thickness as much as in length.
+  double thickness = 1.0;
+  // Per bone: its length (for the palm: the distance from the wrist to the finger roots).
+  std::vector<double> bone_length;
+  // Per Gaussian: its std devs along its principal axes (x along the bone, then y, z).
+  std::vector<Eigen::Vector3d> gaussian_scale;
+
+  // All factors 1 for `model`.
+  static HandShapeParameters identity(const HandModel& model);
+};
+
+// The start model with the shape applied: Gaussians scaled along their principal axes (the start
+// model's; thickness included), then each bone's length (the bone, its children's offsets along
+// its x axis, its Gaussians along x), then the global parameters (studio::shapeHandModel's scale,
+// palm width, finger length). Throws InputError for a non-positive factor or parameters that do
+// not fit the model.
+HandModel applyHandShape(const HandModel& start, const HandShapeParameters& shape);
+
+// One frame of the calibration recording: what the cameras saw and the tracked pose.
+struct CalibrationFrame {
+  double stamp = 0.0;
+  std::vector<CameraObservation> observations;
+  Pose pose;
+};
+
+// What the routine needs, and whether the recording followed it.
+struct RoutineRequirements {
+  int min_frames = 40;               // frames with the hand tracked
+  double min_duration = 2.5;         // seconds between the first and the last of them
+  int min_views = 2;                 // cameras that see the hand in at least a third of the frames
+  int min_foreground_gaussians = 8;  // for a camera to count as seeing the hand in a frame
+  int min_pose_frames = 3;           // frames needed for each pose (palm, back, fist, open)
+  double facing_cos = 0.5;           // palm/back faces a camera: cos of the angle to its normal
+  double fist_flexion_deg = 110;     // mean MCP + PIP flexion of the four fingers for a fist
+  double open_flexion_deg = 40;      // ... below which the hand counts as open
+};
+
+struct RoutineCheck {
+  bool ok = false;
+  std::vector<std::string> missing;  // what the recording lacks, in words, empty when ok
+  int frames = 0;                    // frames with the hand tracked
+  double duration = 0.0;             // seconds
+  int views = 0;
+  int palm_frames = 0;  // palm turned to a camera
+  int back_frames = 0;  // back of the hand turned to a camera
+  int fist_frames = 0;
+  int open_frames = 0;
+};
+
+// Checks the tracked frames of a recording against the routine. `cameras_in_recording` is the
+// number of cameras the recording has (a one-camera recording is reported as such).
+RoutineCheck checkCalibrationRoutine(const HandModel& model,
+                                     const std::vector<CalibrationFrame>& frames,
+                                     int cameras_in_recording,
+                                     const RoutineRequirements& requirements = {});
+
+struct HandFitParams {
+  EnergyParams energy;
+  // Pose re-optimisation after each shape change, warm-started from the frame's current pose.
+  OptimizerParams pose_optimizer{6};
+  int initial_pose_iterations = 30;  // refining the tracked poses once before the search
+  int max_frames = 16;               // frames used by the fit, evenly spread over the recording
+  int rounds = 2;                    // sweeps over all parameter blocks
+  std::vector<double> global_steps{0.08, 0.04, 0.02};  // relative steps of the 3 global ones
+  std::vector<double> bone_steps{0.08, 0.04, 0.02};
+  std::vector<double> gaussian_steps{0.12, 0.06};
+  double min_factor = 0.6;  // every factor stays in [min_factor, max_factor]
+  double max_factor = 1.6;
+  // The shape score's model mass M = model_mass_weight * sum_p 2 pi sqrt(det Sigma_p) (see
+  // shapeScore). 0.25: half the area of the projected 1-sigma ellipses (the hand's surface passes
+  // at 1 sigma), as sum_q E_qq = pi sigma_q^2 is half the area of the foreground's quad-tree
+  // leaves.
+  double model_mass_weight = 0.25;
+  double min_gain = 1e-5;  // a step is taken when it raises the shape score by more
+  bool fit_bones = true;
+  // Each finger bone on its own; by default the bones of a finger share one factor.
+  bool per_bone_lengths = false;
+  // The palm's length on its own (beside the overall size); off by default, doc/calibration.md.
+  bool fit_palm_length = false;
+  bool fit_gaussians = true;
+  bool fit_colours = true;
+};
+
+// Progress of the fit: fraction in [0, 1] and a short status.
+using FitProgress = std::function<void(double, const std::string&)>;
+
+struct HandFitResult {
+  HandModel model;  // the fitted model (colours included)
+  HandShapeParameters shape;
+  std::vector<Pose> poses;         // per frame used, at the fitted model
+  std::vector<int> frame_indices;  // which of the given frames were used
+  double score_before = 0.0;       // mean shape score (see shapeScore) of the start model
+  double score_after = 0.0;
+  double energy_before = 0.0;  // mean tracking energy E (paper eq. 9) of the start model
+  double energy_after = 0.0;
+  int trials = 0;    // shape changes scored
+  int accepted = 0;  // of which taken
+};
+
+// The frames the fit uses: up to `max_frames`, evenly spread (by index) over `frames`.
+std::vector<int> selectCalibrationFrames(int frame_count, int max_frames);
+
+// The shape score of a model at a pose in a frame: per camera the Dice-like
+// 2 O / (sum_q E_qq + M), O the overlap of eq. 8 (with colours), M the model's own projected mass
+// model_mass_weight * sum_p 2 pi sqrt(det Sigma_p); averaged over the cameras that see anything.
+// E_sim alone grows without bound with the Gaussians' size (a larger model overlaps more image
+// Gaussians and nothing penalises mass over the background); M is that penalty.
+double shapeScore(const HandModel& model, const EnergyParams& params,
+                  const std::vector<CameraObservation>& observations, const Pose& pose,
+                  double model_mass_weight = 0.25);
+
+// Each Gaussian's HSV colour: the area-weighted mean colour of the image Gaussians whose centres
+// fall inside its projected 1-sigma ellipse, where it is the nearest model Gaussian to the
+// camera, over all frames and cameras (hue averaged on the circle). Gaussians seen nowhere keep
+// their colour.
+void sampleGaussianColours(const std::vector<CalibrationFrame>& frames,
+                           const std::vector<Pose>& poses, HandModel* model);
+
+// The fit. `frames` are the tracked frames of the routine (poses from the start model). Throws
+// InputError when there are no frames.
+HandFitResult fitHandModel(const HandModel& start, const std::vector<CalibrationFrame>& frames,
+                           const HandFitParams& params, const FitProgress& progress = nullptr);
+
+// Fingertip reprojection check without ground truth: the fraction of (frame, camera, fingertip)
+// projections that fall on the foreground (within 1.5 sigma of an image Gaussian's centre).
+double fingertipsOnForeground(const HandModel& model, const std::vector<CalibrationFrame>& frames,
+                              const std::vector<Pose>& poses);
+
+// One camera image with the posed model's Gaussians drawn as 1-sigma ellipses (in each one's
+// colour) and the fingertips as crosses. `rgb` is CV_8UC3 RGB; returns a copy.
+cv::Mat drawModelOverlay(const cv::Mat& rgb, const Camera& camera, const HandModel& model,
+                         const Pose& pose);
+
+}  // namespace sag_hand_tracker

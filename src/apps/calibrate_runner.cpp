@@ -1,0 +1,344 @@
+// calibrateHand: the body of the calibrate_hand tool (see calibrate_hand_runner.h).
+#include "sag_hand_tracker/apps/calibrate_runner.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+
+#include "sag_hand_tracker/model/hand_model.h"
+#include "sag_hand_tracker/ros/bag_input.h"
+#include "sag_hand_tracker/apps/track_runner.h"
+#include "sag_hand_tracker/studio/hand_surface.h"
+#include "sag_hand_tracker/tracking/tracking_pipeline.h"
+#include "sag_hand_tracker/util/types.h"
+
+namespace sag_hand_tracker {
+namespace {
+
+// A file next to `path` for writing before the final rename (same folder, so rename is atomic).
+std::string temporaryPath(const std::string& path, const std::string& extension) {
+  const std::filesystem::path target(path);
+  const std::string name =
+      "." + target.filename().string() + ".tmp" + std::to_string(::getpid()) + extension;
+  return (target.parent_path() / name).string();
+}
+
+void refuseExisting(const std::string& path, const std::string& option) {
+  std::error_code error;
+  if (std::filesystem::exists(path, error)) {
+    throw InputError(option + " " + path +
+                     ": the file exists; calibrate_hand does not overwrite files (remove it or "
+                     "choose another name)");
+  }
+}
+
+// Removes the temporary files it was given unless released (on every error path).
+class TemporaryFiles {
+ public:
+  void add(const std::string& path) { paths_.push_back(path); }
+  void release() { paths_.clear(); }
+  ~TemporaryFiles() {
+    for (const std::string& path : paths_) {
+      std::error_code ignored;
+      std::filesystem::remove(path, ignored);
+    }
+  }
+
+ private:
+  std::vector<std::string> paths_;
+};
+
+std::string fixed(double value, int digits) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof(buffer), "%.*f", digits, value);
+  return buffer;
+}
+
+// The contact sheet: rows of frames (up to 4 of the fit's frames), one column per camera, the
+// fitted model drawn over each image. Reads the bag a second time for the images.
+cv::Mat fittedContactSheet(const CalibrateHandOptions& options,
+                           const BagReaderOptions& reader_options,
+                           const std::vector<CalibrationFrame>& frames, const HandFitResult& fit) {
+  std::vector<int> rows;  // positions in fit.frame_indices
+  const int used = static_cast<int>(fit.frame_indices.size());
+  for (int i : selectCalibrationFrames(used, 4)) rows.push_back(i);
+  BagReader reader(options.bag, reader_options);
+  const std::vector<Camera>& cameras = reader.cameras();
+  const int tile_w = cameras.front().width, tile_h = cameras.front().height;
+  cv::Mat sheet(static_cast<int>(rows.size()) * tile_h, static_cast<int>(cameras.size()) * tile_w,
+                CV_8UC3, cv::Scalar::all(255));
+  FrameSet set;
+  size_t next_row = 0;
+  while (next_row < rows.size() && reader.next(&set)) {
+    const int row = rows[next_row];
+    const CalibrationFrame& frame = frames[fit.frame_indices[row]];
+    if (std::abs(set.stamp() - frame.stamp) > 1e-6) continue;
+    for (const CameraImage& image : set.images) {
+      cv::Mat tile = drawModelOverlay(image.rgb, cameras[image.camera], fit.model, fit.poses[row]);
+      cv::resize(tile, tile, cv::Size(tile_w, tile_h));
+      cv::putText(
+          tile,
+          cameras[image.camera].name + " t=" + fixed(frame.stamp - frames.front().stamp, 2) + " s",
+          cv::Point(5, 15), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(255, 255, 255), 1,
+          cv::LINE_AA);
+      tile.copyTo(sheet(
+          cv::Rect(image.camera * tile_w, static_cast<int>(next_row) * tile_h, tile_w, tile_h)));
+    }
+    ++next_row;
+  }
+  return sheet;
+}
+
+}  // namespace
+
+std::string calibrateHandUsage() {
+  return R"(Usage: calibrate_hand --bag IN.bag --out my_hand.yaml [options]
+
+Fits the hand model to the hand in a recording of the calibration routine (3-5 s: open hand with
+the fingers spread, the palm turned up to the cameras and back, a fist; doc/calibration.md):
+overall size, palm width, finger length, bone lengths, the Gaussians' widths and colours. Writes
+an ordinary model file for track_bag --model, the benchmark and the tracker's 'model' parameter.
+The bag is what track_bag reads (/cam<i>/image_raw, /cam<i>/camera_info, /tf_static); its first
+frames must show the scene without the hand.
+
+Options:
+  --bag FILE               the recording (required)
+  --out FILE               the fitted model to write (required; an existing file is not replaced)
+  --model sag|FILE         the start model (sag)
+  --hand left|right        handedness; the start model is mirrored if needed (right)
+  --background-frames N    first N frames show no hand: learn the background plates (10)
+  --contact-sheet PNG      also write the fitted model drawn over the images of 4 frames
+  --max-frames N           frames of the recording the fit uses (16)
+  --rounds N               sweeps of the greedy search (2)
+  --quiet                  no progress bar
+  --help                   this text
+)";
+}
+
+CalibrateHandOptions parseCalibrateHandArguments(const std::vector<std::string>& args) {
+  CalibrateHandOptions options;
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    const std::string& arg = args[i];
+    auto value = [&]() -> const std::string& { return nextOptionValue(args, &i); };
+    if (arg == "--help" || arg == "-h") {
+      options.help = true;
+    } else if (arg == "--bag") {
+      options.bag = value();
+    } else if (arg == "--out") {
+      options.out = value();
+    } else if (arg == "--model") {
+      options.model = value();
+    } else if (arg == "--hand") {
+      const std::string hand = value();
+      if (hand == "left") {
+        options.hand = Handedness::kLeft;
+      } else if (hand == "right") {
+        options.hand = Handedness::kRight;
+      } else {
+        throw UsageError("--hand expects left or right, got '" + hand + "'");
+      }
+    } else if (arg == "--background-frames") {
+      options.background_frames = parseIntOption(arg, value(), 0);
+    } else if (arg == "--contact-sheet") {
+      options.contact_sheet = value();
+    } else if (arg == "--max-frames") {
+      options.max_frames = parseIntOption(arg, value(), 1);
+    } else if (arg == "--rounds") {
+      options.rounds = parseIntOption(arg, value(), 1);
+    } else if (arg == "--config-dir") {
+      options.config_dir = value();
+    } else if (arg == "--quiet") {
+      options.quiet = true;
+    } else {
+      throw UsageError("unknown argument '" + arg + "'");
+    }
+  }
+  if (options.help) return options;
+  if (options.bag.empty()) throw UsageError("--bag is required");
+  if (options.out.empty()) throw UsageError("--out is required");
+  return options;
+}
+
+CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, ProgressBar* progress,
+                                   const std::atomic<bool>* stop) {
+  const auto start_time = std::chrono::steady_clock::now();
+  refuseExisting(options.out, "--out");
+  if (!options.contact_sheet.empty()) refuseExisting(options.contact_sheet, "--contact-sheet");
+
+  CalibrateHandSummary summary;
+  summary.bag = options.bag;
+  summary.start_model =
+      loadHandModel(trackBagModelPath(options.model, options.config_dir), options.hand);
+  const HandModel& start = summary.start_model;
+
+  BagReaderOptions reader_options;
+  BagReader reader(options.bag, reader_options);
+  summary.cameras = static_cast<int>(reader.cameras().size());
+  if (summary.cameras < 2) {
+    throw InputError(options.bag + ": the recording has " + std::to_string(summary.cameras) +
+                     " camera; calibrate_hand needs at least 2 views of the hand");
+  }
+
+  // 1. Track the routine with the start model, as track_bag does, keeping what the tracker saw.
+  PipelineParams pipeline_params;
+  pipeline_params.background_frames = options.background_frames;
+  TrackingPipeline pipeline(start, reader.cameras(), pipeline_params);
+  std::vector<CalibrationFrame> frames;
+  FrameSet set;
+  std::vector<CameraObservation> observations;
+  while (reader.next(&set)) {
+    if (stop && stop->load()) throw InputError("interrupted");
+    const ProcessedFrame processed = pipeline.process(set, &observations);
+    ++summary.frames;
+    const FrameResult& result = processed.result;
+    if (!processed.background && result.has_pose && result.status != TrackStatus::kLost) {
+      CalibrationFrame frame;
+      frame.stamp = result.stamp;
+      frame.observations = observations;
+      frame.pose = result.pose;
+      frames.push_back(std::move(frame));
+    }
+    if (progress) {
+      progress->update(0.3 * reader.progress(),
+                       "tracking frame " + std::to_string(summary.frames) + ", " +
+                           (processed.background ? "background" : toString(result.status)));
+    }
+  }
+  summary.tracked_frames = static_cast<int>(frames.size());
+
+  // 2. Was the routine followed?
+  summary.routine = checkCalibrationRoutine(start, frames, summary.cameras);
+  if (!summary.routine.ok) {
+    std::string missing;
+    for (const std::string& item : summary.routine.missing) missing += "\n  - " + item;
+    throw InputError(options.bag +
+                     ": the recording does not show the calibration routine (open hand, palm and "
+                     "back turned to the cameras, a fist; doc/calibration.md):" +
+                     missing);
+  }
+
+  // 3. Fit.
+  HandFitParams fit_params;
+  fit_params.max_frames = options.max_frames;
+  fit_params.rounds = options.rounds;
+  summary.fit =
+      fitHandModel(start, frames, fit_params, [&](double fraction, const std::string& status) {
+        if (stop && stop->load()) throw InputError("interrupted");
+        if (progress) progress->update(0.3 + 0.7 * fraction, status);
+      });
+  std::vector<CalibrationFrame> used;
+  std::vector<Pose> tracked_poses;
+  for (int index : summary.fit.frame_indices) {
+    used.push_back(frames[index]);
+    tracked_poses.push_back(frames[index].pose);
+  }
+  summary.tips_on_foreground_before = fingertipsOnForeground(start, used, tracked_poses);
+  summary.tips_on_foreground_after =
+      fingertipsOnForeground(summary.fit.model, used, summary.fit.poses);
+
+  // 4. Write through temporary files; check that the model file loads back before it is renamed.
+  TemporaryFiles temporaries;
+  const std::string model_tmp = temporaryPath(options.out, ".yaml");
+  temporaries.add(model_tmp);
+  {
+    std::ofstream file(model_tmp);
+    file << formatHandModel(summary.fit.model, "Fitted by calibrate_hand from " + options.bag +
+                                                   " (start model " + options.model +
+                                                   ").\nFormat: README.md, 'Hand models'.");
+    if (!file) throw InputError("--out " + options.out + ": cannot write the file");
+  }
+  try {
+    loadHandModel(model_tmp);
+  } catch (const InputError& error) {
+    throw InputError(std::string("internal error: the fitted model does not load back: ") +
+                     error.what());
+  }
+  std::string sheet_tmp;
+  if (!options.contact_sheet.empty()) {
+    sheet_tmp = temporaryPath(options.contact_sheet, ".png");
+    temporaries.add(sheet_tmp);
+    const cv::Mat sheet = fittedContactSheet(options, reader_options, frames, summary.fit);
+    cv::Mat bgr;
+    cv::cvtColor(sheet, bgr, cv::COLOR_RGB2BGR);
+    bool written = false;
+    try {
+      written = cv::imwrite(sheet_tmp, bgr);
+    } catch (const cv::Exception& error) {
+      written = false;
+    }
+    if (!written)
+      throw InputError("--contact-sheet " + options.contact_sheet + ": cannot write the PNG");
+  }
+  // Renamed last, after every check: no file on failure.
+  refuseExisting(options.out, "--out");
+  std::filesystem::rename(model_tmp, options.out);
+  summary.out = options.out;
+  if (!sheet_tmp.empty()) {
+    std::filesystem::rename(sheet_tmp, options.contact_sheet);
+    summary.contact_sheet = options.contact_sheet;
+  }
+  temporaries.release();
+  if (progress) progress->finish("fitted");
+  summary.seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
+  return summary;
+}
+
+std::string formatCalibrateHandSummary(const CalibrateHandSummary& s) {
+  std::ostringstream out;
+  const HandFitResult& fit = s.fit;
+  out << "calibrate_hand: " << s.bag << "\n";
+  out << "  frames:       " << s.frames << " read, " << s.tracked_frames << " with the hand ("
+      << fixed(s.routine.duration, 1) << " s), " << fit.frame_indices.size() << " used by the fit; "
+      << s.cameras << " cameras, " << s.routine.views << " seeing the hand\n";
+  out << "  routine:      open hand " << s.routine.open_frames << ", palm to a camera "
+      << s.routine.palm_frames << ", back to a camera " << s.routine.back_frames << ", fist "
+      << s.routine.fist_frames << " frames\n";
+  out << "  global shape: thickness x" << fixed(fit.shape.thickness, 3) << ", size x"
+      << fixed(fit.shape.scale, 3) << ", palm width x" << fixed(fit.shape.palm_width, 3)
+      << ", finger length x" << fixed(fit.shape.finger_length, 3) << "\n";
+  out << "  palm length:  x" << fixed(fit.shape.bone_length.at(0), 3)
+      << " (wrist to the finger roots; follows the size unless fitted)\n";
+  out << "  finger bones (mm, start -> fitted):\n";
+  const auto chains = studio::fingerChains(s.start_model);
+  for (int f = 0; f < kNumFingers; ++f) {
+    out << "    " << fingerNames()[f] << ":";
+    for (int b : chains[f]) {
+      out << " " << fixed(1e3 * s.start_model.bones[b].length, 1) << " -> "
+          << fixed(1e3 * fit.model.bones[b].length, 1);
+      if (b != chains[f].back()) out << ",";
+    }
+    out << "\n";
+  }
+  double along_min = 1e9, along_max = 0, across_min = 1e9, across_max = 0;
+  for (const Eigen::Vector3d& g : fit.shape.gaussian_scale) {
+    along_min = std::min(along_min, g.x());
+    along_max = std::max(along_max, g.x());
+    across_min = std::min(across_min, g.tail<2>().minCoeff());
+    across_max = std::max(across_max, g.tail<2>().maxCoeff());
+  }
+  out << "  Gaussians:    own factors beside the thickness: along the bone x" << fixed(along_min, 2)
+      << "..x" << fixed(along_max, 2) << ", across x" << fixed(across_min, 2) << "..x"
+      << fixed(across_max, 2) << "; colours sampled (palm hsv "
+      << fixed(fit.model.gaussians[0].hsv[0], 0) << ", " << fixed(fit.model.gaussians[0].hsv[1], 2)
+      << ", " << fixed(fit.model.gaussians[0].hsv[2], 2) << ")\n";
+  out << "  energy E:     " << fixed(fit.energy_before, 4) << " -> " << fixed(fit.energy_after, 4)
+      << " (mean over the frames used); shape score " << fixed(fit.score_before, 4) << " -> "
+      << fixed(fit.score_after, 4) << "; " << fit.accepted << " of " << fit.trials
+      << " shape steps taken\n";
+  out << "  fingertips:   on the foreground in " << fixed(100.0 * s.tips_on_foreground_before, 1)
+      << " % of the views with the start model, " << fixed(100.0 * s.tips_on_foreground_after, 1)
+      << " % with the fitted one\n";
+  out << "  output:       " << s.out;
+  if (!s.contact_sheet.empty()) out << ", contact sheet " << s.contact_sheet;
+  out << " (" << fixed(s.seconds, 1) << " s)\n";
+  return out.str();
+}
+
+}  // namespace sag_hand_tracker

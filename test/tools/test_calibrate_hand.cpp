@@ -1,0 +1,113 @@
+// calibrate_hand end to end on studio bags written in the test: bad recordings (no hand, one view,
+// too short) end with a clear message, exit status 1 and no file; existing files are not replaced;
+// the command line is checked. (The fit itself is tested in test/unit/test_hand_fit.cpp.)
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "sag_hand_tracker/apps/render_runner.h"
+#include "test_support/temp_files.h"
+
+using namespace sag_hand_tracker;
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kConfig = std::string(SAG_SOURCE_DIR) + "/config";
+
+class CalibrateHandTool : public sag_test::TempDirTest {
+ protected:
+  ToolRun calibrateHand(const std::string& arguments) const {
+    return runTool(std::string("'") + SAG_BIN_DIR + "/calibrate_hand' --config-dir '" + kConfig +
+                   "' --quiet " + arguments);
+  }
+
+  // The calibration routine rendered into a bag: `frames` frames (the first 10 without the hand).
+  std::string routineBag(const std::string& name, int frames, const std::string& rig = "dexter5") {
+    RenderBagOptions options;
+    options.sequence = "calibration_routine";
+    options.rig = rig;
+    options.out = path(name);
+    options.gt_csv = path(name + ".gt.csv");
+    options.config_dir = kConfig;
+    options.frames = frames;
+    renderStudioBag(options, nullptr);
+    return options.out;
+  }
+
+  // Runs calibrate_hand, expects exit 1, `what` in the error, and no model file.
+  void expectFailure(const std::string& bag, const std::string& what,
+                     const std::string& extra = "") {
+    const std::string out = path("hand.yaml");
+    const ToolRun run = calibrateHand("--bag '" + bag + "' --out '" + out + "' --contact-sheet '" +
+                                      path("sheet.png") + "' " + extra);
+    EXPECT_EQ(run.status, 1) << run.err;
+    EXPECT_EQ(run.err.rfind("calibrate_hand: error: ", 0), 0u) << run.err;
+    EXPECT_NE(run.err.find(what), std::string::npos) << run.err;
+    EXPECT_FALSE(fs::exists(out)) << "no model for a failed run";
+    EXPECT_FALSE(fs::exists(path("sheet.png")));
+    for (const auto& entry : fs::directory_iterator(dir_)) {
+      EXPECT_EQ(entry.path().filename().string().find(".hand.yaml.tmp"), std::string::npos)
+          << "temporary file left: " << entry.path();
+    }
+  }
+};
+
+}  // namespace
+
+TEST_F(CalibrateHandTool, NoHandInTheRecording) {
+  // 10 frames of the empty studio: 5 for the background, 5 more without the hand.
+  expectFailure(routineBag("empty.bag", 10),
+                "does not show the calibration routine (open hand, palm and back turned to the "
+                "cameras, a fist; doc/calibration.md):\n  - no frame with the hand",
+                "--background-frames 5");
+}
+
+TEST_F(CalibrateHandTool, TooShortARecording) {
+  // 10 empty frames and 0.8 s of the routine: the open hand only.
+  const std::string bag = routineBag("short.bag", 30);
+  expectFailure(bag, "frames with the hand, the fit needs 40");
+  const ToolRun run = calibrateHand("--bag '" + bag + "' --out '" + path("hand.yaml") + "'");
+  EXPECT_NE(run.err.find("the routine needs 2.5 s"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("no fist"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("the palm was not turned to a camera"), std::string::npos) << run.err;
+}
+
+TEST_F(CalibrateHandTool, OneView) {
+  // A rig of dexter5's first camera only.
+  const std::string rig = write("one_camera.yaml", "root_frame: world\ncameras:\n"
+                                                   "  - name: cam0\n    calibration: " +
+                                                       kConfig +
+                                                       "/rigs/dexter5/cam0.yaml\n"
+                                                       "    translation: [0.679731, 0, 0.466964]\n"
+                                                       "    rotation: [-0.605042113, "
+                                                       "-0.587501557, 0.374348205, 0.385524815]\n");
+  expectFailure(routineBag("one_view.bag", 12, rig),
+                "the recording has 1 camera; calibrate_hand needs at least 2 views of the hand");
+}
+
+TEST_F(CalibrateHandTool, RefusesToReplaceFilesAndChecksTheCommandLine) {
+  const std::string existing = write("hand.yaml", "precious\n");
+  ToolRun run = calibrateHand("--bag '" + path("missing.bag") + "' --out '" + existing + "'");
+  EXPECT_EQ(run.status, 1);
+  EXPECT_NE(run.err.find("the file exists; calibrate_hand does not overwrite files"),
+            std::string::npos)
+      << run.err;
+  EXPECT_EQ(readAll(existing), "precious\n");
+
+  run = calibrateHand("--bag '" + path("missing.bag") + "' --out '" + path("new.yaml") + "'");
+  EXPECT_EQ(run.status, 1);
+  EXPECT_NE(run.err.find("missing.bag"), std::string::npos) << run.err;
+  EXPECT_FALSE(fs::exists(path("new.yaml")));
+
+  run = calibrateHand("--bag x.bag");
+  EXPECT_EQ(run.status, 2);
+  EXPECT_NE(run.err.find("--out is required"), std::string::npos) << run.err;
+  run = calibrateHand("--bag x.bag --out y.yaml --hand both");
+  EXPECT_EQ(run.status, 2);
+  EXPECT_NE(run.err.find("--hand expects left or right, got 'both'"), std::string::npos);
+  run = calibrateHand("--help");
+  EXPECT_EQ(run.status, 0);
+  EXPECT_NE(run.out.find("Usage: calibrate_hand"), std::string::npos);
+}
