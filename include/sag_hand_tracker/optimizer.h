@@ -18,11 +18,6 @@ std::string toString(StepControl step_control);
 
 struct OptimizerParams {
   int iterations = 10;  // the paper's 10 iterations per frame
-  // More iterations only where the energy still rises: after `iterations`, go on (up to
-  // `max_iterations` in all) while the best energy of the last 2 iterations rose by more than
-  // `continue_gain`. max_iterations <= iterations: exactly `iterations`.
-  int max_iterations = 0;
-  double continue_gain = 1e-3;
   StepControl step_control = StepControl::kRprop;
   // Initial step per parameter group: translation (m), root rotation (rad), joints (rad).
   double translation_step = 0.004;

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <vector>
 
 namespace sag_hand_tracker {
 namespace {
@@ -62,15 +61,7 @@ OptimizationResult optimizePose(const PoseEnergy& energy, const Pose& start,
   int evaluations = 0;
 
   PoseVector best_gradient = PoseVector::Zero();
-  const int iteration_cap = std::max(params.iterations, params.max_iterations);
-  std::vector<double> best_history;  // best energy after each iteration
-  best_history.reserve(iteration_cap);
-  for (int iteration = 0; iteration < iteration_cap; ++iteration) {
-    if (iteration >= params.iterations) {
-      // Extra iterations only while the energy is still rising.
-      const size_t n = best_history.size();
-      if (n < 3 || !(best_history[n - 1] - best_history[n - 3] > params.continue_gain)) break;
-    }
+  for (int iteration = 0; iteration < params.iterations; ++iteration) {
     const double value = energy.evaluate(pose, &gradient);
     ++evaluations;
     if (!std::isfinite(value) || !gradient.allFinite()) break;
@@ -106,7 +97,6 @@ OptimizationResult optimizePose(const PoseEnergy& energy, const Pose& start,
     }
     pose = pose.stepped(delta);
     if (params.clamp_to_limits) clampToLimits(model, &pose);
-    best_history.push_back(best.energy);
   }
 
   // The last step has not been scored yet.
