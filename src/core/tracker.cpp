@@ -281,7 +281,6 @@ std::vector<OptimizationResult> HandTracker::startFromHypotheses(
     candidates.resize(count);
   };
   OptimizerParams stage_params = params_.optimizer;
-  stage_params.max_iterations = 0;  // fixed budgets here
   keep_best(kCoarseKept);
   stage_params.iterations = kCoarseIterations;
   for (OptimizationResult& candidate : candidates) {
