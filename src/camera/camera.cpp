@@ -60,15 +60,17 @@ void validateCamera(const Camera& camera) {
 }
 
 void undistortImageSoG(const Camera& camera, ImageSoG* sog) {
-  if (!camera.hasDistortion() || sog->gaussians.empty()) return;
+  if (!camera.hasDistortion() || (sog->gaussians.empty() && sog->arm_cells == 0)) return;
   cv::Mat K_cv;
   cv::eigen2cv(camera.K, K_cv);
   std::vector<cv::Point2d> in, out;
-  in.reserve(sog->gaussians.size());
+  in.reserve(sog->gaussians.size() + 1);
   for (const ImageGaussian& g : sog->gaussians) in.emplace_back(g.mean.x(), g.mean.y());
+  in.emplace_back(sog->arm_centroid.x(), sog->arm_centroid.y());
   cv::undistortPoints(in, out, K_cv, camera.distortion, cv::noArray(), K_cv);
-  for (size_t i = 0; i < out.size(); ++i)
+  for (size_t i = 0; i < sog->gaussians.size(); ++i)
     sog->gaussians[i].mean = Eigen::Vector2d(out[i].x, out[i].y);
+  if (sog->arm_cells > 0) sog->arm_centroid = Eigen::Vector2d(out.back().x, out.back().y);
 }
 
 }  // namespace sag_hand_tracker

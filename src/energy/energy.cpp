@@ -75,6 +75,15 @@ Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
 PoseEnergy::PoseEnergy(const HandModel& model, const EnergyParams& params)
     : model_(model), params_(params), ancestor_dofs_(model.ancestorJointDofs()) {
   validateHandModel(model_);
+  for (int pip = 0; pip < kNumJointDof; ++pip) {
+    const std::string& name = model_.joints[pip].name;
+    const size_t at = name.rfind("_pip_flex");
+    if (at == std::string::npos || at + 9 != name.size()) continue;
+    const std::string dip_name = name.substr(0, at) + "_dip_flex";
+    for (int dip = 0; dip < kNumJointDof; ++dip) {
+      if (model_.joints[dip].name == dip_name) pip_dip_pairs_.emplace_back(pip, dip);
+    }
+  }
 }
 
 void PoseEnergy::setFrame(const std::vector<CameraObservation>& observations) {
@@ -187,11 +196,24 @@ double PoseEnergy::evaluate(const Pose& pose, PoseVector* gradient, EnergyTerms*
   similarity /= camera_count;
   PoseVector limit_gradient;
   const double penalty = limitPenalty(model_, pose, with_gradient ? &limit_gradient : nullptr);
-  const double total = similarity - params_.limit_weight * penalty;  // paper eq. 9
+  // PIP-DIP coupling prior (EnergyParams::dip_pip_coupling_weight).
+  double coupling = 0.0;
+  PoseVector coupling_gradient = PoseVector::Zero();
+  if (params_.dip_pip_coupling_weight > 0.0) {
+    for (const auto& [pip, dip] : pip_dip_pairs_) {
+      const double residual = pose.joints[dip] - params_.dip_pip_ratio * pose.joints[pip];
+      coupling += residual * residual;
+      coupling_gradient[kFirstJointDof + dip] += 2.0 * residual;
+      coupling_gradient[kFirstJointDof + pip] -= 2.0 * params_.dip_pip_ratio * residual;
+    }
+  }
+  const double total = similarity - params_.limit_weight * penalty -
+                       params_.dip_pip_coupling_weight * coupling;  // paper eq. 9 + coupling
 
   if (terms) {
     terms->similarity = similarity;
     terms->limit_penalty = penalty;
+    terms->coupling_penalty = coupling;
     terms->total = total;
     for (double& value : terms->per_camera) value /= camera_count;
   }
@@ -216,6 +238,7 @@ double PoseEnergy::evaluate(const Pose& pose, PoseVector* gradient, EnergyTerms*
     for (int dof : ancestor_dofs_[model_.gaussians[p].bone]) add_rotation(kFirstJointDof + dof);
   }
   *gradient -= params_.limit_weight * limit_gradient;
+  *gradient -= params_.dip_pip_coupling_weight * coupling_gradient;
   return total;
 }
 

@@ -102,6 +102,8 @@ struct Workspace {
   std::vector<unsigned char> mask;
   std::vector<unsigned char> mask_tmp;
   std::vector<int> mask_integral;
+  int arm_cells = 0;  // sleeve cells of the last prepare() (see ImageSoG::arm_cells)
+  Eigen::Vector2d arm_sum = Eigen::Vector2d::Zero();
 };
 
 Workspace& workspace() {
@@ -413,12 +415,21 @@ bool prepare(const cv::Mat& rgb, const SegmentationParams& params, SegmentationM
   const int cells = cells_x * cells_y;
   detail::cellMeans(ws.integral, cell_size, ws.cell_means);
   ws.mask.resize(cells);
+  ws.arm_cells = 0;
+  ws.arm_sum.setZero();
   for (int i = 0; i < cells; ++i) {
     const float* c = &ws.cell_means[3 * i];
     bool foreground = true;
     if (use_plate) {
-      foreground = !plate.isBackground(i, c, params.background) &&
-                   !isDarkNonSkin(Eigen::Vector3d(c[0], c[1], c[2]), params.background);
+      const bool differs = !plate.isBackground(i, c, params.background);
+      const bool dark =
+          differs && isDarkNonSkin(Eigen::Vector3d(c[0], c[1], c[2]), params.background);
+      foreground = differs && !dark;
+      if (dark) {  // the sleeve: evidence of where the forearm is (ImageSoG::arm_cells)
+        ++ws.arm_cells;
+        ws.arm_sum +=
+            Eigen::Vector2d((i % cells_x + 0.5) * cell_size, (i / cells_x + 0.5) * cell_size);
+      }
     }
     if (foreground && use_skin) {
       foreground = isSkinColour(Eigen::Vector3d(c[0], c[1], c[2]), params.skin);
@@ -449,8 +460,14 @@ bool prepare(const cv::Mat& rgb, const SegmentationParams& params, SegmentationM
 ImageSoG ImageSegmenter::segment(const cv::Mat& rgb, std::vector<QuadtreeLeaf>* leaves) const {
   Workspace& ws = workspace();
   CellMask mask;
+  ws.arm_cells = 0;
   const bool masked = prepare(rgb, params_, effectiveMode(), plate_, "segment", ws, mask);
-  return runQuadtree(ws.integral, params_.quadtree, masked ? &mask : nullptr, leaves);
+  ImageSoG sog = runQuadtree(ws.integral, params_.quadtree, masked ? &mask : nullptr, leaves);
+  if (masked && ws.arm_cells > 0) {
+    sog.arm_cells = ws.arm_cells;
+    sog.arm_centroid = ws.arm_sum / ws.arm_cells;
+  }
+  return sog;
 }
 
 cv::Mat ImageSegmenter::foregroundMask(const cv::Mat& rgb) const {

@@ -3,6 +3,7 @@
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 namespace sag_hand_tracker {
 namespace {
@@ -64,7 +65,115 @@ bool triangulate(const std::vector<Ray>& rays, Eigen::Vector3d* point) {
   return point->allFinite();
 }
 
+// Pixel of a root-frame point in a camera; empty behind it.
+std::optional<Eigen::Vector2d> projectPoint(const Camera& camera, const Eigen::Vector3d& point) {
+  const Eigen::Vector3d p = camera.world_to_camera * point;
+  if (!(p.z() > 1e-6)) return std::nullopt;
+  const Eigen::Vector3d h = camera.K * (p / p.z());
+  return Eigen::Vector2d(h.x(), h.y());
+}
+
+// The foreground centroid of one camera's image SoG (area-weighted), if it sees enough.
+std::optional<Eigen::Vector2d> foregroundCentroid(const ImageSoG& sog, int min_gaussians) {
+  if (static_cast<int>(sog.gaussians.size()) < std::max(min_gaussians, 1)) return std::nullopt;
+  Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
+  double mass = 0.0;
+  for (const ImageGaussian& g : sog.gaussians) {
+    const double weight = g.sigma * g.sigma;
+    centroid += weight * g.mean;
+    mass += weight;
+  }
+  if (!(mass > 0.0)) return std::nullopt;
+  return Eigen::Vector2d(centroid / mass);
+}
+
+double axisAngle(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0));
+}
+
 }  // namespace
+
+double knuckleAxisAngle(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+  return axisAngle(a.col(0), b.col(0));
+}
+
+double palmNormalAngle(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+  return axisAngle(a.col(2), b.col(2));
+}
+
+bool isFlip(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+  return knuckleAxisAngle(a, b) > M_PI / 2 || palmNormalAngle(a, b) > M_PI / 2;
+}
+
+std::optional<double> forearmVote(const Pose& pose,
+                                  const std::vector<CameraObservation>& observations,
+                                  int min_arm_cells) {
+  if (min_arm_cells <= 0) return std::nullopt;
+  const Eigen::Vector3d wrist = pose.translation;
+  const Eigen::Vector3d knuckle = pose.translation + pose.rotation * (2.0 * kHandCentreInPalm);
+  double votes = 0.0, weights = 0.0;
+  for (const CameraObservation& observation : observations) {
+    if (observation.sog.arm_cells < min_arm_cells) continue;
+    const std::optional<Eigen::Vector2d> hand = foregroundCentroid(observation.sog, 1);
+    const std::optional<Eigen::Vector2d> w = projectPoint(observation.camera, wrist);
+    const std::optional<Eigen::Vector2d> k = projectPoint(observation.camera, knuckle);
+    if (!hand || !w || !k) continue;
+    const Eigen::Vector2d image_direction = *hand - observation.sog.arm_centroid;
+    const Eigen::Vector2d model_direction = *k - *w;
+    // A hand pointing at the camera, or an arm centroid on the hand's, says little.
+    constexpr double kFullWeightPixels = 20.0;
+    if (image_direction.norm() < 2.0 || model_direction.norm() < 1e-9) continue;
+    const double weight = std::min(1.0, model_direction.norm() / kFullWeightPixels) *
+                          std::min(1.0, image_direction.norm() / kFullWeightPixels);
+    votes += weight * model_direction.normalized().dot(image_direction.normalized());
+    weights += weight;
+  }
+  if (weights < 0.5) return std::nullopt;
+  return votes / weights;
+}
+
+Eigen::Matrix3d boundedRotation(const Eigen::Matrix3d& reference, const Eigen::Matrix3d& rotation,
+                                double max_angle) {
+  const Eigen::Quaterniond from(reference), to(rotation);
+  const double angle = from.angularDistance(to);
+  if (!(max_angle > 0.0) || angle <= max_angle) return rotation;
+  return from.slerp(max_angle / angle, to).normalized().toRotationMatrix();
+}
+
+RedetectionChoice chooseRedetection(const OptimizationResult& tracked,
+                                    const std::vector<OptimizationResult>& candidates,
+                                    const TrackerParams& params, bool carrying) {
+  RedetectionChoice choice;
+  for (size_t i = 0; i < candidates.size(); ++i) {
+    const OptimizationResult& candidate = candidates[i];
+    const bool flip = isFlip(candidate.pose.rotation, tracked.pose.rotation);
+    if (!flip && candidate.energy > tracked.energy + params.redetect_margin) {
+      choice.adopt = static_cast<int>(i);
+      break;
+    }
+    if (flip && !carrying && choice.carry < 0 && params.flip_confirm_frames > 0 &&
+        candidate.energy > tracked.energy + params.flip_margin) {
+      choice.carry = static_cast<int>(i);
+    }
+  }
+  if (choice.adopt >= 0) choice.carry = -1;
+  return choice;
+}
+
+bool isPlausiblePose(const Pose& pose, const std::vector<CameraObservation>& observations,
+                     double min_camera_depth, int min_cameras) {
+  if (!pose.allFinite()) return false;
+  const Eigen::Vector3d centre = pose.translation + pose.rotation * kHandCentreInPalm;
+  int inside = 0;
+  for (const CameraObservation& observation : observations) {
+    const Camera& camera = observation.camera;
+    const Eigen::Vector3d p = camera.world_to_camera * centre;
+    if (p.z() < min_camera_depth) return false;
+    const Eigen::Vector3d h = camera.K * (p / p.z());
+    if (h.x() >= 0.0 && h.y() >= 0.0 && h.x() < camera.width && h.y() < camera.height) ++inside;
+  }
+  return inside >= std::min(min_cameras, static_cast<int>(observations.size()));
+}
 
 std::string toString(TrackStatus status) {
   switch (status) {
@@ -89,6 +198,8 @@ void HandTracker::reset() {
   lost_ = false;
   typical_similarity_ = 0.0;
   frames_since_start_ = 0;
+  alternative_.reset();
+  arm_reversed_streak_ = 0;
 }
 
 bool HandTracker::looksLost(double similarity) const {
@@ -101,40 +212,62 @@ void HandTracker::setParams(const TrackerParams& params) {
   energy_ = PoseEnergy(model_, params_.energy);
 }
 
-std::optional<OptimizationResult> HandTracker::startFromHypotheses(
+bool HandTracker::armSaysReversed(const Pose& pose,
+                                  const std::vector<CameraObservation>& observations) const {
+  const std::optional<double> vote = forearmVote(pose, observations, params_.min_arm_cells);
+  return vote && *vote < -params_.arm_vote_threshold;
+}
+
+bool HandTracker::plausible(const Pose& pose,
+                            const std::vector<CameraObservation>& observations) const {
+  return isPlausiblePose(pose, observations, params_.min_camera_depth,
+                         params_.min_cameras_for_start);
+}
+
+void HandTracker::boundRotation(const PoseEnergy& energy, const Pose& reference,
+                                OptimizationResult* result) const {
+  const Eigen::Matrix3d bounded =
+      boundedRotation(reference.rotation, result->pose.rotation, params_.max_rotation_per_frame);
+  if (bounded == result->pose.rotation) return;
+  result->pose.rotation = bounded;
+  result->energy = energy.evaluate(result->pose);
+}
+
+std::vector<OptimizationResult> HandTracker::startFromHypotheses(
     const PoseEnergy& energy, const std::vector<CameraObservation>& observations) const {
   // Where is the hand? Triangulate the foreground centroids of the cameras that see it.
   std::vector<Ray> rays;
+  std::vector<const Camera*> ray_cameras;
   for (const CameraObservation& observation : observations) {
-    const auto& gaussians = observation.sog.gaussians;
-    if (static_cast<int>(gaussians.size()) < params_.min_foreground_gaussians) continue;
-    Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
-    double mass = 0.0;
-    for (const ImageGaussian& g : gaussians) {
-      const double weight = g.sigma * g.sigma;
-      centroid += weight * g.mean;
-      mass += weight;
-    }
-    centroid /= mass;
+    const std::optional<Eigen::Vector2d> centroid =
+        foregroundCentroid(observation.sog, params_.min_foreground_gaussians);
+    if (!centroid) continue;
     const Eigen::Isometry3d camera_to_world = observation.camera.world_to_camera.inverse();
     const Eigen::Vector3d direction_camera =
-        observation.camera.K.inverse() * Eigen::Vector3d(centroid.x(), centroid.y(), 1.0);
+        observation.camera.K.inverse() * Eigen::Vector3d(centroid->x(), centroid->y(), 1.0);
     rays.push_back({camera_to_world.translation(),
                     (camera_to_world.linear() * direction_camera).normalized()});
+    ray_cameras.push_back(&observation.camera);
   }
   Eigen::Vector3d centre;
   if (static_cast<int>(rays.size()) < params_.min_cameras_for_start ||
       !triangulate(rays, &centre)) {
-    return std::nullopt;
+    return {};
+  }
+  // Honesty: never propose a hand behind a camera that sees it.
+  for (const Camera* camera : ray_cameras) {
+    if ((camera->world_to_camera * centre).z() < params_.min_camera_depth) return {};
   }
 
   // Score every orientation hypothesis of an open hand there, then refine in two stages: a few
   // iterations for the best `kCoarseKept`, all `start_iterations` for the best `kHypothesesKept`
-  // of those. A raw hypothesis' energy says little until its translation has settled.
+  // of those. A raw hypothesis' energy says little until its translation has settled. The
+  // forearm cue removes the hypotheses whose wrist points away from the arm before scoring.
   std::vector<OptimizationResult> candidates;
   for (const Eigen::Matrix3d& rotation : orientationHypotheses()) {
     OptimizationResult candidate;
     candidate.pose = neutralPose(model_, centre - rotation * kHandCentreInPalm, rotation);
+    if (armSaysReversed(candidate.pose, observations)) continue;
     candidate.energy = energy.evaluate(candidate.pose);
     candidates.push_back(candidate);
   }
@@ -158,8 +291,14 @@ std::optional<OptimizationResult> HandTracker::startFromHypotheses(
   for (OptimizationResult& candidate : candidates) {
     candidate = optimizePose(energy, candidate.pose, stage_params);
   }
-  keep_best(1);
-  return candidates.front();
+  candidates.erase(std::remove_if(candidates.begin(), candidates.end(),
+                                  [&](const OptimizationResult& candidate) {
+                                    return !plausible(candidate.pose, observations) ||
+                                           armSaysReversed(candidate.pose, observations);
+                                  }),
+                   candidates.end());
+  keep_best(candidates.size());
+  return candidates;
 }
 
 FrameResult HandTracker::update(const std::vector<CameraObservation>& observations, double stamp) {
@@ -172,33 +311,86 @@ FrameResult HandTracker::update(const std::vector<CameraObservation>& observatio
 
   std::optional<OptimizationResult> optimized;
   bool started = false;
+  bool flipped = false;
   if (current_ && !lost_) {
     const Pose start = previous_ ? extrapolatePose(*previous_, *current_) : *current_;
     optimized = optimizePose(energy, start, params_.optimizer);
+    boundRotation(energy, *current_, &*optimized);
     EnergyTerms terms;
     energy.evaluate(optimized->pose, nullptr, &terms);
-    const bool redetect =
-        params_.redetect_interval > 0 && frames_since_start_ + 1 >= params_.redetect_interval;
-    const bool lost = looksLost(terms.similarity);
+
+    // The carried flip hypothesis: tracked like the main one; it takes over only after
+    // `flip_confirm_frames` consecutive frames with an energy clearly above the track's.
+    if (alternative_) {
+      Alternative& alternative = *alternative_;
+      const Pose alternative_start =
+          alternative.previous ? extrapolatePose(*alternative.previous, alternative.current)
+                               : alternative.current;
+      OptimizationResult challenger = optimizePose(energy, alternative_start, params_.optimizer);
+      boundRotation(energy, alternative.current, &challenger);
+      if (challenger.energy > optimized->energy + params_.flip_margin &&
+          plausible(challenger.pose, observations) &&
+          !armSaysReversed(challenger.pose, observations)) {
+        alternative.previous = alternative.current;
+        alternative.current = challenger.pose;
+        if (++alternative.wins >= params_.flip_confirm_frames) {
+          optimized = challenger;
+          flipped = true;
+          alternative_.reset();
+        }
+      } else {
+        alternative_.reset();
+      }
+    }
+
+    const bool redetect = !flipped && params_.redetect_interval > 0 &&
+                          frames_since_start_ + 1 >= params_.redetect_interval;
+    // The forearm says the tracked hand is reversed, frame after frame: the track is lost.
+    arm_reversed_streak_ =
+        armSaysReversed(optimized->pose, observations) ? arm_reversed_streak_ + 1 : 0;
+    const bool implausible =
+        !plausible(optimized->pose, observations) ||
+        (params_.arm_reversed_frames > 0 && arm_reversed_streak_ >= params_.arm_reversed_frames);
+    const bool lost = !flipped && (looksLost(terms.similarity) || implausible);
     if (lost || redetect) {
-      // Try the start routine on this frame and keep its result if it is better (clearly better
-      // for a periodic re-detection, so that the track does not jitter between near-equal poses).
-      const double margin = lost ? 0.0 : params_.redetect_margin;
-      const std::optional<OptimizationResult> restart = startFromHypotheses(energy, observations);
-      if (restart && restart->energy > optimized->energy + margin) {
-        optimized = restart;
-        started = true;
+      // Try the start routine on this frame. When the track is lost its best result replaces the
+      // track. A periodic re-detection replaces it only with a clearly better pose of about the
+      // same orientation (so that the track does not jitter between near-equal poses); a better
+      // flipped pose only becomes the carried alternative, which must then prove itself.
+      const std::vector<OptimizationResult> restart = startFromHypotheses(energy, observations);
+      if (lost) {
+        if (!restart.empty() && (implausible || restart.front().energy > optimized->energy)) {
+          optimized = restart.front();
+          started = true;
+          alternative_.reset();
+          arm_reversed_streak_ = 0;
+        }
+      } else {
+        const RedetectionChoice choice =
+            chooseRedetection(*optimized, restart, params_, alternative_.has_value());
+        if (choice.adopt >= 0) {
+          optimized = restart[choice.adopt];
+          started = true;
+          alternative_.reset();
+        } else if (choice.carry >= 0) {
+          alternative_ = Alternative{std::nullopt, restart[choice.carry].pose, 1};
+        }
       }
       if (redetect) frames_since_start_ = 0;
     }
   } else {
-    optimized = startFromHypotheses(energy, observations);
+    const std::vector<OptimizationResult> start = startFromHypotheses(energy, observations);
+    if (!start.empty()) optimized = start.front();
     started = optimized.has_value();
+    alternative_.reset();
+    arm_reversed_streak_ = 0;
   }
 
-  if (!optimized || !optimized->pose.allFinite()) {
+  // Honesty: a frame without a plausible pose reports none.
+  if (!optimized || !optimized->pose.allFinite() || !plausible(optimized->pose, observations)) {
     result.status = current_ ? TrackStatus::kLost : TrackStatus::kWaiting;
     lost_ = current_.has_value();
+    alternative_.reset();
     return result;
   }
 
@@ -207,18 +399,20 @@ FrameResult HandTracker::update(const std::vector<CameraObservation>& observatio
   result.pose = optimized->pose;
   result.fingertips = fingertips(model_, result.pose);
   result.restarted = started && current_.has_value();
+  result.flipped = flipped;
   lost_ = looksLost(result.energy.similarity);
   if (!lost_) {
     // A fresh start resets the reference; tracking frames update it slowly.
-    typical_similarity_ = started ? result.energy.similarity
-                                  : 0.9 * typical_similarity_ + 0.1 * result.energy.similarity;
+    typical_similarity_ = (started || flipped)
+                              ? result.energy.similarity
+                              : 0.9 * typical_similarity_ + 0.1 * result.energy.similarity;
   }
   result.status =
       lost_ ? TrackStatus::kLost : (started ? TrackStatus::kStarted : TrackStatus::kTracking);
 
   frames_since_start_ = started ? 0 : frames_since_start_ + 1;
-  // A (re)start breaks the motion history: do not extrapolate across it.
-  previous_ = started ? std::optional<Pose>() : current_;
+  // A (re)start or a flip breaks the motion history: do not extrapolate across it.
+  previous_ = (started || flipped) ? std::optional<Pose>() : current_;
   current_ = optimized->pose;
   return result;
 }

@@ -36,12 +36,14 @@ double centralDifference(const PoseEnergy& energy, const Pose& pose, int i, doub
   return (plus - minus) / (2.0 * h);
 }
 
-void checkGradient(const std::string& model_name) {
+void checkGradient(const std::string& model_name,
+                   double coupling = EnergyParams().dip_pip_coupling_weight) {
   const HandModel model = loadHandModel(modelPath(model_name));
   const std::vector<Camera> cameras = fiveCameraRig();
   std::mt19937 rng(42);
   EnergyParams params;
   params.max_mahalanobis_sq = 1e9;  // no cut-off: the energy is then smooth everywhere
+  params.dip_pip_coupling_weight = coupling;
   PoseEnergy energy(model, params);
   // Image from one pose, gradient at others: many pairs unsaturated, many partially overlapping.
   energy.setFrame(modelObservations(model, typicalPose(model), cameras, 6.0));
@@ -71,6 +73,41 @@ void checkGradient(const std::string& model_name) {
 // relative error below 1e-4.
 TEST(EnergyGradient, SagMatchesCentralDifferences) { checkGradient("sag"); }
 TEST(EnergyGradient, SogMatchesCentralDifferences) { checkGradient("sog"); }
+// The same with a strong PIP-DIP coupling prior, so that its gradient matters.
+TEST(EnergyGradient, SagWithStrongPipDipCouplingMatchesCentralDifferences) {
+  checkGradient("sag", 1.0);
+}
+
+// The coupling prior: zero when every DIP is k times its PIP, quadratic in the residual.
+TEST(Energy, PipDipCouplingPenalisesUncoupledDistalJoints) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  EnergyParams params;
+  params.dip_pip_coupling_weight = 0.5;
+  PoseEnergy energy(model, params);
+  energy.setFrame(modelObservations(model, typicalPose(model), fiveCameraRig(), 6.0));
+  Pose pose = typicalPose(model);
+  const std::vector<std::string> names = model.parameterNames();
+  auto joint = [&](const std::string& name) {
+    for (int j = 0; j < kNumJointDof; ++j)
+      if (names[kFirstJointDof + j] == name) return j;
+    ADD_FAILURE() << "no joint " << name;
+    return 0;
+  };
+  for (const std::string finger : {"index", "middle", "ring", "pinky"}) {
+    pose.joints[joint(finger + "_pip_flex")] = 0.9;
+    pose.joints[joint(finger + "_dip_flex")] = params.dip_pip_ratio * 0.9;
+  }
+  EnergyTerms coupled;
+  energy.evaluate(pose, nullptr, &coupled);
+  EXPECT_NEAR(coupled.coupling_penalty, 0.0, 1e-12);
+  pose.joints[joint("ring_dip_flex")] += 0.3;  // one finger off by 0.3 rad
+  EnergyTerms uncoupled;
+  energy.evaluate(pose, nullptr, &uncoupled);
+  EXPECT_NEAR(uncoupled.coupling_penalty, 0.09, 1e-12);
+  EXPECT_NEAR(uncoupled.total,
+              uncoupled.similarity - params.limit_weight * uncoupled.limit_penalty - 0.5 * 0.09,
+              1e-12);
+}
 
 TEST(Energy, TruePoseScoresHigherThanPerturbedPoses) {
   const HandModel model = loadHandModel(modelPath("sag"));
@@ -107,7 +144,12 @@ TEST(Energy, EmptyFramesAndBadCamerasAreHandled) {
   PoseEnergy energy(model, EnergyParams());
   energy.setFrame({});
   PoseVector gradient;
-  EXPECT_EQ(energy.evaluate(typicalPose(model), &gradient), 0.0);
+  EnergyTerms terms;
+  // Without cameras the similarity is 0 and only the priors (limits, PIP-DIP coupling) remain.
+  const double value = energy.evaluate(typicalPose(model), &gradient, &terms);
+  EXPECT_EQ(terms.similarity, 0.0);
+  EXPECT_DOUBLE_EQ(value, -EnergyParams().limit_weight * terms.limit_penalty -
+                              EnergyParams().dip_pip_coupling_weight * terms.coupling_penalty);
   EXPECT_TRUE(gradient.allFinite());
 
   std::vector<Camera> cameras = fiveCameraRig();

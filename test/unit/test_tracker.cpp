@@ -66,3 +66,247 @@ TEST(Tracker, TracksMotionAndRestartsWhenLost) {
   EXPECT_EQ(jumped.status, TrackStatus::kStarted);
   EXPECT_LT(meanFingertipError(jumped.fingertips, fingertips(model, truth)), 0.025);
 }
+
+// ---- Issue 9: no reversed or rolled-over hands, honest poses ----
+
+namespace {
+
+OptimizationResult resultWith(const Eigen::Matrix3d& rotation, double energy) {
+  OptimizationResult result;
+  result.pose.rotation = rotation;
+  result.energy = energy;
+  return result;
+}
+
+// The hand rolled over about its wrist->knuckle axis (palm where the back was).
+Eigen::Matrix3d rolledOver(const Eigen::Matrix3d& rotation) {
+  return rotation * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
+}
+
+// The hand reversed: turned 180 degrees about its palm normal (wrist where the fingers were).
+Eigen::Matrix3d reversed(const Eigen::Matrix3d& rotation) {
+  return rotation * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+}
+
+// Pose with the same hand centre (palm point (0.065, 0, 0)) and another orientation.
+Pose reorientedAboutCentre(const Pose& pose, const Eigen::Matrix3d& rotation) {
+  const Eigen::Vector3d centre_in_palm(0.065, 0.0, 0.0);
+  const Eigen::Vector3d centre = pose.translation + pose.rotation * centre_in_palm;
+  Pose out = pose;
+  out.rotation = rotation;
+  out.translation = centre - rotation * centre_in_palm;
+  return out;
+}
+
+double rotationAngle(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+  return Eigen::Quaterniond(a).angularDistance(Eigen::Quaterniond(b));
+}
+
+}  // namespace
+
+TEST(TrackerOrientation, FlipsAreTheTwoKindsOfWrongHands) {
+  const Eigen::Matrix3d r = rotationFromVector(Eigen::Vector3d(0.3, -0.2, 1.0));
+  EXPECT_FALSE(isFlip(r, r));
+  EXPECT_TRUE(isFlip(rolledOver(r), r));
+  EXPECT_TRUE(isFlip(reversed(r), r));
+  EXPECT_NEAR(palmNormalAngle(rolledOver(r), r), M_PI, 1e-9);
+  EXPECT_NEAR(knuckleAxisAngle(rolledOver(r), r), 0.0, 1e-6);
+  EXPECT_NEAR(knuckleAxisAngle(reversed(r), r), M_PI, 1e-6);
+  // A 60-degree roll is a turn, not a flip.
+  EXPECT_FALSE(
+      isFlip(r * Eigen::AngleAxisd(M_PI / 3, Eigen::Vector3d::UnitX()).toRotationMatrix(), r));
+}
+
+// A re-detection never adopts a flipped hand, whatever its margin: a flip with a clear margin is
+// only carried as the alternative; a small margin does not even do that.
+TEST(TrackerOrientation, RedetectionNeverAdoptsAFlip) {
+  TrackerParams params;
+  const Eigen::Matrix3d r = rotationFromVector(Eigen::Vector3d(0.1, 0.2, 0.3));
+  const OptimizationResult tracked = resultWith(r, 0.80);
+
+  // Small margin (above redetect_margin, below flip_margin): nothing happens.
+  const double small = 0.80 + 0.5 * (params.redetect_margin + params.flip_margin);
+  ASSERT_GT(small, 0.80 + params.redetect_margin);
+  RedetectionChoice choice =
+      chooseRedetection(tracked, {resultWith(rolledOver(r), small)}, params, false);
+  EXPECT_EQ(choice.adopt, -1);
+  EXPECT_EQ(choice.carry, -1);
+
+  // Large margin: carried, never adopted.
+  choice = chooseRedetection(tracked, {resultWith(reversed(r), 0.95)}, params, false);
+  EXPECT_EQ(choice.adopt, -1);
+  EXPECT_EQ(choice.carry, 0);
+  // ... and not a second one while one is carried.
+  choice = chooseRedetection(tracked, {resultWith(reversed(r), 0.95)}, params, true);
+  EXPECT_EQ(choice.adopt, -1);
+  EXPECT_EQ(choice.carry, -1);
+
+  // A better pose of the same orientation (a 30-degree turn) is adopted on the small margin, even
+  // behind a better flip.
+  const Eigen::Matrix3d turned =
+      r * Eigen::AngleAxisd(M_PI / 6, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  choice = chooseRedetection(
+      tracked,
+      {resultWith(rolledOver(r), 0.95), resultWith(turned, 0.80 + 2 * params.redetect_margin)},
+      params, false);
+  EXPECT_EQ(choice.adopt, 1);
+  EXPECT_EQ(choice.carry, -1);
+  // Not on less than redetect_margin.
+  choice = chooseRedetection(tracked, {resultWith(turned, 0.80 + 0.5 * params.redetect_margin)},
+                             params, false);
+  EXPECT_EQ(choice.adopt, -1);
+}
+
+TEST(TrackerOrientation, PerFrameRotationIsBounded) {
+  const Eigen::Matrix3d r = rotationFromVector(Eigen::Vector3d(0.4, 0.0, -0.7));
+  const Eigen::Matrix3d far =
+      r * Eigen::AngleAxisd(2.5, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  const Eigen::Matrix3d bounded = boundedRotation(r, far, 0.8);
+  EXPECT_NEAR(rotationAngle(r, bounded), 0.8, 1e-9);
+  // On the way from r to far: the rest of the turn is what is left.
+  EXPECT_NEAR(rotationAngle(bounded, far), 2.5 - 0.8, 1e-9);
+  const Eigen::Matrix3d near =
+      r * Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  EXPECT_TRUE(boundedRotation(r, near, 0.8).isApprox(near, 1e-12));
+  EXPECT_TRUE(boundedRotation(r, far, 0.0).isApprox(far, 1e-12));  // 0: no bound
+}
+
+TEST(TrackerHonesty, PoseBehindACameraOrOutsideTheViewsIsImplausible) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  const Pose truth = typicalPose(model);
+  std::vector<CameraObservation> observations = modelObservations(model, truth, cameras, 4.0);
+  EXPECT_TRUE(isPlausiblePose(truth, observations, 0.05, 2));
+  // Behind camera 0 (its eye is 0.6 m out along +x and 0.55 m up; put the hand 0.3 m further).
+  const Eigen::Vector3d eye0 = cameras[0].world_to_camera.inverse().translation();
+  Pose behind = truth;
+  behind.translation = eye0 + 0.3 * (eye0 - Eigen::Vector3d(0, 0, 0.15)).normalized();
+  EXPECT_FALSE(isPlausiblePose(behind, observations, 0.05, 2));
+  // Far below the table, in front of some cameras but in no image.
+  Pose outside = truth;
+  outside.translation = Eigen::Vector3d(0.0, 0.0, -3.0);
+  EXPECT_FALSE(isPlausiblePose(outside, observations, 0.05, 2));
+}
+
+// The automatic start never proposes a hand behind a camera: two cameras side by side, each seeing
+// a blob at the outer edge of its image, so that the centroid rays meet only behind them.
+TEST(TrackerHonesty, StartBehindTheCamerasIsRefused) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const Camera left =
+      lookAtCamera("left", Eigen::Vector3d(-0.1, 0.0, 0.6), Eigen::Vector3d(-0.1, 0.001, 0.0));
+  const Camera right =
+      lookAtCamera("right", Eigen::Vector3d(0.1, 0.0, 0.6), Eigen::Vector3d(0.1, 0.001, 0.0));
+  auto blob = [](const Camera& camera, const Eigen::Vector3d& point) {
+    const Eigen::Vector3d p = camera.world_to_camera * point;
+    const Eigen::Vector3d pixel = camera.K * (p / p.z());
+    ImageSoG sog;
+    sog.width = camera.width;
+    sog.height = camera.height;
+    for (int dy = -3; dy <= 3; ++dy) {
+      for (int dx = -3; dx <= 3; ++dx) {
+        sog.gaussians.push_back(
+            {Eigen::Vector2d(pixel.x() + 4 * dx, pixel.y() + 4 * dy), 2.0, Hsv(20.0, 0.45, 0.8)});
+      }
+    }
+    return CameraObservation{camera, sog};
+  };
+  // Each camera sees a blob that lies on the ray to a point above-and-outside the pair, so that
+  // the two rays diverge downwards and cross only above the cameras (behind them).
+  const std::vector<CameraObservation> diverging = {
+      blob(left, Eigen::Vector3d(-0.1 - 0.25, 0.0, 0.0)),
+      blob(right, Eigen::Vector3d(0.1 + 0.25, 0.0, 0.0))};
+  HandTracker tracker(model, TrackerParams());
+  const FrameResult result = tracker.update(diverging, 0.0);
+  EXPECT_FALSE(result.has_pose);
+  EXPECT_EQ(result.status, TrackStatus::kWaiting);
+  // The same cameras with converging blobs do start.
+  const std::vector<CameraObservation> converging = {blob(left, Eigen::Vector3d(0.0, 0.0, 0.15)),
+                                                     blob(right, Eigen::Vector3d(0.0, 0.0, 0.15))};
+  const FrameResult started = tracker.update(converging, 0.04);
+  EXPECT_TRUE(started.has_pose);
+}
+
+// The forearm cue: the sleeve behind the wrist votes for the true direction of the hand and
+// against the reversed one; without sleeve cells there is no vote.
+TEST(TrackerOrientation, ForearmVoteTellsTheWristFromTheFingers) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  const Pose truth = typicalPose(model);
+  std::vector<CameraObservation> observations = modelObservations(model, truth, cameras, 4.0);
+  EXPECT_FALSE(forearmVote(truth, observations, 6).has_value());
+  const Eigen::Vector3d elbow_side = truth.translation - 0.15 * truth.rotation.col(0);
+  for (CameraObservation& observation : observations) {
+    const Eigen::Vector3d p = observation.camera.world_to_camera * elbow_side;
+    const Eigen::Vector3d pixel = observation.camera.K * (p / p.z());
+    observation.sog.arm_cells = 40;
+    observation.sog.arm_centroid = pixel.head<2>();
+  }
+  const std::optional<double> vote_true = forearmVote(truth, observations, 6);
+  ASSERT_TRUE(vote_true.has_value());
+  EXPECT_GT(*vote_true, 0.8);
+  const Pose wrong = reorientedAboutCentre(truth, reversed(truth.rotation));
+  const std::optional<double> vote_reversed = forearmVote(wrong, observations, 6);
+  ASSERT_TRUE(vote_reversed.has_value());
+  EXPECT_LT(*vote_reversed, -0.8);
+  EXPECT_FALSE(forearmVote(truth, observations, 0).has_value());  // cue disabled
+}
+
+// Observations of the model in `pose` with the sleeve seen 15 cm behind the wrist in every camera.
+std::vector<CameraObservation> withForearm(const HandModel& model, const Pose& pose,
+                                           const std::vector<Camera>& cameras) {
+  std::vector<CameraObservation> observations = modelObservations(model, pose, cameras, 4.0);
+  const Eigen::Vector3d elbow_side = pose.translation - 0.15 * pose.rotation.col(0);
+  for (CameraObservation& observation : observations) {
+    const Eigen::Vector3d p = observation.camera.world_to_camera * elbow_side;
+    observation.sog.arm_cells = 40;
+    observation.sog.arm_centroid = (observation.camera.K * (p / p.z())).head<2>();
+  }
+  return observations;
+}
+
+// The energy cannot tell this reversed hand from the true one (on these model-made images both
+// score ~0.98); the forearm can. A tracker that locked onto the reversed hand (the images showed
+// it) and then sees the true hand, with the sleeve at its wrist, finds it again; on the way, no
+// tracked frame turns by more than the per-frame bound, and a flip between two consecutive tracked
+// frames only happens as a confirmed alternative.
+TEST(TrackerOrientation, ForearmUndoesAReversedTrackWithinTheRotationBound) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  const Pose truth = typicalPose(model);
+  const Pose wrong = reorientedAboutCentre(truth, reversed(truth.rotation));
+  TrackerParams params;
+  HandTracker tracker(model, params);
+  for (int frame = 0; frame < 3; ++frame) {
+    const FrameResult result = tracker.update(withForearm(model, wrong, cameras), frame);
+    ASSERT_TRUE(result.has_pose);
+    EXPECT_GT(meanFingertipError(result.fingertips, fingertips(model, truth)), 0.1);
+  }
+  std::optional<Pose> last;
+  int recovered_at = -1;
+  for (int frame = 3; frame < 20; ++frame) {
+    const FrameResult result = tracker.update(withForearm(model, truth, cameras), frame);
+    if (!result.has_pose) {
+      last.reset();
+      continue;
+    }
+    if (last && result.status == TrackStatus::kTracking && !result.flipped) {
+      EXPECT_LE(rotationAngle(last->rotation, result.pose.rotation),
+                params.max_rotation_per_frame + 1e-9)
+          << "frame " << frame;
+    }
+    last = result.pose;
+    const double error = meanFingertipError(result.fingertips, fingertips(model, truth));
+    if (recovered_at < 0 && error < 0.015) recovered_at = frame;
+  }
+  EXPECT_GE(recovered_at, 0) << "never found the true hand again";
+  // Within the forearm's 3 frames of evidence and the restart.
+  EXPECT_LE(recovered_at, 3 + params.arm_reversed_frames + 1);
+
+  // Without the forearm cue the energy alone keeps the reversed hand: the cue is what decides.
+  params.min_arm_cells = 0;
+  HandTracker blind(model, params);
+  for (int frame = 0; frame < 3; ++frame) blind.update(withForearm(model, wrong, cameras), frame);
+  const FrameResult still = blind.update(withForearm(model, truth, cameras), 3);
+  ASSERT_TRUE(still.has_pose);
+  EXPECT_GT(meanFingertipError(still.fingertips, fingertips(model, truth)), 0.1);
+}

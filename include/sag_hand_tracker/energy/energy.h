@@ -22,6 +22,12 @@ struct EnergyParams {
   ColourSimilarityParams colour;
   // Pairs whose Mahalanobis term exceeds this are skipped: exp(-30) ~ 1e-13 of the pair's peak.
   double max_mahalanobis_sq = 60.0;
+  // PIP-DIP coupling (as in Sridhar et al.'s successors and most hand trackers): a soft prior
+  // -w_c sum_f (theta_dip - k theta_pip)^2 over the four fingers whose joints are named
+  // <finger>_pip_flex / <finger>_dip_flex, k = `dip_pip_ratio`. 0 disables it. It resolves part
+  // of the ambiguity of curled fingers (benchmark: fingercount, flexex1).
+  double dip_pip_coupling_weight = 0.05;
+  double dip_pip_ratio = 2.0 / 3.0;
 };
 
 // One camera's input for a frame: calibration and the image SoG (undistorted pixels).
@@ -34,7 +40,8 @@ struct CameraObservation {
 struct EnergyTerms {
   double similarity = 0.0;     // E_sim, normalised: mean over cameras of sum_q min(..) / sum_q E_qq
   double limit_penalty = 0.0;  // E_lim
-  double total = 0.0;          // E_sim - w_l E_lim
+  double coupling_penalty = 0.0;  // sum_f (theta_dip - k theta_pip)^2 (EnergyParams)
+  double total = 0.0;             // E_sim - w_l E_lim
   std::vector<double> per_camera;
 };
 
@@ -69,7 +76,8 @@ class PoseEnergy {
 
   HandModel model_;
   EnergyParams params_;
-  std::vector<std::vector<int>> ancestor_dofs_;  // per bone
+  std::vector<std::vector<int>> ancestor_dofs_;     // per bone
+  std::vector<std::pair<int, int>> pip_dip_pairs_;  // joint indices of coupled PIP, DIP
   std::vector<FrameCamera> cameras_;
 };
 

@@ -38,7 +38,72 @@ struct TrackerParams {
   // below `lost_ratio` times its running average over the recent tracked frames.
   double lost_similarity = 0.15;
   double lost_ratio = 0.7;
+
+  // Orientation guard (issue 9). A candidate is a *flip* of the tracked pose when its back-of-hand
+  // normal or its wrist->middle-knuckle axis is more than 90 degrees from the tracked pose's (a
+  // rolled-over or reversed hand). A small energy gain never justifies a flip: a re-detection that
+  // finds one only starts carrying it as a second hypothesis, optimised every frame from its own
+  // previous pose like the track; it replaces the track when its energy stays above the track's by
+  // `flip_margin` on `flip_confirm_frames` consecutive frames, and is dropped as soon as it does
+  // not.
+  double flip_margin = 0.02;
+  int flip_confirm_frames = 5;
+  // The largest turn of the hand between two consecutive tracked frames (radians): a larger turn
+  // of the optimiser is pulled back. 0.1 rad at 25 fps is 143 deg/s: below what a hand can do in
+  // a flick, but measured on the benchmark it is what keeps the track from rolling over during
+  // fast turns (0.15 and 0.8 do not); a turn the bound cannot follow ends in the lost test and a
+  // restart instead. 0 disables the bound.
+  double max_rotation_per_frame = 0.1;
+  // Forearm cue: a camera whose segmentation found at least `min_arm_cells` sleeve cells
+  // (ImageSoG::arm_cells) votes on which end of the hand is the wrist. Start hypotheses and
+  // re-detections that point the wrist away from the arm (mean vote below `-arm_vote_threshold`)
+  // are refused; a tracked pose with such a vote on `arm_reversed_frames` consecutive frames is
+  // declared lost. `min_arm_cells` = 0 disables the cue.
+  int min_arm_cells = 6;
+  double arm_vote_threshold = 0.3;
+  int arm_reversed_frames = 3;
+  // Plausibility: the hand centre must lie at least `min_camera_depth` (m) in front of every
+  // camera and inside the image of at least `min_cameras_for_start` cameras; a pose that is not is
+  // never reported (the frame is lost).
+  double min_camera_depth = 0.05;
 };
+
+// The angle (radians) between two orientations' wrist->middle-knuckle axes (x) and between their
+// back-of-hand normals (z). A flip in the sense of TrackerParams: either is above 90 degrees.
+double knuckleAxisAngle(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b);
+double palmNormalAngle(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b);
+bool isFlip(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b);
+
+// The forearm cue (TrackerParams::min_arm_cells): per camera with sleeve evidence, the cosine
+// between the projected wrist->middle-knuckle direction and the direction from the sleeve's
+// centroid to the hand foreground's, weighted by the projected length (cameras the hand points
+// at have little say). Empty when no camera has evidence. +1: the wrist is on the arm's side.
+std::optional<double> forearmVote(const Pose& pose,
+                                  const std::vector<CameraObservation>& observations,
+                                  int min_arm_cells);
+
+// `rotation` turned back towards `reference` so that it is at most `max_angle` (radians) from it
+// (unchanged when it already is, or when max_angle <= 0).
+Eigen::Matrix3d boundedRotation(const Eigen::Matrix3d& reference, const Eigen::Matrix3d& rotation,
+                                double max_angle);
+
+// The periodic re-detection's decision, given the tracked result of this frame and the start
+// routine's candidates (best first): `adopt` indexes the candidate that replaces the track (one
+// that is no flip of it, better by redetect_margin), `carry` the flipped candidate that starts
+// being carried as the alternative (better by flip_margin; only when none is carried yet); -1:
+// none. A flip is never adopted here, whatever its margin.
+struct RedetectionChoice {
+  int adopt = -1;
+  int carry = -1;
+};
+RedetectionChoice chooseRedetection(const OptimizationResult& tracked,
+                                    const std::vector<OptimizationResult>& candidates,
+                                    const TrackerParams& params, bool carrying);
+
+// Honesty (TrackerParams::min_camera_depth): the hand centre is in front of every camera and
+// inside the image of at least `min_cameras` of them.
+bool isPlausiblePose(const Pose& pose, const std::vector<CameraObservation>& observations,
+                     double min_camera_depth, int min_cameras);
 
 struct FrameResult {
   double stamp = 0.0;
@@ -49,6 +114,7 @@ struct FrameResult {
   EnergyTerms energy;
   int num_cameras = 0;
   bool restarted = false;  // the track had been lost and was started again in this frame
+  bool flipped = false;    // a confirmed flip hypothesis replaced the track in this frame
 };
 
 class HandTracker {
@@ -66,9 +132,16 @@ class HandTracker {
 
  private:
   // Automatic start: triangulate the foreground, score open-hand orientation hypotheses there,
-  // refine the best few. Empty when too few cameras see the hand.
-  std::optional<OptimizationResult> startFromHypotheses(
+  // refine the best few. Returns the refined candidates, best first (plausible ones only, and
+  // none that the forearm cue calls reversed); empty when too few cameras see the hand or the
+  // foreground cannot be triangulated in front of them.
+  std::vector<OptimizationResult> startFromHypotheses(
       const PoseEnergy& energy, const std::vector<CameraObservation>& observations) const;
+  bool armSaysReversed(const Pose& pose, const std::vector<CameraObservation>& observations) const;
+  bool plausible(const Pose& pose, const std::vector<CameraObservation>& observations) const;
+  // Pulls `result` back to at most max_rotation_per_frame from `reference` (re-scored).
+  void boundRotation(const PoseEnergy& energy, const Pose& reference,
+                     OptimizationResult* result) const;
 
   HandModel model_;
   TrackerParams params_;
@@ -78,6 +151,14 @@ class HandTracker {
   bool lost_ = false;
   double typical_similarity_ = 0.0;  // running average while tracking (0: none yet)
   int frames_since_start_ = 0;
+  // The flip hypothesis being carried (see TrackerParams::flip_margin) and its own history.
+  struct Alternative {
+    std::optional<Pose> previous;
+    Pose current;
+    int wins = 0;
+  };
+  std::optional<Alternative> alternative_;
+  int arm_reversed_streak_ = 0;
   bool looksLost(double similarity) const;
 };
 

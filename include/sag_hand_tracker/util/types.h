@@ -24,6 +24,11 @@ struct ImageSoG {
   int width = 0;
   int height = 0;
   std::vector<ImageGaussian> gaussians;
+  // Where the forearm is: the cells that differ from the background plate but are too dark to be
+  // skin (the sleeve), counted and averaged (pixels). The forearm joins the hand at the wrist, so
+  // this tells the tracker which end of the hand is the wrist. 0 cells: no such evidence.
+  int arm_cells = 0;
+  Eigen::Vector2d arm_centroid = Eigen::Vector2d::Zero();
 };
 
 // A projected model Gaussian in one camera image (pixels).
