@@ -17,11 +17,19 @@ namespace sag_hand_tracker {
 struct PipelineParams {
   SegmentationParams segmentation;
   TrackerParams tracker;
+  // With segmentation.room.enabled, the pose tracked in a set gives each camera's segmenter its
+  // region of interest for the next set (projectedHandBox); a lost track clears them.
   // The first sets go into the background plates and are not tracked. With 0 there is no plate:
   // the segmentation then uses the skin-colour gate (ImageSegmenter::effectiveMode). When > 0 it
   // also sets segmentation.background.frames, so that the plates are ready after these sets.
   int background_frames = 10;
 };
+
+// The box around a posed hand in one camera's image (pixels, clipped to the image; empty when the
+// hand is not in front of the camera or outside the image): every model Gaussian's sphere of radius
+// 2.5 sqrt(trace Sigma) (>= 2.5 sigma along any axis) projected, the union grown by `margin` of its size on each side plus `margin_pixels`.
+cv::Rect projectedHandBox(const HandModel& model, const Pose& pose, const Camera& camera,
+                          double margin = 0.3, int margin_pixels = 8);
 
 class TrackingPipeline {
  public:
@@ -35,13 +43,16 @@ class TrackingPipeline {
   // InputError for an unknown camera index or an image whose size is not its camera's.
   ProcessedFrame process(const FrameSet& set);
 
-  // Forgets the track and the background plates: the next sets are background again.
+  // Forgets the track, the background plates and the room cues' memory: the next sets are
+  // background again.
   void reset();
 
   const std::vector<Camera>& cameras() const { return cameras_; }
   const PipelineParams& params() const { return params_; }
   const HandTracker& tracker() const { return tracker_; }
   const ImageSegmenter& segmenter(int camera) const { return segmenters_.at(camera); }
+  // The foreground of each camera's last segmented image (ImageSegmenter::lastForegroundMask).
+  cv::Mat foregroundMask(int camera) const { return segmenters_.at(camera).lastForegroundMask(); }
   // Sets processed so far (background ones included).
   int setsSeen() const { return sets_seen_; }
 
