@@ -46,7 +46,7 @@ Pose studioPose() {
 // The studio's hand at `pose` in every dexter5 camera, masked to the hand by the label image
 // (everything else black), as skin-gated image SoGs: a real-like image with perfect segmentation.
 std::vector<CameraObservation> maskedStudioObservations(const Pose& pose) {
-  const StudioRenderer renderer(dexter5());
+  static const StudioRenderer renderer(dexter5());
   const PosedHand posed = forwardKinematics(model("sag"), pose);
   const auto parts = buildHandSurface(model("sag"), posed.bone_frames, HandSurfaceParams());
   const auto images = renderer.render({parts}, 7);
@@ -69,19 +69,21 @@ std::vector<CameraObservation> maskedStudioObservations(const Pose& pose) {
 
 struct Drift {
   double wrist_mm = 0.0;           // distance of the fitted wrist from the true one
-  double closest_camera_mm = 0.0;  // how much closer the hand came to its nearest-approached camera
+  double closest_camera_mm = 0.0;  // how much closer than the truth the fit is to any camera
 };
 
-Drift fitFromTruth(const std::string& model_name, double model_area_weight) {
-  const Pose truth = studioPose();
+// Fits from `start` on the masked studio image of `truth` (many frames' worth of iterations).
+Drift fit(const std::string& model_name, double model_area_weight,
+          const std::vector<CameraObservation>& observations, const Pose& truth,
+          const Pose& start) {
   EnergyParams energy_params;
   energy_params.model_area_weight = model_area_weight;
   PoseEnergy energy(model(model_name), energy_params);
-  energy.setFrame(maskedStudioObservations(truth));
+  energy.setFrame(observations);
   OptimizerParams optimizer;
-  optimizer.iterations = 150;  // many frames' worth on a still image
+  optimizer.iterations = 100;
   // Both models share the skeleton, so the true pose is a pose of either.
-  const OptimizationResult fitted = optimizePose(energy, truth, optimizer);
+  const OptimizationResult fitted = optimizePose(energy, start, optimizer);
   Drift drift;
   drift.wrist_mm = 1000.0 * (fitted.pose.translation - truth.translation).norm();
   for (const Camera& camera : dexter5()) {
@@ -94,21 +96,26 @@ Drift fitFromTruth(const std::string& model_name, double model_area_weight) {
 
 }  // namespace
 
-// Fitted from the true pose on a perfectly masked studio image for 150 iterations, neither model
-// walks toward a camera (issue 11: on real images the SoG model drifted toward one camera while
-// its energy rose).
+// Fitted on a perfectly masked studio image, from the true pose and from a start 4 cm closer to
+// camera 0, neither model ends up closer to a camera than the hand is (issue 11: on real images
+// the SoG model drifted toward one camera while its energy rose).
 TEST(EnergyCannotCheat, FitsOnAMaskedStudioImageDoNotDriftTowardACamera) {
+  const Pose truth = studioPose();
+  const std::vector<CameraObservation> observations = maskedStudioObservations(truth);
+  Pose closer = truth;
+  closer.translation += 0.04 * (dexter5()[0].centre() - truth.translation).normalized();
   for (const std::string name : {"sag", "sog"}) {
-    const Drift paper = fitFromTruth(name, 0.0);
-    const Drift ours = fitFromTruth(name, 1.0);
-    RecordProperty(name + "_paper_wrist_mm", std::to_string(paper.wrist_mm));
-    RecordProperty(name + "_wrist_mm", std::to_string(ours.wrist_mm));
-    std::printf("%s: paper normalisation: wrist %.1f mm off, %.1f mm closer to a camera; "
-                "model area: wrist %.1f mm off, %.1f mm closer\n",
-                name.c_str(), paper.wrist_mm, paper.closest_camera_mm, ours.wrist_mm,
-                ours.closest_camera_mm);
-    EXPECT_LT(ours.closest_camera_mm, 10.0) << name;
-    EXPECT_LT(ours.wrist_mm, 20.0) << name;
+    for (const bool from_truth : {true, false}) {
+      const Pose& start = from_truth ? truth : closer;
+      const Drift paper = fit(name, 0.0, observations, truth, start);
+      const Drift ours = fit(name, 1.0, observations, truth, start);
+      std::printf("%s from %s: paper normalisation: wrist %.1f mm off, %.1f mm closer to a "
+                  "camera; model area: wrist %.1f mm off, %.1f mm closer\n",
+                  name.c_str(), from_truth ? "the truth" : "4 cm toward cam0", paper.wrist_mm,
+                  paper.closest_camera_mm, ours.wrist_mm, ours.closest_camera_mm);
+      EXPECT_LT(ours.closest_camera_mm, 10.0) << name;
+      EXPECT_LT(ours.wrist_mm, 20.0) << name;
+    }
   }
 }
 
@@ -180,13 +187,14 @@ TEST(RoomCues, ChangingLightIsNotMotion) {
   disc(first, {90, 120}, 22, kSkin);
   disc(first, {240, 120}, 32, kSkin);
   segmenter.segmentFrame(first);
-  // The whole scene dims by 25 % and the small blob moves by a few pixels: only the small blob
-  // moves, so it wins over the larger one although every pixel changed.
+  // The whole scene dims by 25 % and the small blob moves: only the small blob moves, so it wins
+  // over the larger one although every pixel changed (were the dimming motion, the larger blob
+  // would move everywhere and win).
   cv::Mat second = greyImage(0.75);
-  disc(second, {96, 120}, 22, cv::Vec3b(150, 105, 82));
+  disc(second, {102, 126}, 22, cv::Vec3b(150, 105, 82));
   disc(second, {240, 120}, 32, cv::Vec3b(150, 105, 82));
   segmenter.segmentFrame(second);
-  EXPECT_EQ(maskAt(segmenter, {96, 120}), 255);
+  EXPECT_EQ(maskAt(segmenter, {102, 126}), 255);
   EXPECT_EQ(maskAt(segmenter, {240, 120}), 0);
 }
 
