@@ -94,17 +94,21 @@ struct SkinParams {
 // narrows their foreground down to the hand:
 //   1. learned skin colour: once the hand has been found (the first frame with a region of
 //      interest), the chromaticity (r, g) = (R, G) / (R + G + B) of the foreground cells inside
-//      it is learned (mean and covariance, then updated slowly); a cell farther than
+//      it is learned (mean and covariance of the cells within 0.03 of their median, then updated
+//      slowly); a cell farther than
 //      skin_max_distance (Mahalanobis) from it is not hand. Chromaticity does not change with the
 //      light's brightness.
 //   2. region of interest: the tracked hand projected into this view (setRegionOfInterest, fed by
-//      TrackingPipeline); cells outside it are background, and inside it only connected
+//      TrackingPipeline with the model's silhouette grown by a margin); cells outside it are
+//      background, and inside it only connected
 //      components (8-neighbour cells) of at least min_component_share of the largest, or that
 //      move, are kept.
 //   3. without a region of interest (before the start, after a loss): the one connected component
 //      with the best score = cells + motion_weight * moving cells + sleeve_weight * cells next to
 //      a dark (sleeve) cell, together with the components inside its box (fingers cut off by a
-//      gap). The hand moves and joins the sleeve; a face, a photograph or a resting object do not.
+//      gap). The hand moves and joins the sleeve; a face, a photograph or a resting object do
+//      not. (Requiring motion before anything counts as hand was tried: it kept the start off
+//      still props, but delayed and spoiled the start with the plate; see doc/segmentation.md.)
 //   4. motion: a cell moves when its colour differs from the previous frame's (scaled by the
 //      frame's overall brightness change, so that changing light is not motion) by more than
 //      motion_threshold; it stays "moving" for a while (motion_decay per frame).
@@ -264,6 +268,10 @@ class ImageSegmenter {
   // The tracked hand's box in this view for the next segmentFrame calls (pixels; clipped to the
   // image). An empty rectangle clears it.
   void setRegionOfInterest(const cv::Rect& roi);
+  // The same with the region as a mask (CV_8UC1 at image size, non-zero = region), e.g. the
+  // tracked model's projected silhouette grown by a margin: tighter than its box, which in a room
+  // holds much background. An empty mask clears the region. Throws InputError for another type.
+  void setRegionOfInterest(const cv::Mat& roi_mask);
   const cv::Rect& regionOfInterest() const { return roi_; }
   // As segment(), then, when params().room.enabled, the room cues narrow the foreground down to
   // the hand, and update the motion history, the learned skin colour and the plate.
@@ -278,6 +286,7 @@ class ImageSegmenter {
   SegmentationParams params_;
   BackgroundPlate plate_;
   cv::Rect roi_;
+  cv::Mat roi_mask_;
   RoomCueState room_;
 };
 

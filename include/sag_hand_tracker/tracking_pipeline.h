@@ -18,7 +18,7 @@ struct PipelineParams {
   SegmentationParams segmentation;
   TrackerParams tracker;
   // With segmentation.room.enabled, the pose tracked in a set gives each camera's segmenter its
-  // region of interest for the next set (projectedHandBox); a lost track clears them.
+  // region of interest for the next set (projectedHandMask); a lost track clears them.
   // The first sets go into the background plates and are not tracked. With 0 there is no plate:
   // the segmentation then uses the skin-colour gate (ImageSegmenter::effectiveMode). When > 0 it
   // also sets segmentation.background.frames, so that the plates are ready after these sets.
@@ -30,6 +30,13 @@ struct PipelineParams {
 // 2.5 sqrt(trace Sigma) (>= 2.5 sigma along any axis) projected, the union grown by `margin` of its size on each side plus `margin_pixels`.
 cv::Rect projectedHandBox(const HandModel& model, const Pose& pose, const Camera& camera,
                           double margin = 0.3, int margin_pixels = 8);
+
+// The posed hand's silhouette in one camera, grown by a margin (CV_8UC1 at image size, 255 inside):
+// every model Gaussian whose centre is in front of the camera drawn as a disc of radius
+// 2.5 sqrt(trace Sigma) projected, plus margin_pixels. All zero when the hand is at or behind
+// the camera.
+cv::Mat projectedHandMask(const HandModel& model, const Pose& pose, const Camera& camera,
+                          int margin_pixels = 10);
 
 class TrackingPipeline {
  public:

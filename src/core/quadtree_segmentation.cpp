@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <opencv2/imgproc.hpp>
 #include <string>
 
 #include "sag_hand_tracker/colour.h"
@@ -504,11 +505,28 @@ cv::Mat ImageSegmenter::foregroundMask(const cv::Mat& rgb) const {
   return maskImage(mask.cells, mask.cells_x, mask.cell_size, rgb.cols, rgb.rows);
 }
 
-void ImageSegmenter::setRegionOfInterest(const cv::Rect& roi) { roi_ = roi; }
+void ImageSegmenter::setRegionOfInterest(const cv::Rect& roi) {
+  roi_ = roi;
+  roi_mask_ = cv::Mat();
+}
+
+void ImageSegmenter::setRegionOfInterest(const cv::Mat& roi_mask) {
+  if (roi_mask.empty()) {
+    setRegionOfInterest(cv::Rect());
+    return;
+  }
+  if (roi_mask.type() != CV_8UC1) {
+    throw InputError("setRegionOfInterest: the region mask must be CV_8UC1, got " +
+                     cv::typeToString(roi_mask.type()));
+  }
+  roi_ = cv::boundingRect(roi_mask);
+  roi_mask_ = roi_mask;
+}
 
 void ImageSegmenter::resetRoomState() {
   room_ = RoomCueState();
   roi_ = cv::Rect();
+  roi_mask_ = cv::Mat();
 }
 
 cv::Mat ImageSegmenter::lastForegroundMask() const {
@@ -529,7 +547,7 @@ ImageSoG ImageSegmenter::segmentFrame(const cv::Mat& rgb, std::vector<QuadtreeLe
     const bool use_plate = (mode == SegmentationMode::plate ||
                             mode == SegmentationMode::plate_and_skin);
     detail::applyRoomCues(params_, ws.cell_means, mask.cells_x, mask.cells_y, mask.cell_size,
-                          rgb.cols, rgb.rows, roi_, use_plate ? &plate_ : nullptr, room_,
+                          rgb.cols, rgb.rows, roi_, roi_mask_, use_plate ? &plate_ : nullptr, room_,
                           ws.mask);
     finishMask(ws, mask.cells_x, mask.cells_y, mask.cell_size, mask);
     room_.mask = ws.mask;

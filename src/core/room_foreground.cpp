@@ -66,7 +66,8 @@ struct Component {
 
 void applyRoomCues(const SegmentationParams& params, const std::vector<float>& means, int cells_x,
                    int cells_y, int cell_size, int width, int height, const cv::Rect& roi,
-                   BackgroundPlate* plate, RoomCueState& state, std::vector<unsigned char>& mask) {
+                   const cv::Mat& roi_mask, BackgroundPlate* plate, RoomCueState& state,
+                   std::vector<unsigned char>& mask) {
   const RoomCueParams& room = params.room;
   const int cells = cells_x * cells_y;
   const std::vector<unsigned char> candidate = mask;
@@ -86,8 +87,8 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
     for (int i = 0; i < cells; ++i) {
       double change = 0.0;
       for (int k = 0; k < 3; ++k) {
-        change = std::max(change,
-                          std::fabs(means[3 * i + k] - gain * state.previous_means[3 * i + k]));
+        change =
+            std::max(change, std::fabs(means[3 * i + k] - gain * state.previous_means[3 * i + k]));
       }
       const float decayed = static_cast<float>(room.motion_decay) * state.motion[i];
       state.motion[i] = change > room.motion_threshold ? 1.0f : decayed;
@@ -122,7 +123,16 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
   const int rx0 = has_roi ? box.x / cell_size : 0, ry0 = has_roi ? box.y / cell_size : 0;
   const int rx1 = has_roi ? (box.x + box.width - 1) / cell_size : cells_x - 1;
   const int ry1 = has_roi ? (box.y + box.height - 1) / cell_size : cells_y - 1;
-  auto inRoi = [&](int cx, int cy) { return cx >= rx0 && cx <= rx1 && cy >= ry0 && cy <= ry1; };
+  // With a mask, a cell is in the region when the mask is set at the cell's centre.
+  const bool use_mask =
+      has_roi && !roi_mask.empty() && roi_mask.cols == width && roi_mask.rows == height;
+  auto inRoi = [&](int cx, int cy) {
+    if (!(cx >= rx0 && cx <= rx1 && cy >= ry0 && cy <= ry1)) return false;
+    if (!use_mask) return true;
+    const int x = std::min(cx * cell_size + cell_size / 2, width - 1);
+    const int y = std::min(cy * cell_size + cell_size / 2, height - 1);
+    return roi_mask.at<unsigned char>(y, x) != 0;
+  };
   if (has_roi) {
     for (int cy = 0; cy < cells_y; ++cy) {
       for (int cx = 0; cx < cells_x; ++cx) {
@@ -167,8 +177,8 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
       int largest = 0;
       for (const Component& c : components) largest = std::max(largest, c.cells);
       for (int k = 0; k < count; ++k) {
-        keep[k] = components[k].cells >= room.min_component_share * largest ||
-                  components[k].moving > 0;
+        keep[k] =
+            components[k].cells >= room.min_component_share * largest || components[k].moving > 0;
       }
     } else {
       int best = 0;
@@ -194,28 +204,49 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
   }
   for (int i = 0; i < cells; ++i) mask[i] = labels[i] >= 0 && keep[labels[i]] ? 1 : 0;
 
-  // Learn the user's skin colour from the hand's foreground once the hand is tracked.
+  // Learn the user's skin colour from the hand's foreground once the hand is tracked. Robustly:
+  // the median chromaticity of the kept cells, then mean and covariance of the cells within
+  // kSkinTrim of it, so that background that passed the gates inside the region (a photograph, a
+  // wooden edge) does not widen the model.
   if (has_roi) {
-    double sum_r = 0.0, sum_g = 0.0, sum_rr = 0.0, sum_rg = 0.0, sum_gg = 0.0;
-    int n = 0;
+    std::vector<double> rs, gs;
     for (int i = 0; i < cells; ++i) {
       double r, g;
       if (!mask[i] || !chromaticity(&means[3 * i], &r, &g)) continue;
-      sum_r += r;
-      sum_g += g;
-      sum_rr += r * r;
-      sum_rg += r * g;
-      sum_gg += g * g;
-      ++n;
+      // Only what has skin colour at all (in plate mode the region also holds changed
+      // background).
+      const float* m = &means[3 * i];
+      if (!isSkinColour(Eigen::Vector3d(m[0], m[1], m[2]), params.skin)) continue;
+      rs.push_back(r);
+      gs.push_back(g);
     }
-    if (n >= room.skin_min_cells) {
-      const double mr = sum_r / n, mg = sum_g / n;
-      const double cov[3] = {sum_rr / n - mr * mr, sum_rg / n - mr * mg, sum_gg / n - mg * mg};
-      const double rate = state.skin_frames == 0 ? 1.0 : room.skin_learning_rate;
-      state.skin_mean[0] += rate * (mr - state.skin_mean[0]);
-      state.skin_mean[1] += rate * (mg - state.skin_mean[1]);
-      for (int k = 0; k < 3; ++k) state.skin_cov[k] += rate * (cov[k] - state.skin_cov[k]);
-      ++state.skin_frames;
+    if (static_cast<int>(rs.size()) >= room.skin_min_cells) {
+      constexpr double kSkinTrim = 0.03;
+      std::vector<double> sorted_r = rs, sorted_g = gs;
+      std::nth_element(sorted_r.begin(), sorted_r.begin() + sorted_r.size() / 2, sorted_r.end());
+      std::nth_element(sorted_g.begin(), sorted_g.begin() + sorted_g.size() / 2, sorted_g.end());
+      const double median_r = sorted_r[sorted_r.size() / 2];
+      const double median_g = sorted_g[sorted_g.size() / 2];
+      double sum_r = 0.0, sum_g = 0.0, sum_rr = 0.0, sum_rg = 0.0, sum_gg = 0.0;
+      int n = 0;
+      for (size_t k = 0; k < rs.size(); ++k) {
+        if (std::hypot(rs[k] - median_r, gs[k] - median_g) > kSkinTrim) continue;
+        sum_r += rs[k];
+        sum_g += gs[k];
+        sum_rr += rs[k] * rs[k];
+        sum_rg += rs[k] * gs[k];
+        sum_gg += gs[k] * gs[k];
+        ++n;
+      }
+      if (n >= room.skin_min_cells) {
+        const double mr = sum_r / n, mg = sum_g / n;
+        const double cov[3] = {sum_rr / n - mr * mr, sum_rg / n - mr * mg, sum_gg / n - mg * mg};
+        const double rate = state.skin_frames == 0 ? 1.0 : room.skin_learning_rate;
+        state.skin_mean[0] += rate * (mr - state.skin_mean[0]);
+        state.skin_mean[1] += rate * (mg - state.skin_mean[1]);
+        for (int k = 0; k < 3; ++k) state.skin_cov[k] += rate * (cov[k] - state.skin_cov[k]);
+        ++state.skin_frames;
+      }
     }
   }
 

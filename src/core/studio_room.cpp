@@ -112,7 +112,8 @@ StudioSceneParams StudioRoom::scene(StudioSceneParams base) const {
 }
 
 double StudioRoom::lightGain(double time) const {
-  return 1.0 - params_.light_change * 0.5 * (1.0 - std::cos(2.0 * M_PI * time / params_.light_period));
+  return 1.0 -
+         params_.light_change * 0.5 * (1.0 - std::cos(2.0 * M_PI * time / params_.light_period));
 }
 
 std::vector<SurfacePart> StudioRoom::props(double time) const {
@@ -131,7 +132,8 @@ std::vector<SurfacePart> StudioRoom::props(double time) const {
     parts.push_back(boxProp({0.30, 0.25}, 0.16, 0.11, 0.07, Eigen::Vector3f(0.52f, 0.36f, 0.19f)));
   }
   if (params_.wood_objects) {
-    parts.push_back(boxProp({-0.28, -0.15}, 0.10, 0.14, 0.05, Eigen::Vector3f(0.50f, 0.27f, 0.11f)));
+    parts.push_back(
+        boxProp({-0.28, -0.15}, 0.10, 0.14, 0.05, Eigen::Vector3f(0.50f, 0.27f, 0.11f)));
     RoundCone rod{{-0.05, 0.33, 0.015}, {0.22, 0.30, 0.015}, 0.014, 0.014};
     parts.push_back(prop(rod, Eigen::Vector3f(0.62f, 0.40f, 0.20f)));
   }

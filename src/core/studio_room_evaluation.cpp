@@ -78,7 +78,8 @@ std::vector<RoomRunResult> evaluateRoomSequence(const HandModel& render_model,
         renderer.render(subframes, sequence.noiseSeed(index), gain);
     FrameSet set;
     set.stamp_ns = static_cast<std::int64_t>(1000000000LL + index * 40000000LL);
-    for (size_t c = 0; c < images.size(); ++c) set.images.push_back({static_cast<int>(c), images[c].rgb});
+    for (size_t c = 0; c < images.size(); ++c)
+      set.images.push_back({static_cast<int>(c), images[c].rgb});
     const bool dump = !options.dump_prefix.empty() && index == options.dump_frame;
     if (dump) writePng(options.dump_prefix + "_image.png", images[options.dump_camera].rgb);
 

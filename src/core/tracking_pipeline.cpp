@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <opencv2/imgproc.hpp>
 
 #include "sag_hand_tracker/kinematics.h"
 #include "sag_hand_tracker/types.h"
@@ -34,7 +35,7 @@ cv::Rect projectedHandBox(const HandModel& model, const Pose& pose, const Camera
   double u0 = INFINITY, v0 = INFINITY, u1 = -INFINITY, v1 = -INFINITY;
   for (const WorldGaussian& g : hand.gaussians) {
     const Eigen::Vector3d p = camera.world_to_camera * g.mean;
-    if (p.z() < 0.02) return cv::Rect();  // at or behind the camera: no box
+    if (p.z() < 0.02) return cv::Rect();                   // at or behind the camera: no box
     const double radius = 2.5 * std::sqrt(g.cov.trace());  // >= 2.5 sigma along any axis
     const double u = camera.K(0, 0) * p.x() / p.z() + camera.K(0, 2);
     const double v = camera.K(1, 1) * p.y() / p.z() + camera.K(1, 2);
@@ -52,6 +53,26 @@ cv::Rect projectedHandBox(const HandModel& model, const Pose& pose, const Camera
   const int x1 = static_cast<int>(std::ceil(std::min(u1 + grow_u, camera.width + 1.0)));
   const int y1 = static_cast<int>(std::ceil(std::min(v1 + grow_v, camera.height + 1.0)));
   return cv::Rect(x0, y0, x1 - x0, y1 - y0) & cv::Rect(0, 0, camera.width, camera.height);
+}
+
+cv::Mat projectedHandMask(const HandModel& model, const Pose& pose, const Camera& camera,
+                          int margin_pixels) {
+  cv::Mat mask(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
+  const PosedHand hand = forwardKinematics(model, pose);
+  for (const WorldGaussian& g : hand.gaussians) {
+    const Eigen::Vector3d p = camera.world_to_camera * g.mean;
+    if (p.z() < 0.02) return cv::Mat(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
+  }
+  for (const WorldGaussian& g : hand.gaussians) {
+    const Eigen::Vector3d p = camera.world_to_camera * g.mean;
+    const double radius = 2.5 * std::sqrt(g.cov.trace()) * camera.K(0, 0) / p.z() + margin_pixels;
+    const double u = camera.K(0, 0) * p.x() / p.z() + camera.K(0, 2);
+    const double v = camera.K(1, 1) * p.y() / p.z() + camera.K(1, 2);
+    if (std::fabs(u) > 4.0 * camera.width || std::fabs(v) > 4.0 * camera.height) continue;
+    cv::circle(mask, cv::Point(static_cast<int>(std::lround(u)), static_cast<int>(std::lround(v))),
+               static_cast<int>(std::ceil(radius)), cv::Scalar(255), cv::FILLED);
+  }
+  return mask;
 }
 
 TrackingPipeline::TrackingPipeline(const HandModel& model, const std::vector<Camera>& cameras,
@@ -130,7 +151,7 @@ ProcessedFrame TrackingPipeline::process(const FrameSet& set) {
     const bool tracked = result.has_pose && result.status != TrackStatus::kLost;
     for (size_t c = 0; c < segmenters_.size(); ++c) {
       segmenters_[c].setRegionOfInterest(
-          tracked ? projectedHandBox(tracker_.model(), result.pose, cameras_[c]) : cv::Rect());
+          tracked ? projectedHandMask(tracker_.model(), result.pose, cameras_[c]) : cv::Mat());
     }
   }
   return processed;

@@ -93,8 +93,12 @@ std::string runRoomBenchmark(const BenchmarkOptions& options, std::ostream& log)
             }
             run.label = label + " " + segmentation + (cues ? " + room cues" : "");
             configs.push_back(run);
-            pending.push_back({sequence_stem, room_name.empty() ? "clean" : room_name,
-                               segmentation, cues, label, {}});
+            pending.push_back({sequence_stem,
+                               room_name.empty() ? "clean" : room_name,
+                               segmentation,
+                               cues,
+                               label,
+                               {}});
           }
         }
       }
@@ -106,9 +110,9 @@ std::string runRoomBenchmark(const BenchmarkOptions& options, std::ostream& log)
               .string();
       run_options.dump_frame = run_options.empty_frames + 40;
       run_options.dump_camera = 0;
-      const auto results = studio::evaluateRoomSequence(
-          render_model, rig.cameras, motion, room_name.empty() ? nullptr : &room, config, configs,
-          run_options);
+      const auto results = studio::evaluateRoomSequence(render_model, rig.cameras, motion,
+                                                        room_name.empty() ? nullptr : &room, config,
+                                                        configs, run_options);
       for (size_t k = 0; k < results.size(); ++k) {
         pending[k].result = results[k];
         rows.push_back(pending[k]);
@@ -122,7 +126,8 @@ std::string runRoomBenchmark(const BenchmarkOptions& options, std::ostream& log)
       }
       log << "benchmark --rooms: " << sequence_stem << " "
           << (room_name.empty() ? "clean" : room_name) << " took "
-          << fixed(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 1)
+          << fixed(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+                   1)
           << " s\n"
           << std::flush;
     }
@@ -151,9 +156,8 @@ std::string runRoomBenchmark(const BenchmarkOptions& options, std::ostream& log)
   for (const Row& row : rows) {
     const studio::RoomRunResult& r = row.result;
     const auto clean = clean_error.find(key(row));
-    const double ratio = clean != clean_error.end() && row.room != "clean"
-                             ? r.errors.mean_mm / clean->second
-                             : NAN;
+    const double ratio =
+        clean != clean_error.end() && row.room != "clean" ? r.errors.mean_mm / clean->second : NAN;
     md << "| " << row.sequence << " | " << row.room << " | " << row.model << " | "
        << row.segmentation << " | " << (row.cues ? "yes" : "no") << " | "
        << fixed(100.0 * r.precision(), 1) << " | " << fixed(100.0 * r.recall(), 1) << " | "

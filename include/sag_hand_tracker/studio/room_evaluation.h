@@ -23,8 +23,8 @@ struct RoomRunConfig {
 
 struct RoomRunResult {
   std::string label;
-  int frames = 0;          // frames with the hand that were tracked (not background)
-  int frames_posed = 0;    // of those, frames where the tracker had a pose (not waiting/lost)
+  int frames = 0;        // frames with the hand that were tracked (not background)
+  int frames_posed = 0;  // of those, frames where the tracker had a pose (not waiting/lost)
   std::vector<double> errors_mm;  // per posed frame, mean fingertip error
   ErrorSummary errors;
   // Foreground pixels over all cameras and tracked frames: kept (mask), kept that are the
@@ -37,8 +37,8 @@ struct RoomRunResult {
 };
 
 struct RoomSequenceOptions {
-  int frames = 0;        // 0: the motion's length
-  int empty_frames = 10; // frames without the hand at the start (0 for rooms without them)
+  int frames = 0;         // 0: the motion's length
+  int empty_frames = 10;  // frames without the hand at the start (0 for rooms without them)
   std::uint64_t seed = 1;
   // When not empty: writes <dump_prefix>_image.png (camera dump_camera's image of frame
   // dump_frame) and <dump_prefix>_<k>.png (configuration k's foreground mask over it).
