@@ -27,6 +27,11 @@ std::string fixed(double value, int decimals) {
   return text;
 }
 
+// The mean error, or NaN (printed "-") when the tracker had no pose in any frame.
+double meanError(const studio::RoomRunResult& r) {
+  return r.errors_mm.empty() ? NAN : r.errors.mean_mm;
+}
+
 std::string modelLabel(const std::string& model) {
   if (model == "sag") return "SAG";
   if (model == "sog") return "SoG";
@@ -120,8 +125,8 @@ std::string runRoomBenchmark(const BenchmarkOptions& options, std::ostream& log)
         log << "benchmark --rooms: " << sequence_stem << " "
             << (room_name.empty() ? "clean" : room_name) << " [" << k << "] " << r.label
             << ": precision " << fixed(100.0 * r.precision(), 1) << " %, recall "
-            << fixed(100.0 * r.recall(), 1) << " %, error " << fixed(r.errors.mean_mm, 1)
-            << " mm over " << r.frames_posed << "/" << r.frames << " frames\n"
+            << fixed(100.0 * r.recall(), 1) << " %, error " << fixed(meanError(r), 1) << " mm over "
+            << r.frames_posed << "/" << r.frames << " frames\n"
             << std::flush;
       }
       log << "benchmark --rooms: " << sequence_stem << " "
@@ -139,7 +144,7 @@ std::string runRoomBenchmark(const BenchmarkOptions& options, std::ostream& log)
     return row.sequence + "|" + row.model + "|" + row.segmentation + "|" + (row.cues ? "1" : "0");
   };
   for (const Row& row : rows) {
-    if (row.room == "clean") clean_error[key(row)] = row.result.errors.mean_mm;
+    if (row.room == "clean") clean_error[key(row)] = meanError(row.result);
   }
   std::ostringstream md;
   md << "# Studio rooms: foreground and tracking (benchmark --rooms)\n\n"
@@ -157,17 +162,17 @@ std::string runRoomBenchmark(const BenchmarkOptions& options, std::ostream& log)
     const studio::RoomRunResult& r = row.result;
     const auto clean = clean_error.find(key(row));
     const double ratio =
-        clean != clean_error.end() && row.room != "clean" ? r.errors.mean_mm / clean->second : NAN;
+        clean != clean_error.end() && row.room != "clean" ? meanError(r) / clean->second : NAN;
     md << "| " << row.sequence << " | " << row.room << " | " << row.model << " | "
        << row.segmentation << " | " << (row.cues ? "yes" : "no") << " | "
        << fixed(100.0 * r.precision(), 1) << " | " << fixed(100.0 * r.recall(), 1) << " | "
-       << r.frames_posed << "/" << r.frames << " | " << fixed(r.errors.mean_mm, 1) << " | "
-       << fixed(r.errors.sd_mm, 1) << " | " << (std::isfinite(ratio) ? fixed(ratio, 2) : "-")
-       << " |\n";
+       << r.frames_posed << "/" << r.frames << " | " << fixed(meanError(r), 1) << " | "
+       << fixed(r.errors_mm.empty() ? NAN : r.errors.sd_mm, 1) << " | "
+       << (std::isfinite(ratio) ? fixed(ratio, 2) : "-") << " |\n";
     csv << row.sequence << "," << row.room << "," << row.model << "," << row.segmentation << ","
         << (row.cues ? 1 : 0) << "," << fixed(r.precision(), 4) << "," << fixed(r.recall(), 4)
-        << "," << r.frames << "," << r.frames_posed << "," << fixed(r.errors.mean_mm, 2) << ","
-        << fixed(r.errors.sd_mm, 2) << "\n";
+        << "," << r.frames << "," << r.frames_posed << "," << fixed(meanError(r), 2) << ","
+        << fixed(r.errors_mm.empty() ? NAN : r.errors.sd_mm, 2) << "\n";
   }
   if (!csv) throw InputError("cannot write " + (dir / "rooms.csv").string());
   std::ofstream(dir / "rooms.md") << md.str();
