@@ -27,7 +27,8 @@ struct PipelineParams {
 
 // The box around a posed hand in one camera's image (pixels, clipped to the image; empty when the
 // hand is not in front of the camera or outside the image): every model Gaussian's sphere of radius
-// 2.5 sqrt(trace Sigma) (>= 2.5 sigma along any axis) projected, the union grown by `margin` of its size on each side plus `margin_pixels`.
+// 2.5 sqrt(trace Sigma) (>= 2.5 sigma along any axis) projected, the union grown by `margin` of its
+// size on each side plus `margin_pixels`.
 cv::Rect projectedHandBox(const HandModel& model, const Pose& pose, const Camera& camera,
                           double margin = 0.3, int margin_pixels = 8);
 

@@ -544,8 +544,8 @@ ImageSoG ImageSegmenter::segmentFrame(const cv::Mat& rgb, std::vector<QuadtreeLe
                           detail::cellCount(rgb.rows, params_.cell_size),
                       1);
   } else if (params_.room.enabled) {
-    const bool use_plate = (mode == SegmentationMode::plate ||
-                            mode == SegmentationMode::plate_and_skin);
+    const bool use_plate =
+        (mode == SegmentationMode::plate || mode == SegmentationMode::plate_and_skin);
     detail::applyRoomCues(params_, ws.cell_means, mask.cells_x, mask.cells_y, mask.cell_size,
                           rgb.cols, rgb.rows, roi_, roi_mask_, use_plate ? &plate_ : nullptr, room_,
                           ws.mask);

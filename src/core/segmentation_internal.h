@@ -65,8 +65,8 @@ inline int cellCount(int pixels, int cell_size) { return (pixels + cell_size - 1
 // narrows the region to its non-zero pixels.
 void applyRoomCues(const SegmentationParams& params, const std::vector<float>& means, int cells_x,
                    int cells_y, int cell_size, int width, int height, const cv::Rect& roi,
-                   const cv::Mat& roi_mask,
-                   BackgroundPlate* plate, RoomCueState& state, std::vector<unsigned char>& mask);
+                   const cv::Mat& roi_mask, BackgroundPlate* plate, RoomCueState& state,
+                   std::vector<unsigned char>& mask);
 
 }  // namespace detail
 }  // namespace sag_hand_tracker

@@ -293,8 +293,8 @@ StudioRenderer::StudioRenderer(std::vector<Camera> cameras, const StudioScenePar
   const int supersampling = scene_.background_supersampling;
   // First background surface along a world ray from inside the room: the table top, else the
   // room box's walls, floor or ceiling.
-  const auto backgroundAlbedo = [this](const Eigen::Vector3d& point,
-                                       const Eigen::Vector3d& normal, bool on_table) {
+  const auto backgroundAlbedo = [this](const Eigen::Vector3d& point, const Eigen::Vector3d& normal,
+                                       bool on_table) {
     if (on_table && !scene_.table_photo.empty()) {
       const Eigen::Vector2d extent = scene_.table_max - scene_.table_min;
       return photoAlbedo(scene_.table_photo, (point.x() - scene_.table_min.x()) / extent.x(),
@@ -586,8 +586,7 @@ std::vector<StudioImage> StudioRenderer::render(
   std::vector<StudioImage> images;
   images.reserve(cameras_.size());
   for (size_t c = 0; c < cameras_.size(); ++c) {
-    images.push_back(
-        renderCamera(static_cast<int>(c), subframes, shadows, noise_seed, light_gain));
+    images.push_back(renderCamera(static_cast<int>(c), subframes, shadows, noise_seed, light_gain));
   }
   return images;
 }
