@@ -24,6 +24,8 @@
 #include "sag_hand_tracker/studio/motion.h"
 #include "sag_hand_tracker/util/types.h"
 #include "sag_hand_tracker/util/timing.h"
+#include "sag_hand_tracker/apps/room_benchmark.h"
+#include "sag_hand_tracker/ros/package_config.h"
 
 namespace sag_hand_tracker {
 namespace {
@@ -703,6 +705,10 @@ Options:
                        77 bags of ~350 MB; the ground-truth CSVs and tracks stay)
   --config-dir DIR     the built-in motions, rigs and models (the package's config/)
   --no-plots           no PNG plots
+  --rooms a,b|all      the studio rooms (office, kitchen, daylight) against the clean studio:
+                       skin gate and plate, without and with the room cues; foreground precision
+                       and recall, fingertip error; DIR/rooms.md, rooms.csv, rooms/*.png
+                       (sequences: adbadd,pinch unless --sequences)
   --help               this text
 )";
 }
@@ -742,10 +748,13 @@ BenchmarkOptions parseBenchmarkArguments(const std::vector<std::string>& args) {
       options.config_dir = value();
     } else if (arg == "--no-plots") {
       options.plots = false;
+    } else if (arg == "--rooms") {
+      options.rooms = parseListOption(arg, value());
     } else {
       throw UsageError("unknown argument '" + arg + "'");
     }
   }
+  if (options.sequences.empty() && !options.rooms.empty()) options.sequences = {"adbadd", "pinch"};
   if (options.sequences.empty()) options.sequences = benchmarkSequences();
   std::set<std::string> labels;
   for (const std::string& model : options.models) {
@@ -865,6 +874,11 @@ ErrorStats errorStats(const RunErrors& errors) {
 BenchmarkResults runBenchmark(const BenchmarkOptions& options, std::ostream& log) {
   const auto start = std::chrono::steady_clock::now();
   BenchmarkResults results;
+  if (!options.rooms.empty()) {
+    results.markdown = runRoomBenchmark(options, log);
+    results.seconds = secondsSince(start);
+    return results;
+  }
   for (const std::string& model : options.models) results.trackers.push_back(trackerLabel(model));
   const fs::path dir(options.out_dir);
   fs::create_directories(dir / "tracks");

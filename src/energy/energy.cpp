@@ -84,6 +84,30 @@ PoseEnergy::PoseEnergy(const HandModel& model, const EnergyParams& params)
       if (model_.joints[dip].name == dip_name) pip_dip_pairs_.emplace_back(pip, dip);
     }
   }
+  if (!(params_.model_area_weight >= 0.0) || !std::isfinite(params_.model_area_weight)) {
+    throw InputError("energy: model_area_weight must be a finite number >= 0, got " +
+                     std::to_string(params_.model_area_weight));
+  }
+}
+
+double PoseEnergy::modelWeight(size_t p) const {
+  return model_.gaussians[p].weight * params_.model_weight;
+}
+
+bool isInFrontOfCameras(const Eigen::Vector3d& point, const std::vector<Camera>& cameras,
+                        double min_depth) {
+  for (const Camera& camera : cameras) {
+    if (!((camera.world_to_camera * point).z() >= min_depth)) return false;
+  }
+  return true;
+}
+
+bool isInFrontOfCameras(const Eigen::Vector3d& point,
+                        const std::vector<CameraObservation>& observations, double min_depth) {
+  for (const CameraObservation& observation : observations) {
+    if (!((observation.camera.world_to_camera * point).z() >= min_depth)) return false;
+  }
+  return true;
 }
 
 void PoseEnergy::setFrame(const std::vector<CameraObservation>& observations) {
@@ -114,13 +138,13 @@ void PoseEnergy::setFrame(const std::vector<CameraObservation>& observations) {
     if (kept.empty()) continue;
     camera.weights.resize(num_gaussians * kept.size());
     for (size_t p = 0; p < num_gaussians; ++p) {
-      const double model_weight = model_.gaussians[p].weight * params_.model_weight;
+      const double model_weight = modelWeight(p);
       for (size_t i = 0; i < kept.size(); ++i) {
         camera.weights[p * kept.size() + i] =
             model_weight * colourSimilarity(model_.gaussians[p].hsv, kept[i]->hsv, params_.colour);
       }
     }
-    camera.normaliser = 1.0 / self_overlap_sum;
+    camera.image_area = self_overlap_sum;
     cameras_.push_back(std::move(camera));
   }
 }
@@ -139,20 +163,37 @@ double PoseEnergy::evaluate(const Pose& pose, PoseVector* gradient, EnergyTerms*
   std::vector<double> weighted, active, sums;
 
   double similarity = 0.0;
-  if (terms) terms->per_camera.assign(cameras_.size(), 0.0);
+  if (terms) {
+    terms->per_camera.assign(cameras_.size(), 0.0);
+    terms->invalid_projections = 0;
+  }
+  const double lambda = params_.model_area_weight;
+  double weight_sum = 0.0;
+  for (size_t p = 0; p < num_gaussians; ++p) weight_sum += modelWeight(p);
+  std::vector<double> area(num_gaussians, 0.0);
   for (size_t c = 0; c < cameras_.size(); ++c) {
     const FrameCamera& camera = cameras_[c];
     const ImageGaussianArrays& q = camera.image_gaussians;
     const int n = q.size();
     weighted.assign(num_gaussians * n, 0.0);
     sums.assign(n, 0.0);
+    double model_area = 0.0;  // M_c
     for (size_t p = 0; p < num_gaussians; ++p) {
       const Eigen::Vector3d mean = camera.rotation * hand.gaussians[p].mean + camera.translation;
       const Eigen::Matrix3d cov =
           camera.rotation * hand.gaussians[p].cov * camera.rotation.transpose();
       projections[p] = projectInCamera(model_.projection, mean, cov, camera.K, with_gradient);
-      if (!projections[p].projected.valid) continue;  // contributes nothing in this camera
+      if (!projections[p].projected.valid) {
+        // It cannot be seen where the camera sees foreground: a fixed share of the image's area
+        // against the pose (no gradient; the optimizer's step control and the start's scoring
+        // still see the lower value).
+        model_area += weight_sum > 0.0 ? modelWeight(p) / weight_sum * camera.image_area : 0.0;
+        if (terms) ++terms->invalid_projections;
+        continue;
+      }
       overlap_terms[p] = prepareOverlapTerm(projections[p].projected);
+      area[p] = 2.0 * M_PI * overlap_terms[p].sqrt_det;  // integral of the projected Gaussian
+      model_area += modelWeight(p) * area[p];
       double* row = weighted.data() + p * n;
       overlapRow(overlap_terms[p], q, camera.weights.data() + p * n, params_.max_mahalanobis_sq,
                  row);
@@ -161,14 +202,18 @@ double PoseEnergy::evaluate(const Pose& pose, PoseVector* gradient, EnergyTerms*
 
     // Paper eq. 8: sum over image Gaussians of min(sum_p w_p E_pq, E_qq). A saturated image
     // Gaussian passes no gradient.
-    double camera_similarity = 0.0;
+    double overlap = 0.0;  // O_c
     active.resize(n);
     for (int i = 0; i < n; ++i) {
       const bool saturated = sums[i] >= q.self_overlap[i];
-      camera_similarity += saturated ? q.self_overlap[i] : sums[i];
+      overlap += saturated ? q.self_overlap[i] : sums[i];
       active[i] = saturated ? 0.0 : 1.0;
     }
-    camera_similarity *= camera.normaliser;
+    // E_c = (1 + lambda) O_c / (I_c + lambda M_c): dE_c = a dO_c + b dM_c.
+    const double denominator = camera.image_area + lambda * model_area;
+    const double camera_similarity = (1.0 + lambda) * overlap / denominator;
+    const double d_overlap = (1.0 + lambda) / denominator;
+    const double d_area = -lambda * camera_similarity / denominator;
     similarity += camera_similarity;
     if (terms) terms->per_camera[c] = camera_similarity;
     if (!with_gradient) continue;
@@ -180,8 +225,17 @@ double PoseEnergy::evaluate(const Pose& pose, PoseVector* gradient, EnergyTerms*
       Eigen::Matrix<double, 5, 1> g_projected = Eigen::Matrix<double, 5, 1>::Zero();
       accumulateOverlapGradient(overlap_terms[p], q, weighted.data() + p * n, active.data(),
                                 g_projected.data());
-      const Eigen::Matrix<double, 9, 1> g_input =
-          projections[p].jacobian.transpose() * (g_projected * camera.normaliser);
+      g_projected *= d_overlap;
+      if (d_area != 0.0) {
+        // d(2 pi sqrt|S|) over (S_xx, S_xy as one entry, S_yy) = area/2 (S^-1)_xx, area (S^-1)_xy,
+        // area/2 (S^-1)_yy.
+        const OverlapTerm& t = overlap_terms[p];
+        const double scale = d_area * modelWeight(p) * area[p];
+        g_projected[2] += scale * 0.5 * t.inv_xx;
+        g_projected[3] += scale * t.inv_xy;
+        g_projected[4] += scale * 0.5 * t.inv_yy;
+      }
+      const Eigen::Matrix<double, 9, 1> g_input = projections[p].jacobian.transpose() * g_projected;
       const Eigen::Vector3d g_mean_camera = g_input.head<3>();
       Eigen::Matrix3d g_cov_camera;
       g_cov_camera << g_input[3], 0.5 * g_input[6], 0.5 * g_input[7],  //
@@ -219,8 +273,8 @@ double PoseEnergy::evaluate(const Pose& pose, PoseVector* gradient, EnergyTerms*
   }
   if (!with_gradient) return total;
 
-  // Chain through the kinematics: each parameter moves a Gaussian rigidly (translation, or rotation
-  // about a world axis through a pivot).
+  // Chain through the kinematics: each parameter moves a Gaussian rigidly (translation, or
+  // rotation about a world axis through a pivot).
   gradient->setZero();
   for (size_t p = 0; p < num_gaussians; ++p) {
     const Eigen::Vector3d gm = g_mean[p] / camera_count;

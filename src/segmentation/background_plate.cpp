@@ -117,6 +117,18 @@ bool BackgroundPlate::isBackground(int cell, const float* rgb,
   return true;
 }
 
+void BackgroundPlate::adaptCell(int cell, const float* rgb, double rate) {
+  for (int k = 0; k < 3; ++k) {
+    const double n = frames_;
+    const double old_mean = sum_[3 * cell + k] / n;
+    const double variance = std::max(0.0, sum_sq_[3 * cell + k] / n - old_mean * old_mean);
+    const double mean = (1.0 - rate) * old_mean + rate * rgb[k];
+    sum_[3 * cell + k] = n * mean;
+    sum_sq_[3 * cell + k] = n * (variance + mean * mean);
+  }
+  updateCell(cell);
+}
+
 cv::Mat BackgroundPlate::mean() const {
   cv::Mat out(cells_y_, cells_x_, CV_32FC3);
   for (int cell = 0; cell < cells_x_ * cells_y_; ++cell) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <opencv2/imgproc.hpp>
 #include <string>
 
 #include "sag_hand_tracker/energy/colour.h"
@@ -324,6 +325,23 @@ void validate(const SegmentationParams& params) {
     fail("skin.hue_min_deg < skin.hue_max_deg <= skin.hue_min_deg + 360 is required");
   }
   if (!(s.saturation_min <= s.saturation_max)) fail("skin.saturation_min > skin.saturation_max");
+  const RoomCueParams& r = params.room;
+  if (!(r.skin_max_distance > 0.0)) fail("room.skin_max_distance must be > 0");
+  if (!(r.skin_learning_rate >= 0.0 && r.skin_learning_rate <= 1.0)) {
+    fail("room.skin_learning_rate must be in [0, 1]");
+  }
+  if (r.skin_min_cells < 1) fail("room.skin_min_cells must be >= 1");
+  if (!(r.min_component_share >= 0.0 && r.min_component_share <= 1.0)) {
+    fail("room.min_component_share must be in [0, 1]");
+  }
+  if (!(r.motion_threshold > 0.0)) fail("room.motion_threshold must be > 0");
+  if (!(r.motion_decay >= 0.0 && r.motion_decay < 1.0)) fail("room.motion_decay must be in [0, 1)");
+  if (!(r.motion_weight >= 0.0) || !(r.sleeve_weight >= 0.0)) {
+    fail("room.motion_weight and room.sleeve_weight must be >= 0");
+  }
+  if (!(r.plate_adaptation_rate >= 0.0 && r.plate_adaptation_rate <= 1.0)) {
+    fail("room.plate_adaptation_rate must be in [0, 1]");
+  }
 }
 
 ImageSoG quadtreeSegment(const cv::Mat& rgb, const QuadtreeParams& params,
@@ -393,6 +411,8 @@ SegmentationMode ImageSegmenter::effectiveMode() const {
 
 namespace {
 
+void finishMask(Workspace& ws, int cells_x, int cells_y, int cell_size, CellMask& mask);
+
 // Computes the integral image and, unless the mode is none, the cell mask; returns whether a
 // mask applies.
 bool prepare(const cv::Mat& rgb, const SegmentationParams& params, SegmentationMode mode,
@@ -437,7 +457,12 @@ bool prepare(const cv::Mat& rgb, const SegmentationParams& params, SegmentationM
     ws.mask[i] = foreground ? 1 : 0;
   }
   if (params.remove_isolated_cells) removeIsolatedCells(ws.mask, ws.mask_tmp, cells_x, cells_y);
+  finishMask(ws, cells_x, cells_y, cell_size, mask);
+  return true;
+}
 
+// The mask's integral image and the view of it that the quad-tree reads.
+void finishMask(Workspace& ws, int cells_x, int cells_y, int cell_size, CellMask& mask) {
   const int stride = cells_x + 1;
   ws.mask_integral.assign(static_cast<std::size_t>(stride) * (cells_y + 1), 0);
   for (int cy = 0; cy < cells_y; ++cy) {
@@ -452,7 +477,6 @@ bool prepare(const cv::Mat& rgb, const SegmentationParams& params, SegmentationM
   mask.cells_x = cells_x;
   mask.cells_y = cells_y;
   mask.cell_size = cell_size;
-  return true;
 }
 
 }  // namespace
@@ -470,23 +494,89 @@ ImageSoG ImageSegmenter::segment(const cv::Mat& rgb, std::vector<QuadtreeLeaf>* 
   return sog;
 }
 
+namespace {
+
+// The cell mask at image size: 255 where a cell is foreground.
+cv::Mat maskImage(const unsigned char* cells, int cells_x, int cell_size, int width, int height) {
+  cv::Mat out(height, width, CV_8UC1, cv::Scalar(0));
+  const int c = cell_size;
+  for (int y = 0; y < height; ++y) {
+    const unsigned char* row_cells = cells + (y / c) * cells_x;
+    unsigned char* row = out.ptr<unsigned char>(y);
+    for (int cx = 0; cx < cells_x; ++cx) {
+      if (!row_cells[cx]) continue;
+      const int x0 = cx * c;
+      std::fill(row + x0, row + std::min(x0 + c, width), static_cast<unsigned char>(255));
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
 cv::Mat ImageSegmenter::foregroundMask(const cv::Mat& rgb) const {
   Workspace& ws = workspace();
   CellMask mask;
   const bool masked = prepare(rgb, params_, effectiveMode(), plate_, "foregroundMask", ws, mask);
-  cv::Mat out(rgb.rows, rgb.cols, CV_8UC1, cv::Scalar(masked ? 0 : 255));
-  if (!masked) return out;
-  const int c = mask.cell_size;
-  for (int y = 0; y < rgb.rows; ++y) {
-    const unsigned char* cells = mask.cells + (y / c) * mask.cells_x;
-    unsigned char* row = out.ptr<unsigned char>(y);
-    for (int cx = 0; cx < mask.cells_x; ++cx) {
-      if (!cells[cx]) continue;
-      const int x0 = cx * c;
-      std::fill(row + x0, row + std::min(x0 + c, rgb.cols), static_cast<unsigned char>(255));
-    }
+  if (!masked) return cv::Mat(rgb.rows, rgb.cols, CV_8UC1, cv::Scalar(255));
+  return maskImage(mask.cells, mask.cells_x, mask.cell_size, rgb.cols, rgb.rows);
+}
+
+void ImageSegmenter::setRegionOfInterest(const cv::Rect& roi) {
+  roi_ = roi;
+  roi_mask_ = cv::Mat();
+}
+
+void ImageSegmenter::setRegionOfInterest(const cv::Mat& roi_mask) {
+  if (roi_mask.empty()) {
+    setRegionOfInterest(cv::Rect());
+    return;
   }
-  return out;
+  if (roi_mask.type() != CV_8UC1) {
+    throw InputError("setRegionOfInterest: the region mask must be CV_8UC1, got " +
+                     cv::typeToString(roi_mask.type()));
+  }
+  roi_ = cv::boundingRect(roi_mask);
+  roi_mask_ = roi_mask;
+}
+
+void ImageSegmenter::resetRoomState() {
+  room_ = RoomCueState();
+  roi_ = cv::Rect();
+  roi_mask_ = cv::Mat();
+}
+
+cv::Mat ImageSegmenter::lastForegroundMask() const {
+  if (room_.mask.empty()) return cv::Mat();
+  return maskImage(room_.mask.data(), room_.cells_x, room_.cell_size, room_.width, room_.height);
+}
+
+ImageSoG ImageSegmenter::segmentFrame(const cv::Mat& rgb, std::vector<QuadtreeLeaf>* leaves) {
+  Workspace& ws = workspace();
+  CellMask mask;
+  const SegmentationMode mode = effectiveMode();
+  const bool masked = prepare(rgb, params_, mode, plate_, "segmentFrame", ws, mask);
+  if (!masked) {
+    room_.mask.assign(static_cast<size_t>(detail::cellCount(rgb.cols, params_.cell_size)) *
+                          detail::cellCount(rgb.rows, params_.cell_size),
+                      1);
+  } else if (params_.room.enabled) {
+    const bool use_plate =
+        (mode == SegmentationMode::kPlate || mode == SegmentationMode::kPlateAndSkin);
+    detail::applyRoomCues(params_, ws.cell_means, mask.cells_x, mask.cells_y, mask.cell_size,
+                          rgb.cols, rgb.rows, roi_, roi_mask_, use_plate ? &plate_ : nullptr, room_,
+                          ws.mask);
+    finishMask(ws, mask.cells_x, mask.cells_y, mask.cell_size, mask);
+    room_.mask = ws.mask;
+  } else {
+    room_.mask = ws.mask;
+  }
+  room_.cells_x = detail::cellCount(rgb.cols, params_.cell_size);
+  room_.cells_y = detail::cellCount(rgb.rows, params_.cell_size);
+  room_.cell_size = params_.cell_size;
+  room_.width = rgb.cols;
+  room_.height = rgb.rows;
+  return runQuadtree(ws.integral, params_.quadtree, masked ? &mask : nullptr, leaves);
 }
 
 }  // namespace sag_hand_tracker

@@ -5,6 +5,8 @@
 #include <opencv2/core.hpp>
 #include <vector>
 
+#include "sag_hand_tracker/segmentation/quadtree_segmentation.h"
+
 namespace sag_hand_tracker {
 namespace detail {
 
@@ -55,6 +57,16 @@ struct ColourIntegral {
 void cellMeans(const ColourIntegral& integral, int cell_size, std::vector<float>& means);
 
 inline int cellCount(int pixels, int cell_size) { return (pixels + cell_size - 1) / cell_size; }
+
+// The room cues of RoomCueParams on a frame's candidate cell mask (plate / skin gate done, isolated
+// cells removed): narrows `mask` down to the hand and updates `state` (motion, learned skin
+// colour) and, when given, the plate (adaptation where the hand is not). `means`: the frame's
+// cell means; `roi`: pixels, empty for none; `roi_mask`: optional (empty or image size, CV_8UC1),
+// narrows the region to its non-zero pixels.
+void applyRoomCues(const SegmentationParams& params, const std::vector<float>& means, int cells_x,
+                   int cells_y, int cell_size, int width, int height, const cv::Rect& roi,
+                   const cv::Mat& roi_mask, BackgroundPlate* plate, RoomCueState& state,
+                   std::vector<unsigned char>& mask);
 
 }  // namespace detail
 }  // namespace sag_hand_tracker

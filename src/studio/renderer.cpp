@@ -204,6 +204,23 @@ Eigen::Vector3f surfaceAlbedo(const SurfacePart& part, const Eigen::Vector3d& po
   return ws * part.albedo_dorsal + (1.0f - ws) * part.albedo_palmar;
 }
 
+// Linear albedo of an sRGB photograph at (s, t) in [0, 1]^2 (bilinear; wraps around).
+Eigen::Vector3f photoAlbedo(const cv::Mat& photo, double s, double t) {
+  const double x = (s - std::floor(s)) * photo.cols - 0.5;
+  const double y = (t - std::floor(t)) * photo.rows - 0.5;
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  const float ax = static_cast<float>(x - x0), ay = static_cast<float>(y - y0);
+  auto at = [&photo](int i, int j) {
+    i = ((i % photo.cols) + photo.cols) % photo.cols;
+    j = ((j % photo.rows) + photo.rows) % photo.rows;
+    const cv::Vec3b& c = photo.at<cv::Vec3b>(j, i);
+    return Eigen::Vector3f(srgbToLinear(c[0] / 255.0f), srgbToLinear(c[1] / 255.0f),
+                           srgbToLinear(c[2] / 255.0f));
+  };
+  return (1 - ay) * ((1 - ax) * at(x0, y0) + ax * at(x0 + 1, y0)) +
+         ay * ((1 - ax) * at(x0, y0 + 1) + ax * at(x0 + 1, y0 + 1));
+}
+
 void checkCamera(const Camera& camera) {
   std::ostringstream problem;
   if (camera.width <= 0 || camera.height <= 0) {
@@ -264,12 +281,34 @@ StudioRenderer::StudioRenderer(std::vector<Camera> cameras, const StudioScenePar
   if (!(scene_.light_direction.norm() > 0.0)) throw InputError("studio: light direction is zero");
   if (!(scene_.shadow_texel > 0.0)) throw InputError("studio: shadow texel must be positive");
   light_ = scene_.light_direction.normalized();
+  for (const cv::Mat* photo : {&scene_.table_photo, &scene_.wall_photo}) {
+    if (!photo->empty() && photo->type() != CV_8UC3) {
+      throw InputError("studio: a photograph must be an 8-bit RGB image (CV_8UC3)");
+    }
+  }
+  if (!(scene_.wall_photo_size > 0.0)) throw InputError("studio: wall_photo_size must be positive");
   if (scene_.background_supersampling < 1) {
     throw InputError("studio: background_supersampling must be at least 1");
   }
   const int supersampling = scene_.background_supersampling;
   // First background surface along a world ray from inside the room: the table top, else the
   // room box's walls, floor or ceiling.
+  const auto backgroundAlbedo = [this](const Eigen::Vector3d& point, const Eigen::Vector3d& normal,
+                                       bool on_table) {
+    if (on_table && !scene_.table_photo.empty()) {
+      const Eigen::Vector2d extent = scene_.table_max - scene_.table_min;
+      return photoAlbedo(scene_.table_photo, (point.x() - scene_.table_min.x()) / extent.x(),
+                         (scene_.table_max.y() - point.y()) / extent.y())
+          .cast<double>();
+    }
+    if (!on_table && std::abs(normal.z()) < 0.5 && !scene_.wall_photo.empty()) {
+      const double along = std::abs(normal.x()) > 0.5 ? point.y() : point.x();
+      return photoAlbedo(scene_.wall_photo, along / scene_.wall_photo_size,
+                         -point.z() / scene_.wall_photo_size)
+          .cast<double>();
+    }
+    return studioAlbedo(point, normal, on_table, scene_.texture_seed).cast<double>();
+  };
   const auto traceBackground = [this](const Eigen::Vector3d& from, const Eigen::Vector3d& d) {
     BackgroundHit hit;
     for (int a = 0; a < 3; ++a) {
@@ -327,8 +366,7 @@ StudioRenderer::StudioRenderer(std::vector<Camera> cameras, const StudioScenePar
             const BackgroundHit h =
                 traceBackground(centre, camera_to_world.linear() * (k_inv * pixel).normalized());
             if (!std::isfinite(h.t)) continue;  // camera outside the room: black
-            const Eigen::Vector3d albedo =
-                studioAlbedo(h.point, h.normal, h.on_table, scene_.texture_seed).cast<double>();
+            const Eigen::Vector3d albedo = backgroundAlbedo(h.point, h.normal, h.on_table);
             const double direct = scene_.light_intensity * std::max(0.0, h.normal.dot(light_));
             sum_lit += albedo * (scene_.ambient + direct);
             sum_direct += direct;
@@ -482,19 +520,19 @@ void StudioRenderer::renderLinear(int camera_index, const std::vector<SurfacePar
 
 StudioImage StudioRenderer::renderCamera(int camera,
                                          const std::vector<std::vector<SurfacePart>>& subframes,
-                                         std::uint64_t noise_seed) const {
+                                         std::uint64_t noise_seed, double light_gain) const {
   if (camera < 0 || camera >= static_cast<int>(cameras_.size())) {
     throw InputError("studio: no camera " + std::to_string(camera));
   }
   std::vector<ShadowMap> shadows;
   for (const auto& parts : subframes) shadows.push_back(computeShadow(parts));
-  return renderCamera(camera, subframes, shadows, noise_seed);
+  return renderCamera(camera, subframes, shadows, noise_seed, light_gain);
 }
 
 StudioImage StudioRenderer::renderCamera(int camera,
                                          const std::vector<std::vector<SurfacePart>>& subframes,
                                          const std::vector<ShadowMap>& shadows,
-                                         std::uint64_t noise_seed) const {
+                                         std::uint64_t noise_seed, double light_gain) const {
   const Camera& cam = cameras_[camera];
   const size_t n = static_cast<size_t>(cam.width) * cam.height;
   StudioImage image;
@@ -513,7 +551,7 @@ StudioImage StudioRenderer::renderCamera(int camera,
       acc[i] += cv::Vec3f(colour[i].x(), colour[i].y(), colour[i].z());
     }
   }
-  accum *= 1.0 / static_cast<double>(count);
+  accum *= light_gain / static_cast<double>(count);
   if (sensor_.blur_sigma > 0.0) cv::GaussianBlur(accum, accum, cv::Size(0, 0), sensor_.blur_sigma);
 
   // Encode (sRGB), add sensor noise, quantise.
@@ -541,13 +579,14 @@ StudioImage StudioRenderer::renderCamera(int camera,
 }
 
 std::vector<StudioImage> StudioRenderer::render(
-    const std::vector<std::vector<SurfacePart>>& subframes, std::uint64_t noise_seed) const {
+    const std::vector<std::vector<SurfacePart>>& subframes, std::uint64_t noise_seed,
+    double light_gain) const {
   std::vector<ShadowMap> shadows;
   for (const auto& parts : subframes) shadows.push_back(computeShadow(parts));
   std::vector<StudioImage> images;
   images.reserve(cameras_.size());
   for (size_t c = 0; c < cameras_.size(); ++c) {
-    images.push_back(renderCamera(static_cast<int>(c), subframes, shadows, noise_seed));
+    images.push_back(renderCamera(static_cast<int>(c), subframes, shadows, noise_seed, light_gain));
   }
   return images;
 }

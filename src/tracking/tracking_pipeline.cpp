@@ -1,9 +1,13 @@
 #include "sag_hand_tracker/tracking/tracking_pipeline.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
 
 #include "sag_hand_tracker/util/timing.h"
 #include "sag_hand_tracker/util/types.h"
+#include "sag_hand_tracker/model/kinematics.h"
 
 namespace sag_hand_tracker {
 namespace {
@@ -22,6 +26,52 @@ PipelineParams adjusted(PipelineParams params) {
 
 }  // namespace
 
+cv::Rect projectedHandBox(const HandModel& model, const Pose& pose, const Camera& camera,
+                          double margin, int margin_pixels) {
+  const PosedHand hand = forwardKinematics(model, pose);
+  double u0 = INFINITY, v0 = INFINITY, u1 = -INFINITY, v1 = -INFINITY;
+  for (const WorldGaussian& g : hand.gaussians) {
+    const Eigen::Vector3d p = camera.world_to_camera * g.mean;
+    if (p.z() < 0.02) return cv::Rect();                   // at or behind the camera: no box
+    const double radius = 2.5 * std::sqrt(g.cov.trace());  // >= 2.5 sigma along any axis
+    const double u = camera.K(0, 0) * p.x() / p.z() + camera.K(0, 2);
+    const double v = camera.K(1, 1) * p.y() / p.z() + camera.K(1, 2);
+    const double ru = camera.K(0, 0) * radius / p.z(), rv = camera.K(1, 1) * radius / p.z();
+    u0 = std::min(u0, u - ru);
+    u1 = std::max(u1, u + ru);
+    v0 = std::min(v0, v - rv);
+    v1 = std::max(v1, v + rv);
+  }
+  if (!(u1 > u0) || !(v1 > v0)) return cv::Rect();
+  const double grow_u = margin * (u1 - u0) + margin_pixels;
+  const double grow_v = margin * (v1 - v0) + margin_pixels;
+  const int x0 = static_cast<int>(std::floor(std::max(u0 - grow_u, -1.0)));
+  const int y0 = static_cast<int>(std::floor(std::max(v0 - grow_v, -1.0)));
+  const int x1 = static_cast<int>(std::ceil(std::min(u1 + grow_u, camera.width + 1.0)));
+  const int y1 = static_cast<int>(std::ceil(std::min(v1 + grow_v, camera.height + 1.0)));
+  return cv::Rect(x0, y0, x1 - x0, y1 - y0) & cv::Rect(0, 0, camera.width, camera.height);
+}
+
+cv::Mat projectedHandMask(const HandModel& model, const Pose& pose, const Camera& camera,
+                          int margin_pixels) {
+  cv::Mat mask(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
+  const PosedHand hand = forwardKinematics(model, pose);
+  for (const WorldGaussian& g : hand.gaussians) {
+    const Eigen::Vector3d p = camera.world_to_camera * g.mean;
+    if (p.z() < 0.02) return cv::Mat(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
+  }
+  for (const WorldGaussian& g : hand.gaussians) {
+    const Eigen::Vector3d p = camera.world_to_camera * g.mean;
+    const double radius = 2.5 * std::sqrt(g.cov.trace()) * camera.K(0, 0) / p.z() + margin_pixels;
+    const double u = camera.K(0, 0) * p.x() / p.z() + camera.K(0, 2);
+    const double v = camera.K(1, 1) * p.y() / p.z() + camera.K(1, 2);
+    if (std::fabs(u) > 4.0 * camera.width || std::fabs(v) > 4.0 * camera.height) continue;
+    cv::circle(mask, cv::Point(static_cast<int>(std::lround(u)), static_cast<int>(std::lround(v))),
+               static_cast<int>(std::ceil(radius)), cv::Scalar(255), cv::FILLED);
+  }
+  return mask;
+}
+
 TrackingPipeline::TrackingPipeline(const HandModel& model, const std::vector<Camera>& cameras,
                                    const PipelineParams& params)
     : cameras_(cameras), params_(adjusted(params)), tracker_(model, params.tracker) {
@@ -39,7 +89,10 @@ TrackingPipeline::TrackingPipeline(const HandModel& model, const std::vector<Cam
 
 void TrackingPipeline::reset() {
   tracker_.reset();
-  for (ImageSegmenter& segmenter : segmenters_) segmenter.resetBackground();
+  for (ImageSegmenter& segmenter : segmenters_) {
+    segmenter.resetBackground();
+    segmenter.resetRoomState();
+  }
   sets_seen_ = 0;
 }
 
@@ -81,7 +134,7 @@ ProcessedFrame TrackingPipeline::process(const FrameSet& set,
   for (const CameraImage& image : set.images) {
     CameraObservation observation;
     observation.camera = cameras_[image.camera];
-    observation.sog = segmenters_[image.camera].segment(image.rgb);
+    observation.sog = segmenters_[image.camera].segmentFrame(image.rgb);
     undistortImageSoG(observation.camera, &observation.sog);
     processed.image_gaussians += static_cast<int>(observation.sog.gaussians.size());
     observations.push_back(std::move(observation));
@@ -91,6 +144,15 @@ ProcessedFrame TrackingPipeline::process(const FrameSet& set,
   const auto tracking_start = std::chrono::steady_clock::now();
   processed.result = tracker_.update(observations, set.stamp());
   processed.tracking_seconds = secondsSince(tracking_start);
+
+  if (params_.segmentation.room.enabled) {
+    const FrameResult& result = processed.result;
+    const bool tracked = result.has_pose && result.status != TrackStatus::kLost;
+    for (size_t c = 0; c < segmenters_.size(); ++c) {
+      segmenters_[c].setRegionOfInterest(
+          tracked ? projectedHandMask(tracker_.model(), result.pose, cameras_[c]) : cv::Mat());
+    }
+  }
   if (observations_out) *observations_out = std::move(observations);
   return processed;
 }

@@ -176,3 +176,106 @@ TEST(Energy, PoseWithCameraInsideAGaussianStaysFinite) {
   EXPECT_TRUE(std::isfinite(value));
   EXPECT_TRUE(gradient.allFinite());
 }
+
+// ---- an energy that cannot cheat (issue 11) -----------------------------------------------------
+
+namespace {
+
+// Camera 0's similarity and the total energy with the hand moved `distance` metres toward
+// camera 0 along the line from the hand to the camera.
+struct TowardCamera {
+  double camera0 = 0.0;
+  double total = 0.0;
+};
+TowardCamera moveTowardCamera0(const PoseEnergy& energy, const Pose& truth,
+                               const std::vector<Camera>& cameras, double distance) {
+  Pose moved = truth;
+  const Eigen::Vector3d to_camera = (cameras[0].centre() - truth.translation).normalized();
+  moved.translation += distance * to_camera;
+  EnergyTerms terms;
+  TowardCamera out;
+  out.total = energy.evaluate(moved, nullptr, &terms);
+  out.camera0 = terms.per_camera[0] * terms.per_camera.size();  // undo the mean over cameras
+  return out;
+}
+
+}  // namespace
+
+// The paper's normalisation (model_area_weight 0) rewards a hand that comes closer to one camera:
+// its projection grows and saturates more image Gaussians. With the model's area in the
+// denominator (the default), coming closer only costs.
+TEST(EnergyCannotCheat, MovingTowardACameraDoesNotBuySimilarity) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  const Pose truth = typicalPose(model);
+  const auto observations = modelObservations(model, truth, cameras);
+  EnergyParams paper;
+  paper.model_area_weight = 0.0;
+  PoseEnergy paper_energy(model, paper);
+  paper_energy.setFrame(observations);
+  PoseEnergy energy(model, EnergyParams());
+  energy.setFrame(observations);
+
+  const TowardCamera paper_at_truth = moveTowardCamera0(paper_energy, truth, cameras, 0.0);
+  const TowardCamera at_truth = moveTowardCamera0(energy, truth, cameras, 0.0);
+  for (double distance : {0.1, 0.2, 0.3}) {
+    const TowardCamera paper_moved = moveTowardCamera0(paper_energy, truth, cameras, distance);
+    const TowardCamera moved = moveTowardCamera0(energy, truth, cameras, distance);
+    // The cheat of the paper's normalisation: camera 0 likes the closer hand.
+    EXPECT_GT(paper_moved.camera0, paper_at_truth.camera0) << distance;
+    // Ours: camera 0 likes it less, and so does the total.
+    EXPECT_LT(moved.camera0, at_truth.camera0) << distance;
+    EXPECT_LT(moved.total, at_truth.total) << distance;
+  }
+}
+
+// Model Gaussians that cannot be projected into a camera that sees foreground (behind it, or
+// containing its centre) count against the pose, and a hand behind a camera scores nothing there.
+TEST(EnergyCannotCheat, GaussiansBehindACameraCountAgainstThePose) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  const Pose truth = typicalPose(model);
+  PoseEnergy energy(model, EnergyParams());
+  energy.setFrame(modelObservations(model, truth, cameras));
+  EnergyTerms terms;
+  energy.evaluate(truth, nullptr, &terms);
+  EXPECT_EQ(terms.invalid_projections, 0);
+
+  // The hand 0.5 m behind camera 0 (on the line from the workspace through the camera).
+  Pose behind = truth;
+  const Eigen::Vector3d out = (cameras[0].centre() - truth.translation).normalized();
+  behind.translation = cameras[0].centre() + 0.5 * out;
+  EnergyTerms behind_terms;
+  energy.evaluate(behind, nullptr, &behind_terms);
+  EXPECT_GE(behind_terms.invalid_projections, static_cast<int>(model.gaussians.size()));
+  EXPECT_EQ(behind_terms.per_camera[0], 0.0);
+  EXPECT_LT(behind_terms.similarity, 0.25 * terms.similarity);
+  EXPECT_FALSE(isInFrontOfCameras(behind.translation, cameras));
+  EXPECT_TRUE(isInFrontOfCameras(truth.translation, cameras));
+}
+
+TEST(EnergyCannotCheat, InFrontOfCamerasNeedsEveryCamera) {
+  const std::vector<Camera> cameras = fiveCameraRig();
+  const Eigen::Vector3d centre(0.0, 0.0, 0.15);
+  EXPECT_TRUE(isInFrontOfCameras(centre, cameras));
+  // Just behind camera 2, seen from the workspace: in front of the others, not of camera 2.
+  const Eigen::Vector3d behind2 =
+      cameras[2].centre() + 0.1 * (cameras[2].centre() - centre).normalized();
+  EXPECT_FALSE(isInFrontOfCameras(behind2, cameras));
+  EXPECT_TRUE(isInFrontOfCameras(behind2, {cameras[0]}));
+  // min_depth: 5 cm in front of camera 2 passes 0.04 and fails 0.06.
+  const Eigen::Vector3d near2 =
+      cameras[2].centre() + 0.05 * (centre - cameras[2].centre()).normalized();
+  EXPECT_TRUE(isInFrontOfCameras(near2, {cameras[2]}, 0.04));
+  EXPECT_FALSE(isInFrontOfCameras(near2, {cameras[2]}, 0.06));
+  std::vector<CameraObservation> observations(1);
+  observations[0].camera = cameras[2];
+  EXPECT_FALSE(isInFrontOfCameras(behind2, observations));
+  EXPECT_THROW(
+      {
+        EnergyParams bad;
+        bad.model_area_weight = -1.0;
+        PoseEnergy(loadHandModel(modelPath("sag")), bad);
+      },
+      InputError);
+}

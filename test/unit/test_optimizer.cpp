@@ -46,7 +46,13 @@ TEST(Optimizer, RecoversKnownPoseFromPerturbation) {
   const HandModel model = loadHandModel(modelPath("sag"));
   const std::vector<Camera> cameras = fiveCameraRig();
   const Pose truth = typicalPose(model);
-  PoseEnergy energy(model, EnergyParams());
+  // The paper's normalisation (model_area_weight 0): the bounds below were measured for where its
+  // maximum lies on the model's own silhouette. With the model-area normalisation (the default)
+  // the maximum moves: the optimizer still reaches the truth's energy, but trial 0 ends 9.1 mm
+  // from the truth (overlapping model Gaussians count their area twice; doc/segmentation.md).
+  EnergyParams energy_params;
+  energy_params.model_area_weight = 0.0;
+  PoseEnergy energy(model, energy_params);
   energy.setFrame(modelObservations(model, truth, cameras, 2.5));
   std::mt19937 rng(3);
   OptimizerParams params;

@@ -44,6 +44,9 @@ struct BenchmarkOptions {
   bool rerender = false;                     // --rerender (default --reuse: keep matching bags)
   std::string config_dir;                    // --config-dir DIR (default: the package's config/)
   bool plots = true;                         // --no-plots
+  // --rooms office,kitchen,daylight|all: instead of the bags, the studio rooms against the clean
+  // studio (room_benchmark.h); its default sequences are adbadd and pinch.
+  std::vector<std::string> rooms;
   bool help = false;
 };
 

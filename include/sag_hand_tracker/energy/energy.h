@@ -28,6 +28,14 @@ struct EnergyParams {
   // of the ambiguity of curled fingers (benchmark: fingercount, flexex1).
   double dip_pip_coupling_weight = 0.05;
   double dip_pip_ratio = 2.0 / 3.0;
+  // lambda of the per-camera normalisation E_c = (1 + lambda) O_c / (I_c + lambda M_c), with O_c
+  // the capped overlap of eq. 8, I_c = sum_q E_qq the image's foreground area and M_c the projected
+  // model's area (sum_p w_p 2 pi sqrt|Sigma_p|, the mass a model Gaussian would cover on a
+  // foreground of density 1). 0 is the paper's O_c / I_c, which rewards a hand that comes closer
+  // to one camera (its projection grows and saturates more image Gaussians); 1 is a Dice
+  // coefficient: model area that finds no foreground (too large, outside the image) counts
+  // against the pose, so the fit cannot buy similarity by growing in one view.
+  double model_area_weight = 1.0;
 };
 
 // One camera's input for a frame: calibration and the image SoG (undistorted pixels).
@@ -38,11 +46,15 @@ struct CameraObservation {
 
 // Per-camera breakdown, for diagnostics and the overlay.
 struct EnergyTerms {
-  double similarity = 0.0;     // E_sim, normalised: mean over cameras of sum_q min(..) / sum_q E_qq
+  double similarity = 0.0;     // E_sim, normalised: mean over cameras of E_c (model_area_weight)
   double limit_penalty = 0.0;  // E_lim
   double coupling_penalty = 0.0;  // sum_f (theta_dip - k theta_pip)^2 (EnergyParams)
   double total = 0.0;             // E_sim - w_l E_lim
   std::vector<double> per_camera;
+  // Model Gaussians that could not be projected into a camera that sees foreground (behind it,
+  // containing its centre, closer than 1 cm to its plane), summed over those cameras. Each counts
+  // against the pose with area w_p I_c / sum_p w_p.
+  int invalid_projections = 0;
 };
 
 // Holds what does not depend on the pose for one frame (colour similarities, E_qq), so that the
@@ -71,8 +83,10 @@ class PoseEnergy {
     // Row p: w_p d(c_p, c_q) for every image Gaussian q. The colour term does not depend on the
     // pose, so it is computed once per frame.
     std::vector<double> weights;
-    double normaliser = 1.0;  // 1 / sum_q E_qq
+    double image_area = 1.0;  // I_c = sum_q E_qq
   };
+
+  double modelWeight(size_t p) const;  // w_p of eq. 8: the Gaussian's weight times model_weight
 
   HandModel model_;
   EnergyParams params_;
@@ -80,5 +94,13 @@ class PoseEnergy {
   std::vector<std::pair<int, int>> pip_dip_pairs_;  // joint indices of coupled PIP, DIP
   std::vector<FrameCamera> cameras_;
 };
+
+// Whether a root-frame point lies at least min_depth (metres) in front of every camera (along its
+// optical axis). A hand hypothesis behind a camera that sees the hand is no hypothesis.
+bool isInFrontOfCameras(const Eigen::Vector3d& point, const std::vector<Camera>& cameras,
+                        double min_depth = 0.05);
+bool isInFrontOfCameras(const Eigen::Vector3d& point,
+                        const std::vector<CameraObservation>& observations,
+                        double min_depth = 0.05);
 
 }  // namespace sag_hand_tracker

@@ -82,6 +82,10 @@ class BackgroundPlate {
   // on it. Requires frameCount() > 0.
   bool isBackground(int cell, const float* rgb, const BackgroundParams& params) const;
 
+  // Blends a cell's mean toward rgb: mean <- (1 - rate) mean + rate rgb (the spread is kept).
+  // For a plate that follows slow changes of the scene where the hand is not.
+  void adaptCell(int cell, const float* rgb, double rate);
+
   // Per cell mean colour and spread (standard deviation over the frames), CV_32FC3, RGB.
   cv::Mat mean() const;
   cv::Mat spread() const;

@@ -50,6 +50,45 @@ struct QuadtreeParams {
   double sigma_per_leaf_size = 0.3989422804014327;
 };
 
+// Room cues (issue 11): in a real room the plate and the skin gate keep faces, arms, wood and
+// skin-coloured things. ImageSegmenter::segmentFrame (stateful, one call per frame of one camera)
+// narrows their foreground down to the hand:
+//   1. learned skin colour: once the hand has been found (the first frame with a region of
+//      interest), the chromaticity (r, g) = (R, G) / (R + G + B) of the foreground cells inside
+//      it is learned (mean and covariance of the cells within 0.03 of their median, then updated
+//      slowly); a cell farther than
+//      skin_max_distance (Mahalanobis) from it is not hand. Chromaticity does not change with the
+//      light's brightness.
+//   2. region of interest: the tracked hand projected into this view (setRegionOfInterest, fed by
+//      TrackingPipeline with the model's silhouette grown by a margin); cells outside it are
+//      background, and inside it only connected
+//      components (8-neighbour cells) of at least min_component_share of the largest, or that
+//      move, are kept.
+//   3. without a region of interest (before the start, after a loss): the one connected component
+//      with the best score = cells + motion_weight * moving cells + sleeve_weight * cells next to
+//      a dark (sleeve) cell, together with the components inside its box (fingers cut off by a
+//      gap). The hand moves and joins the sleeve; a face, a photograph or a resting object do
+//      not. (Requiring motion before anything counts as hand was tried: it kept the start off
+//      still props, but delayed and spoiled the start with the plate; see doc/segmentation.md.)
+//   4. motion: a cell moves when its colour differs from the previous frame's (scaled by the
+//      frame's overall brightness change, so that changing light is not motion) by more than
+//      motion_threshold; it stays "moving" for a while (motion_decay per frame).
+//   5. plate adaptation: cells that are background and outside the region of interest are
+//      blended into the plate at plate_adaptation_rate per frame, so that a plate learned minutes
+//      ago follows the light.
+struct RoomCueParams {
+  bool enabled = false;
+  double skin_max_distance = 3.5;
+  double skin_learning_rate = 0.02;  // per frame, after the first frame with the hand
+  int skin_min_cells = 12;           // foreground cells in the region needed to learn from
+  double min_component_share = 0.1;
+  double motion_threshold = 15.0;  // RGB units (cell means)
+  double motion_decay = 0.9;
+  double motion_weight = 4.0;
+  double sleeve_weight = 2.0;
+  double plate_adaptation_rate = 0.05;
+};
+
 struct SegmentationParams {
   SegmentationMode mode = SegmentationMode::kPlate;
   // Foreground decisions (plate, skin) are made per cell_size x cell_size cell on the cell's mean
@@ -60,6 +99,7 @@ struct SegmentationParams {
   QuadtreeParams quadtree;
   BackgroundParams background;
   SkinParams skin;
+  RoomCueParams room;
 };
 // Throws InputError naming the first bad parameter.
 void validate(const SegmentationParams& params);
@@ -71,6 +111,17 @@ struct QuadtreeLeaf {
   int width = 0;
   int height = 0;
   Eigen::Vector3d rgb = Eigen::Vector3d::Zero();
+};
+
+// One camera's memory of the room cues (ImageSegmenter::segmentFrame).
+struct RoomCueState {
+  std::vector<float> previous_means;  // cell means of the previous frame
+  std::vector<float> motion;          // per cell, decaying 0..1
+  std::vector<unsigned char> mask;    // the last foreground, per cell
+  int cells_x = 0, cells_y = 0, cell_size = 1, width = 0, height = 0;
+  int skin_frames = 0;                   // frames the skin colour was learned from
+  double skin_mean[2] = {0.0, 0.0};      // chromaticity (r, g)
+  double skin_cov[3] = {0.0, 0.0, 0.0};  // xx, xy, yy
 };
 
 // The single entry point: learn a plate (optional), then turn images into image SoGs.
@@ -110,9 +161,30 @@ class ImageSegmenter {
   // in mode none). For debugging overlays and the automatic start. Same errors as segment.
   cv::Mat foregroundMask(const cv::Mat& rgb) const;
 
+  // ---- stateful use, one call per frame of this camera (RoomCueParams) ----
+  // The tracked hand's box in this view for the next segmentFrame calls (pixels; clipped to the
+  // image). An empty rectangle clears it.
+  void setRegionOfInterest(const cv::Rect& roi);
+  // The same with the region as a mask (CV_8UC1 at image size, non-zero = region), e.g. the
+  // tracked model's projected silhouette grown by a margin: tighter than its box, which in a room
+  // holds much background. An empty mask clears the region. Throws InputError for another type.
+  void setRegionOfInterest(const cv::Mat& roi_mask);
+  const cv::Rect& regionOfInterest() const { return roi_; }
+  // As segment(), then, when params().room.enabled, the room cues narrow the foreground down to
+  // the hand, and update the motion history, the learned skin colour and the plate.
+  ImageSoG segmentFrame(const cv::Mat& rgb, std::vector<QuadtreeLeaf>* leaves = nullptr);
+  // The foreground of the last segmentFrame call (CV_8UC1, 255 = foreground; empty before).
+  cv::Mat lastForegroundMask() const;
+  bool skinColourLearned() const { return room_.skin_frames > 0; }
+  // Forgets the motion history, the learned skin colour and the region of interest.
+  void resetRoomState();
+
  private:
   SegmentationParams params_;
   BackgroundPlate plate_;
+  cv::Rect roi_;
+  cv::Mat roi_mask_;
+  RoomCueState room_;
 };
 
 // The quad-tree alone on the whole image (mode none), for tools and tests.

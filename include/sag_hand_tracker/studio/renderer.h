@@ -37,6 +37,12 @@ struct StudioSceneParams {
   int background_supersampling = 3;
   // Seed of the procedural textures (the background is static; it is not the per-frame seed).
   std::uint64_t texture_seed = 20140101;
+  // Photographs (CV_8UC3, R G B, sRGB-encoded) instead of the procedural textures; empty: none.
+  // The table photo is stretched over the whole table top; the wall photo is tiled over the
+  // walls in squares of wall_photo_size metres (floor and ceiling stay procedural).
+  cv::Mat table_photo;
+  cv::Mat wall_photo;
+  double wall_photo_size = 0.9;
 };
 
 // The camera sensor.
@@ -62,11 +68,12 @@ class StudioRenderer {
   // exposure; the colours are averaged over them (motion blur), labels and depth come from the
   // middle one. No sub-frame (or only empty ones) renders the empty studio. `noise_seed` seeds
   // the sensor noise (e.g. from the sequence seed and the frame number).
+  // `light_gain` scales all light (key and ambient) for this frame: daylight that changes.
   std::vector<StudioImage> render(const std::vector<std::vector<SurfacePart>>& subframes,
-                                  std::uint64_t noise_seed) const;
+                                  std::uint64_t noise_seed, double light_gain = 1.0) const;
   // One camera only.
   StudioImage renderCamera(int camera, const std::vector<std::vector<SurfacePart>>& subframes,
-                           std::uint64_t noise_seed) const;
+                           std::uint64_t noise_seed, double light_gain = 1.0) const;
 
   const std::vector<Camera>& cameras() const { return cameras_; }
   const StudioSceneParams& scene() const { return scene_; }
@@ -91,7 +98,8 @@ class StudioRenderer {
   };
   ShadowMap computeShadow(const std::vector<SurfacePart>& parts) const;
   StudioImage renderCamera(int camera, const std::vector<std::vector<SurfacePart>>& subframes,
-                           const std::vector<ShadowMap>& shadows, std::uint64_t noise_seed) const;
+                           const std::vector<ShadowMap>& shadows, std::uint64_t noise_seed,
+                           double light_gain) const;
   void renderLinear(int camera, const std::vector<SurfacePart>& parts, const ShadowMap* shadow,
                     std::vector<Eigen::Vector3f>* colour, cv::Mat* labels, cv::Mat* depth) const;
 

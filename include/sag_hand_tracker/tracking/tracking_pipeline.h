@@ -27,11 +27,27 @@ struct ProcessedFrame {
 struct PipelineParams {
   SegmentationParams segmentation;
   TrackerParams tracker;
+  // With segmentation.room.enabled, the pose tracked in a set gives each camera's segmenter its
+  // region of interest for the next set (projectedHandMask); a lost track clears them.
   // The first sets go into the background plates and are not tracked. With 0 there is no plate:
   // the segmentation then uses the skin-colour gate (ImageSegmenter::effectiveMode). When > 0 it
   // also sets segmentation.background.frames, so that the plates are ready after these sets.
   int background_frames = 10;
 };
+
+// The box around a posed hand in one camera's image (pixels, clipped to the image; empty when the
+// hand is not in front of the camera or outside the image): every model Gaussian's sphere of radius
+// 2.5 sqrt(trace Sigma) (>= 2.5 sigma along any axis) projected, the union grown by `margin` of its
+// size on each side plus `margin_pixels`.
+cv::Rect projectedHandBox(const HandModel& model, const Pose& pose, const Camera& camera,
+                          double margin = 0.3, int margin_pixels = 8);
+
+// The posed hand's silhouette in one camera, grown by a margin (CV_8UC1 at image size, 255 inside):
+// every model Gaussian whose centre is in front of the camera drawn as a disc of radius
+// 2.5 sqrt(trace Sigma) projected, plus margin_pixels. All zero when the hand is at or behind
+// the camera.
+cv::Mat projectedHandMask(const HandModel& model, const Pose& pose, const Camera& camera,
+                          int margin_pixels = 10);
 
 class TrackingPipeline {
  public:
@@ -48,13 +64,16 @@ class TrackingPipeline {
   ProcessedFrame process(const FrameSet& set,
                          std::vector<CameraObservation>* observations = nullptr);
 
-  // Forgets the track and the background plates: the next sets are background again.
+  // Forgets the track, the background plates and the room cues' memory: the next sets are
+  // background again.
   void reset();
 
   const std::vector<Camera>& cameras() const { return cameras_; }
   const PipelineParams& params() const { return params_; }
   const HandTracker& tracker() const { return tracker_; }
   const ImageSegmenter& segmenter(int camera) const { return segmenters_.at(camera); }
+  // The foreground of each camera's last segmented image (ImageSegmenter::lastForegroundMask).
+  cv::Mat foregroundMask(int camera) const { return segmenters_.at(camera).lastForegroundMask(); }
   // Sets processed so far (background ones included).
   int setsSeen() const { return sets_seen_; }
 

@@ -1,0 +1,182 @@
+// runRoomBenchmark: see room_benchmark.h.
+#include "sag_hand_tracker/apps/room_benchmark.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "sag_hand_tracker/camera/calibration.h"
+#include "sag_hand_tracker/apps/render_runner.h"
+#include "sag_hand_tracker/studio/room_evaluation.h"
+#include "sag_hand_tracker/studio/sequence.h"
+#include "sag_hand_tracker/util/types.h"
+
+namespace sag_hand_tracker {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string fixed(double value, int decimals) {
+  if (!std::isfinite(value)) return "-";
+  char text[64];
+  std::snprintf(text, sizeof(text), "%.*f", decimals, value);
+  return text;
+}
+
+// The mean error, or NaN (printed "-") when the tracker had no pose in any frame.
+double meanError(const studio::RoomRunResult& r) {
+  return r.errors_mm.empty() ? NAN : r.errors.mean_mm;
+}
+
+std::string modelLabel(const std::string& model) {
+  if (model == "sag") return "SAG";
+  if (model == "sog") return "SoG";
+  return fs::path(model).stem().string();
+}
+
+struct Row {
+  std::string sequence;
+  std::string room;
+  std::string segmentation;  // skin / plate
+  bool cues = false;
+  std::string model;
+  studio::RoomRunResult result;
+};
+
+}  // namespace
+
+std::string runRoomBenchmark(const BenchmarkOptions& options, std::ostream& log) {
+  const std::string config = packageConfigDir(options.config_dir);
+  const CameraRig rig = loadCameraRig(studio::resolveRigPath(options.rig, config));
+  const HandModel render_model = loadHandModel(resolveModelPath("sag", config));
+  std::vector<std::pair<std::string, HandModel>> models;
+  for (const std::string& model : options.models) {
+    models.emplace_back(modelLabel(model), loadHandModel(resolveModelPath(model, config)));
+  }
+  std::vector<std::string> rooms{""};  // "" = the clean studio
+  for (const std::string& room : options.rooms) {
+    if (room == "all") {
+      for (const std::string& name : studio::builtinRoomNames()) rooms.push_back(name);
+    } else {
+      studio::builtinRoom(room);  // throws for an unknown name
+      rooms.push_back(room);
+    }
+  }
+  const fs::path dir(options.out_dir);
+  fs::create_directories(dir / "rooms");
+
+  std::vector<Row> rows;
+  for (const std::string& sequence_name : options.sequences) {
+    const std::string sequence_stem = fs::path(sequence_name).stem().string();
+    const studio::Motion motion =
+        studio::loadMotion(studio::resolveMotionPath(sequence_name, config), render_model, 1);
+    for (const std::string& room_name : rooms) {
+      const auto start = std::chrono::steady_clock::now();
+      studio::RoomParams room;
+      if (!room_name.empty()) room = studio::builtinRoom(room_name);
+      const bool hand_free = room_name.empty() || room.hand_free_frames;
+      std::vector<studio::RoomRunConfig> configs;
+      std::vector<Row> pending;
+      for (const auto& [label, model] : models) {
+        for (const std::string segmentation : {"skin", "plate"}) {
+          if (segmentation == std::string("plate") && !hand_free) continue;
+          for (const bool cues : {false, true}) {
+            studio::RoomRunConfig run;
+            run.model = model;
+            run.pipeline.tracker.optimizer.iterations = options.iterations;
+            run.pipeline.segmentation.room.enabled = cues;
+            if (segmentation == std::string("skin")) {
+              run.pipeline.segmentation.mode = SegmentationMode::kSkin;
+              run.pipeline.background_frames = 0;
+            } else {
+              run.pipeline.segmentation.mode = SegmentationMode::kPlate;
+              run.pipeline.background_frames = 10;
+            }
+            run.label = label + " " + segmentation + (cues ? " + room cues" : "");
+            configs.push_back(run);
+            pending.push_back({sequence_stem,
+                               room_name.empty() ? "clean" : room_name,
+                               segmentation,
+                               cues,
+                               label,
+                               {}});
+          }
+        }
+      }
+      studio::RoomSequenceOptions run_options;
+      run_options.frames = options.frames;
+      run_options.empty_frames = hand_free ? 10 : 0;
+      run_options.dump_prefix =
+          (dir / "rooms" / (sequence_stem + "_" + (room_name.empty() ? "clean" : room_name)))
+              .string();
+      run_options.dump_frame = run_options.empty_frames + 40;
+      run_options.dump_camera = 0;
+      const auto results = studio::evaluateRoomSequence(render_model, rig.cameras, motion,
+                                                        room_name.empty() ? nullptr : &room, config,
+                                                        configs, run_options);
+      for (size_t k = 0; k < results.size(); ++k) {
+        pending[k].result = results[k];
+        rows.push_back(pending[k]);
+        const studio::RoomRunResult& r = results[k];
+        log << "benchmark --rooms: " << sequence_stem << " "
+            << (room_name.empty() ? "clean" : room_name) << " [" << k << "] " << r.label
+            << ": precision " << fixed(100.0 * r.precision(), 1) << " %, recall "
+            << fixed(100.0 * r.recall(), 1) << " %, error " << fixed(meanError(r), 1) << " mm over "
+            << r.frames_posed << "/" << r.frames << " frames\n"
+            << std::flush;
+      }
+      log << "benchmark --rooms: " << sequence_stem << " "
+          << (room_name.empty() ? "clean" : room_name) << " took "
+          << fixed(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+                   1)
+          << " s\n"
+          << std::flush;
+    }
+  }
+
+  // The clean studio's error of the same sequence, model and segmentation (with cues as the run).
+  std::map<std::string, double> clean_error;
+  auto key = [](const Row& row) {
+    return row.sequence + "|" + row.model + "|" + row.segmentation + "|" + (row.cues ? "1" : "0");
+  };
+  for (const Row& row : rows) {
+    if (row.room == "clean") clean_error[key(row)] = meanError(row.result);
+  }
+  std::ostringstream md;
+  md << "# Studio rooms: foreground and tracking (benchmark --rooms)\n\n"
+     << "Precision: kept foreground pixels that belong to the tracked hand (palm, fingers, bare "
+        "wrist); recall: hand pixels kept; over all cameras and frames with the hand. Error: mean "
+        "fingertip error over the frames with a pose; `posed` counts them; `vs clean`: the error "
+        "relative to the same sequence, model and segmentation in the clean studio.\n\n"
+     << "| sequence | room | model | segmentation | room cues | precision % | recall % | posed | "
+        "error mm | sd mm | vs clean |\n"
+     << "|---|---|---|---|---|---:|---:|---:|---:|---:|---:|\n";
+  std::ofstream csv(dir / "rooms.csv");
+  csv << "sequence,room,model,segmentation,room_cues,precision,recall,frames,frames_posed,"
+         "error_mean_mm,error_sd_mm\n";
+  for (const Row& row : rows) {
+    const studio::RoomRunResult& r = row.result;
+    const auto clean = clean_error.find(key(row));
+    const double ratio =
+        clean != clean_error.end() && row.room != "clean" ? meanError(r) / clean->second : NAN;
+    md << "| " << row.sequence << " | " << row.room << " | " << row.model << " | "
+       << row.segmentation << " | " << (row.cues ? "yes" : "no") << " | "
+       << fixed(100.0 * r.precision(), 1) << " | " << fixed(100.0 * r.recall(), 1) << " | "
+       << r.frames_posed << "/" << r.frames << " | " << fixed(meanError(r), 1) << " | "
+       << fixed(r.errors_mm.empty() ? NAN : r.errors.sd_mm, 1) << " | "
+       << (std::isfinite(ratio) ? fixed(ratio, 2) : "-") << " |\n";
+    csv << row.sequence << "," << row.room << "," << row.model << "," << row.segmentation << ","
+        << (row.cues ? 1 : 0) << "," << fixed(r.precision(), 4) << "," << fixed(r.recall(), 4)
+        << "," << r.frames << "," << r.frames_posed << "," << fixed(meanError(r), 2) << ","
+        << fixed(r.errors_mm.empty() ? NAN : r.errors.sd_mm, 2) << "\n";
+  }
+  if (!csv) throw InputError("cannot write " + (dir / "rooms.csv").string());
+  std::ofstream(dir / "rooms.md") << md.str();
+  return md.str();
+}
+
+}  // namespace sag_hand_tracker

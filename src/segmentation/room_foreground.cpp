@@ -1,0 +1,268 @@
+// The room cues (RoomCueParams in segmentation.h): learned skin colour, region of interest,
+// connectivity, motion and plate adaptation on top of the plate and the skin gate.
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "sag_hand_tracker/segmentation/quadtree_segmentation.h"
+#include "segmentation_internal.h"
+
+namespace sag_hand_tracker {
+namespace detail {
+namespace {
+
+// Chromaticity (r, g) of a cell mean; false for (near) black cells.
+bool chromaticity(const float* c, double* r, double* g) {
+  const double sum = static_cast<double>(c[0]) + c[1] + c[2];
+  if (sum < 15.0) return false;
+  *r = c[0] / sum;
+  *g = c[1] / sum;
+  return true;
+}
+
+// Connected components of the mask (8-neighbour cells): label per cell (-1: background) and the
+// number of components.
+int labelComponents(const std::vector<unsigned char>& mask, int cells_x, int cells_y,
+                    std::vector<int>& labels) {
+  labels.assign(mask.size(), -1);
+  std::vector<int> stack;
+  int count = 0;
+  for (int start = 0; start < static_cast<int>(mask.size()); ++start) {
+    if (!mask[start] || labels[start] >= 0) continue;
+    labels[start] = count;
+    stack.push_back(start);
+    while (!stack.empty()) {
+      const int cell = stack.back();
+      stack.pop_back();
+      const int cx = cell % cells_x, cy = cell / cells_x;
+      for (int dy = -1; dy <= 1; ++dy) {
+        const int ny = cy + dy;
+        if (ny < 0 || ny >= cells_y) continue;
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int nx = cx + dx;
+          if (nx < 0 || nx >= cells_x) continue;
+          const int n = ny * cells_x + nx;
+          if (mask[n] && labels[n] < 0) {
+            labels[n] = count;
+            stack.push_back(n);
+          }
+        }
+      }
+    }
+    ++count;
+  }
+  return count;
+}
+
+struct Component {
+  int cells = 0;
+  int moving = 0;
+  int sleeve = 0;  // cells next to a dark, unsaturated cell (the sleeve)
+  bool in_roi = false;
+  int x0 = 1 << 30, y0 = 1 << 30, x1 = -1, y1 = -1;  // cell box, inclusive
+};
+
+}  // namespace
+
+void applyRoomCues(const SegmentationParams& params, const std::vector<float>& means, int cells_x,
+                   int cells_y, int cell_size, int width, int height, const cv::Rect& roi,
+                   const cv::Mat& roi_mask, BackgroundPlate* plate, RoomCueState& state,
+                   std::vector<unsigned char>& mask) {
+  const RoomCueParams& room = params.room;
+  const int cells = cells_x * cells_y;
+  const std::vector<unsigned char> candidate = mask;
+  if (state.previous_means.size() != means.size()) {
+    state.previous_means.clear();
+    state.motion.assign(cells, 0.0f);
+  }
+
+  // Motion, with the frame's overall brightness change taken out (changing light is no motion).
+  if (!state.previous_means.empty()) {
+    double now = 0.0, before = 0.0;
+    for (size_t i = 0; i < means.size(); ++i) {
+      now += means[i];
+      before += state.previous_means[i];
+    }
+    const double gain = before > 0.0 ? now / before : 1.0;
+    for (int i = 0; i < cells; ++i) {
+      double change = 0.0;
+      for (int k = 0; k < 3; ++k) {
+        change =
+            std::max(change, std::fabs(means[3 * i + k] - gain * state.previous_means[3 * i + k]));
+      }
+      const float decayed = static_cast<float>(room.motion_decay) * state.motion[i];
+      state.motion[i] = change > room.motion_threshold ? 1.0f : decayed;
+    }
+  }
+  state.previous_means = means;
+
+  // The learned skin colour.
+  if (state.skin_frames > 0) {
+    const double floor = 0.012 * 0.012;  // chromaticity noise of a cell
+    const double xx = state.skin_cov[0] + floor, xy = state.skin_cov[1],
+                 yy = state.skin_cov[2] + floor;
+    const double det = xx * yy - xy * xy;
+    const double limit = room.skin_max_distance * room.skin_max_distance;
+    for (int i = 0; i < cells; ++i) {
+      if (!mask[i]) continue;
+      double r, g;
+      if (!chromaticity(&means[3 * i], &r, &g)) {
+        mask[i] = 0;
+        continue;
+      }
+      const double dr = r - state.skin_mean[0], dg = g - state.skin_mean[1];
+      const double d2 = (yy * dr * dr - 2.0 * xy * dr * dg + xx * dg * dg) / det;
+      if (d2 > limit) mask[i] = 0;
+    }
+  }
+
+  // The region of interest in cells.
+  const cv::Rect image(0, 0, width, height);
+  const cv::Rect box = roi & image;
+  const bool has_roi = box.area() > 0;
+  const int rx0 = has_roi ? box.x / cell_size : 0, ry0 = has_roi ? box.y / cell_size : 0;
+  const int rx1 = has_roi ? (box.x + box.width - 1) / cell_size : cells_x - 1;
+  const int ry1 = has_roi ? (box.y + box.height - 1) / cell_size : cells_y - 1;
+  // With a mask, a cell is in the region when the mask is set at the cell's centre.
+  const bool use_mask =
+      has_roi && !roi_mask.empty() && roi_mask.cols == width && roi_mask.rows == height;
+  auto inRoi = [&](int cx, int cy) {
+    if (!(cx >= rx0 && cx <= rx1 && cy >= ry0 && cy <= ry1)) return false;
+    if (!use_mask) return true;
+    const int x = std::min(cx * cell_size + cell_size / 2, width - 1);
+    const int y = std::min(cy * cell_size + cell_size / 2, height - 1);
+    return roi_mask.at<unsigned char>(y, x) != 0;
+  };
+  if (has_roi) {
+    for (int cy = 0; cy < cells_y; ++cy) {
+      for (int cx = 0; cx < cells_x; ++cx) {
+        if (!inRoi(cx, cy)) mask[cy * cells_x + cx] = 0;
+      }
+    }
+  }
+
+  // Connected components and their cues.
+  std::vector<int> labels;
+  const int count = labelComponents(mask, cells_x, cells_y, labels);
+  std::vector<Component> components(count);
+  for (int cy = 0; cy < cells_y; ++cy) {
+    for (int cx = 0; cx < cells_x; ++cx) {
+      const int i = cy * cells_x + cx;
+      if (labels[i] < 0) continue;
+      Component& c = components[labels[i]];
+      ++c.cells;
+      if (state.motion[i] > 0.5f) ++c.moving;
+      c.x0 = std::min(c.x0, cx);
+      c.x1 = std::max(c.x1, cx);
+      c.y0 = std::min(c.y0, cy);
+      c.y1 = std::max(c.y1, cy);
+      bool next_to_sleeve = false;
+      for (int dy = -1; dy <= 1 && !next_to_sleeve; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int nx = cx + dx, ny = cy + dy;
+          if (nx < 0 || ny < 0 || nx >= cells_x || ny >= cells_y) continue;
+          const float* m = &means[3 * (ny * cells_x + nx)];
+          if (isDarkNonSkin(Eigen::Vector3d(m[0], m[1], m[2]), params.background)) {
+            next_to_sleeve = true;
+            break;
+          }
+        }
+      }
+      if (next_to_sleeve) ++c.sleeve;
+    }
+  }
+  std::vector<unsigned char> keep(count, 0);
+  if (count > 0) {
+    if (has_roi) {
+      int largest = 0;
+      for (const Component& c : components) largest = std::max(largest, c.cells);
+      for (int k = 0; k < count; ++k) {
+        keep[k] =
+            components[k].cells >= room.min_component_share * largest || components[k].moving > 0;
+      }
+    } else {
+      int best = 0;
+      double best_score = -1.0;
+      for (int k = 0; k < count; ++k) {
+        const Component& c = components[k];
+        const double score =
+            c.cells + room.motion_weight * c.moving + room.sleeve_weight * c.sleeve;
+        if (score > best_score) {
+          best_score = score;
+          best = k;
+        }
+      }
+      const Component& b = components[best];
+      // Its box, grown by a quarter of its size: the fingers that a gap cut off the palm.
+      const int gx = std::max(1, (b.x1 - b.x0 + 1) / 4), gy = std::max(1, (b.y1 - b.y0 + 1) / 4);
+      for (int k = 0; k < count; ++k) {
+        const Component& c = components[k];
+        keep[k] = k == best || (c.x0 >= b.x0 - gx && c.x1 <= b.x1 + gx && c.y0 >= b.y0 - gy &&
+                                c.y1 <= b.y1 + gy);
+      }
+    }
+  }
+  for (int i = 0; i < cells; ++i) mask[i] = labels[i] >= 0 && keep[labels[i]] ? 1 : 0;
+
+  // Learn the user's skin colour from the hand's foreground once the hand is tracked. Robustly:
+  // the median chromaticity of the kept cells, then mean and covariance of the cells within
+  // kSkinTrim of it, so that background that passed the gates inside the region (a photograph, a
+  // wooden edge) does not widen the model.
+  if (has_roi) {
+    std::vector<double> rs, gs;
+    for (int i = 0; i < cells; ++i) {
+      double r, g;
+      if (!mask[i] || !chromaticity(&means[3 * i], &r, &g)) continue;
+      // Only what has skin colour at all (in plate mode the region also holds changed
+      // background).
+      const float* m = &means[3 * i];
+      if (!isSkinColour(Eigen::Vector3d(m[0], m[1], m[2]), params.skin)) continue;
+      rs.push_back(r);
+      gs.push_back(g);
+    }
+    if (static_cast<int>(rs.size()) >= room.skin_min_cells) {
+      constexpr double kSkinTrim = 0.03;
+      std::vector<double> sorted_r = rs, sorted_g = gs;
+      std::nth_element(sorted_r.begin(), sorted_r.begin() + sorted_r.size() / 2, sorted_r.end());
+      std::nth_element(sorted_g.begin(), sorted_g.begin() + sorted_g.size() / 2, sorted_g.end());
+      const double median_r = sorted_r[sorted_r.size() / 2];
+      const double median_g = sorted_g[sorted_g.size() / 2];
+      double sum_r = 0.0, sum_g = 0.0, sum_rr = 0.0, sum_rg = 0.0, sum_gg = 0.0;
+      int n = 0;
+      for (size_t k = 0; k < rs.size(); ++k) {
+        if (std::hypot(rs[k] - median_r, gs[k] - median_g) > kSkinTrim) continue;
+        sum_r += rs[k];
+        sum_g += gs[k];
+        sum_rr += rs[k] * rs[k];
+        sum_rg += rs[k] * gs[k];
+        sum_gg += gs[k] * gs[k];
+        ++n;
+      }
+      if (n >= room.skin_min_cells) {
+        const double mr = sum_r / n, mg = sum_g / n;
+        const double cov[3] = {sum_rr / n - mr * mr, sum_rg / n - mr * mg, sum_gg / n - mg * mg};
+        const double rate = state.skin_frames == 0 ? 1.0 : room.skin_learning_rate;
+        state.skin_mean[0] += rate * (mr - state.skin_mean[0]);
+        state.skin_mean[1] += rate * (mg - state.skin_mean[1]);
+        for (int k = 0; k < 3; ++k) state.skin_cov[k] += rate * (cov[k] - state.skin_cov[k]);
+        ++state.skin_frames;
+      }
+    }
+  }
+
+  // The plate follows the scene where the hand is not (outside the region, not foreground).
+  if (plate != nullptr && room.plate_adaptation_rate > 0.0 && plate->frameCount() > 0) {
+    for (int cy = 0; cy < cells_y; ++cy) {
+      for (int cx = 0; cx < cells_x; ++cx) {
+        const int i = cy * cells_x + cx;
+        // Before the hand is tracked, what might be hand (a candidate) is not learned either.
+        const bool maybe_hand = has_roi ? inRoi(cx, cy) : candidate[i] != 0;
+        if (mask[i] || maybe_hand || state.motion[i] > 0.5f) continue;
+        plate->adaptCell(i, &means[3 * i], room.plate_adaptation_rate);
+      }
+    }
+  }
+}
+
+}  // namespace detail
+}  // namespace sag_hand_tracker

@@ -1,0 +1,366 @@
+// Issue 11: real rooms. The energy on a masked studio image (no drift toward a camera), the room
+// cues of the segmentation (region of interest, motion, learned skin colour, plate adaptation),
+// the studio rooms and their evaluation.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+
+#include "sag_hand_tracker/camera/calibration.h"
+#include "sag_hand_tracker/energy/energy.h"
+#include "sag_hand_tracker/model/kinematics.h"
+#include "sag_hand_tracker/optimization/optimizer.h"
+#include "sag_hand_tracker/segmentation/quadtree_segmentation.h"
+#include "sag_hand_tracker/studio/hand_surface.h"
+#include "sag_hand_tracker/studio/motion.h"
+#include "sag_hand_tracker/studio/renderer.h"
+#include "sag_hand_tracker/studio/room.h"
+#include "sag_hand_tracker/studio/room_evaluation.h"
+#include "sag_hand_tracker/tracking/tracking_pipeline.h"
+
+using namespace sag_hand_tracker;
+using namespace sag_hand_tracker::studio;
+
+namespace {
+
+const std::string kConfigDir = std::string(SAG_SOURCE_DIR) + "/config";
+
+const HandModel& model(const std::string& name) {
+  static const HandModel sag = loadHandModel(resolveModelPath("sag", kConfigDir));
+  static const HandModel sog = loadHandModel(resolveModelPath("sog", kConfigDir));
+  return name == "sag" ? sag : sog;
+}
+
+const std::vector<Camera>& dexter5() {
+  static const std::vector<Camera> cameras =
+      loadCameraRig(kConfigDir + "/rigs/dexter5/rig.yaml").cameras;
+  return cameras;
+}
+
+Pose studioPose() {
+  const Motion motion =
+      loadMotion(resolveMotionPath("pinch", kConfigDir), model("sag"), /*seed=*/1);
+  return motion.poseAt(2.0);
+}
+
+// The studio's hand at `pose` in every dexter5 camera, masked to the hand by the label image
+// (everything else black), as skin-gated image SoGs: a real-like image with perfect segmentation.
+std::vector<CameraObservation> maskedStudioObservations(const Pose& pose) {
+  static const StudioRenderer renderer(dexter5());
+  const PosedHand posed = forwardKinematics(model("sag"), pose);
+  const auto parts = buildHandSurface(model("sag"), posed.bone_frames, HandSurfaceParams());
+  const auto images = renderer.render({parts}, 7);
+  SegmentationParams params;
+  params.mode = SegmentationMode::kSkin;
+  const ImageSegmenter segmenter(params);
+  std::vector<CameraObservation> observations;
+  for (size_t c = 0; c < images.size(); ++c) {
+    cv::Mat masked = images[c].rgb.clone();
+    for (int i = 0; i < static_cast<int>(masked.total()); ++i) {
+      if (!isTrackedHandLabel(images[c].labels.data[i]))
+        masked.at<cv::Vec3b>(i) = cv::Vec3b(0, 0, 0);
+    }
+    CameraObservation observation;
+    observation.camera = dexter5()[c];
+    observation.sog = segmenter.segment(masked);
+    observations.push_back(observation);
+  }
+  return observations;
+}
+
+struct Drift {
+  double wrist_mm = 0.0;           // distance of the fitted wrist from the true one
+  double closest_camera_mm = 0.0;  // how much closer than the truth the fit is to any camera
+};
+
+// Fits from `start` on the masked studio image of `truth` (many frames' worth of iterations).
+Drift fit(const std::string& model_name, double model_area_weight,
+          const std::vector<CameraObservation>& observations, const Pose& truth,
+          const Pose& start) {
+  EnergyParams energy_params;
+  energy_params.model_area_weight = model_area_weight;
+  PoseEnergy energy(model(model_name), energy_params);
+  energy.setFrame(observations);
+  OptimizerParams optimizer;
+  optimizer.iterations = 100;
+  // Both models share the skeleton, so the true pose is a pose of either.
+  const OptimizationResult fitted = optimizePose(energy, start, optimizer);
+  Drift drift;
+  drift.wrist_mm = 1000.0 * (fitted.pose.translation - truth.translation).norm();
+  for (const Camera& camera : dexter5()) {
+    const double before = (camera.centre() - truth.translation).norm();
+    const double after = (camera.centre() - fitted.pose.translation).norm();
+    drift.closest_camera_mm = std::max(drift.closest_camera_mm, 1000.0 * (before - after));
+  }
+  return drift;
+}
+
+}  // namespace
+
+// Fitted on a perfectly masked studio image, from the true pose and from a start 4 cm closer to
+// camera 0, neither model ends up closer to a camera than the hand is (issue 11: on real images
+// the SoG model drifted toward one camera while its energy rose).
+TEST(EnergyCannotCheat, FitsOnAMaskedStudioImageDoNotDriftTowardACamera) {
+  const Pose truth = studioPose();
+  const std::vector<CameraObservation> observations = maskedStudioObservations(truth);
+  Pose closer = truth;
+  closer.translation += 0.04 * (dexter5()[0].centre() - truth.translation).normalized();
+  for (const std::string name : {"sag", "sog"}) {
+    for (const bool from_truth : {true, false}) {
+      const Pose& start = from_truth ? truth : closer;
+      const Drift paper = fit(name, 0.0, observations, truth, start);
+      const Drift ours = fit(name, 1.0, observations, truth, start);
+      std::printf(
+          "%s from %s: paper normalisation: wrist %.1f mm off, %.1f mm closer to a "
+          "camera; model area: wrist %.1f mm off, %.1f mm closer\n",
+          name.c_str(), from_truth ? "the truth" : "4 cm toward cam0", paper.wrist_mm,
+          paper.closest_camera_mm, ours.wrist_mm, ours.closest_camera_mm);
+      EXPECT_LT(ours.closest_camera_mm, 10.0) << name;
+      EXPECT_LT(ours.wrist_mm, 20.0) << name;
+    }
+  }
+}
+
+// ---- room cues
+// ------------------------------------------------------------------------------------
+
+namespace {
+
+const cv::Vec3b kGrey(118, 120, 126);
+const cv::Vec3b kSkin(200, 140, 110);
+const cv::Vec3b kWood(160, 100, 50);  // passes the generic skin gate, other chromaticity
+
+cv::Mat greyImage(double gain = 1.0) {
+  return cv::Mat(240, 320, CV_8UC3, cv::Scalar(kGrey[0] * gain, kGrey[1] * gain, kGrey[2] * gain));
+}
+void disc(cv::Mat& image, cv::Point centre, int radius, cv::Vec3b colour) {
+  cv::circle(image, centre, radius, cv::Scalar(colour[0], colour[1], colour[2]), cv::FILLED);
+}
+unsigned char maskAt(const ImageSegmenter& segmenter, cv::Point p) {
+  return segmenter.lastForegroundMask().at<unsigned char>(p);
+}
+SegmentationParams roomSkinParams() {
+  SegmentationParams params;
+  params.mode = SegmentationMode::kSkin;
+  params.room.enabled = true;
+  return params;
+}
+
+}  // namespace
+
+TEST(RoomCues, RegionOfInterestKeepsOnlyTheHandsSide) {
+  ImageSegmenter segmenter(roomSkinParams());
+  cv::Mat image = greyImage();
+  disc(image, {90, 120}, 25, kSkin);   // the hand
+  disc(image, {240, 120}, 30, kSkin);  // a face
+  segmenter.setRegionOfInterest(cv::Rect(50, 80, 80, 80));
+  const ImageSoG sog = segmenter.segmentFrame(image);
+  EXPECT_EQ(maskAt(segmenter, {90, 120}), 255);
+  EXPECT_EQ(maskAt(segmenter, {240, 120}), 0);
+  for (const ImageGaussian& g : sog.gaussians) EXPECT_LT(g.mean.x(), 130.0);
+  // Without the room cues the same call keeps both.
+  SegmentationParams plain = roomSkinParams();
+  plain.room.enabled = false;
+  ImageSegmenter plain_segmenter(plain);
+  plain_segmenter.setRegionOfInterest(cv::Rect(50, 80, 80, 80));
+  plain_segmenter.segmentFrame(image);
+  EXPECT_EQ(maskAt(plain_segmenter, {240, 120}), 255);
+}
+
+TEST(RoomCues, WithoutARegionTheMovingComponentWins) {
+  ImageSegmenter segmenter(roomSkinParams());
+  cv::Mat first = greyImage();
+  disc(first, {90, 120}, 22, kSkin);   // the hand, smaller
+  disc(first, {240, 120}, 32, kSkin);  // a still face, larger
+  segmenter.segmentFrame(first);
+  // First frame: nothing has moved yet, the larger blob wins (one component only).
+  EXPECT_EQ(maskAt(segmenter, {240, 120}), 255);
+  EXPECT_EQ(maskAt(segmenter, {90, 120}), 0);
+  cv::Mat second = greyImage();
+  disc(second, {102, 126}, 22, kSkin);  // the hand moved
+  disc(second, {240, 120}, 32, kSkin);
+  segmenter.segmentFrame(second);
+  EXPECT_EQ(maskAt(segmenter, {102, 126}), 255);
+  EXPECT_EQ(maskAt(segmenter, {240, 120}), 0);
+}
+
+TEST(RoomCues, ChangingLightIsNotMotion) {
+  ImageSegmenter segmenter(roomSkinParams());
+  cv::Mat first = greyImage();
+  disc(first, {90, 120}, 22, kSkin);
+  disc(first, {240, 120}, 32, kSkin);
+  segmenter.segmentFrame(first);
+  // The whole scene dims by 25 % and the small blob moves: only the small blob moves, so it wins
+  // over the larger one although every pixel changed (were the dimming motion, the larger blob
+  // would move everywhere and win).
+  cv::Mat second = greyImage(0.75);
+  disc(second, {102, 126}, 22, cv::Vec3b(150, 105, 82));
+  disc(second, {240, 120}, 32, cv::Vec3b(150, 105, 82));
+  segmenter.segmentFrame(second);
+  EXPECT_EQ(maskAt(segmenter, {102, 126}), 255);
+  EXPECT_EQ(maskAt(segmenter, {240, 120}), 0);
+}
+
+TEST(RoomCues, LearnedSkinColourRejectsWoodThatTheGatePasses) {
+  ImageSegmenter segmenter(roomSkinParams());
+  cv::Mat image = greyImage();
+  disc(image, {100, 120}, 25, kSkin);
+  disc(image, {170, 120}, 20, kWood);
+  // The hand is found: its region covers the hand only; the skin colour is learned from it.
+  segmenter.setRegionOfInterest(cv::Rect(60, 80, 80, 80));
+  segmenter.segmentFrame(image);
+  EXPECT_TRUE(segmenter.skinColourLearned());
+  // A region that also covers the wood: the wood is not the user's skin.
+  segmenter.setRegionOfInterest(cv::Rect(60, 80, 150, 80));
+  segmenter.segmentFrame(image);
+  EXPECT_EQ(maskAt(segmenter, {100, 120}), 255);
+  EXPECT_EQ(maskAt(segmenter, {170, 120}), 0);
+  // The generic gate alone passes the wood.
+  EXPECT_TRUE(isSkinColour(Eigen::Vector3d(kWood[0], kWood[1], kWood[2]), SkinParams()));
+}
+
+TEST(RoomCues, ThePlateFollowsTheLightWhereTheHandIsNot) {
+  SegmentationParams params;
+  params.mode = SegmentationMode::kPlate;
+  params.room.enabled = true;
+  ImageSegmenter segmenter(params);
+  for (int k = 0; k < params.background.frames; ++k) segmenter.addBackgroundFrame(greyImage());
+  ASSERT_TRUE(segmenter.backgroundReady());
+  // The room brightens by 20 %: beyond the plate's tolerance, and no shadow.
+  cv::Mat image = greyImage(1.2);
+  disc(image, {100, 120}, 25, kSkin);
+  segmenter.setRegionOfInterest(cv::Rect(60, 80, 80, 80));
+  for (int k = 0; k < 60; ++k) segmenter.segmentFrame(image);
+  const cv::Mat plate = segmenter.backgroundPlate().mean();
+  const cv::Vec3f far = plate.at<cv::Vec3f>(10, 60);    // cell of pixel (240, 40)
+  const cv::Vec3f under = plate.at<cv::Vec3f>(30, 25);  // cell of pixel (100, 120): the hand
+  EXPECT_NEAR(far[0], 1.2 * kGrey[0], 3.0);             // followed the light
+  EXPECT_NEAR(under[0], kGrey[0], 1.0);                 // not learned where the hand is
+  // With the region cleared, the brighter room is background and the (moving) hand foreground.
+  segmenter.setRegionOfInterest(cv::Rect());
+  cv::Mat moved = greyImage(1.2);
+  disc(moved, {110, 126}, 25, kSkin);
+  segmenter.segmentFrame(moved);
+  EXPECT_EQ(maskAt(segmenter, {240, 40}), 0);
+  EXPECT_EQ(maskAt(segmenter, {110, 126}), 255);
+}
+
+TEST(RoomCues, BadParametersAreNamed) {
+  SegmentationParams params;
+  params.room.motion_decay = 1.0;
+  try {
+    validate(params);
+    FAIL() << "motion_decay 1 accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("room.motion_decay"), std::string::npos) << e.what();
+  }
+}
+
+TEST(RoomCues, ProjectedHandBoxCoversTheHandAndIsEmptyBehindTheCamera) {
+  const Pose pose = studioPose();
+  const PosedHand posed = forwardKinematics(model("sag"), pose);
+  for (const Camera& camera : dexter5()) {
+    const cv::Rect box = projectedHandBox(model("sag"), pose, camera, 0.0, 0);
+    ASSERT_GT(box.area(), 0) << camera.name;
+    for (const WorldGaussian& g : posed.gaussians) {
+      Eigen::Vector2d pixel;
+      ASSERT_TRUE(camera.project(g.mean, &pixel));
+      if (pixel.x() < 0 || pixel.y() < 0 || pixel.x() >= camera.width || pixel.y() >= camera.height)
+        continue;
+      EXPECT_TRUE(box.contains(cv::Point(static_cast<int>(pixel.x()), static_cast<int>(pixel.y()))))
+          << camera.name;
+    }
+  }
+  Pose behind = pose;
+  const Camera& camera = dexter5()[0];
+  behind.translation = camera.centre() + 0.3 * (camera.centre() - pose.translation).normalized();
+  EXPECT_EQ(projectedHandBox(model("sag"), behind, camera).area(), 0);
+}
+
+// ---- studio rooms -------------------------------------------------------------------------------
+
+TEST(StudioRooms, PropsPhotographsAndLight) {
+  for (const std::string& name : builtinRoomNames()) {
+    const RoomParams params = builtinRoom(name);
+    const StudioRoom room(params, model("sag"), kConfigDir);
+    const auto props = room.props(1.0);
+    EXPECT_FALSE(props.empty()) << name;
+    for (const SurfacePart& part : props) EXPECT_EQ(part.label, kLabelProp) << name;
+    EXPECT_FALSE(room.scene().wall_photo.empty()) << name;
+    EXPECT_DOUBLE_EQ(room.lightGain(0.0), 1.0);
+    EXPECT_NEAR(room.lightGain(0.5 * params.light_period), 1.0 - params.light_change, 1e-12);
+  }
+  EXPECT_FALSE(builtinRoom("kitchen").hand_free_frames);
+  try {
+    builtinRoom("garage");
+    FAIL() << "unknown room accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("garage"), std::string::npos) << e.what();
+  }
+  RoomParams missing = builtinRoom("office");
+  missing.wall_photo = "no_such_photo.jpg";
+  try {
+    StudioRoom(missing, model("sag"), kConfigDir);
+    FAIL() << "missing photograph accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no_such_photo.jpg"), std::string::npos) << e.what();
+  }
+}
+
+TEST(StudioRooms, PropsAreRenderedWithTheirLabelAndTheLightDims) {
+  const StudioRoom room(builtinRoom("daylight"), model("sag"), kConfigDir);
+  const StudioRenderer renderer(dexter5(), room.scene());
+  std::vector<std::vector<SurfacePart>> subframes;
+  room.addProps(&subframes, 0.0);
+  ASSERT_EQ(subframes.size(), 1u);
+  const auto bright = renderer.render(subframes, 3, 1.0);
+  const auto dim = renderer.render(subframes, 3, 0.6);
+  int prop_pixels = 0, views_with_props = 0;
+  for (size_t c = 0; c < bright.size(); ++c) {
+    const int n = cv::countNonZero(bright[c].labels == kLabelProp);
+    prop_pixels += n;
+    views_with_props += n > 0;
+    EXPECT_LT(cv::mean(dim[c].rgb)[0], 0.8 * cv::mean(bright[c].rgb)[0]) << c;
+  }
+  EXPECT_GE(views_with_props, 3);
+  EXPECT_GT(prop_pixels, 2000);
+}
+
+// Issue 11's bar on a short stretch of a room: with the plate and the room cues >= 90 % of the
+// foreground is the hand; with the skin gate the room cues lift precision from ~22 % to ~84 %
+// (the bar of 90 % is not met there: background inside the hand's region passes the learned
+// skin colour, see doc/segmentation.md).
+TEST(StudioRooms, RoomCuesLiftForegroundPrecisionInTheOffice) {
+  const Motion motion = loadMotion(resolveMotionPath("pinch", kConfigDir), model("sag"), 1);
+  std::vector<RoomRunConfig> configs(4);
+  for (int k = 0; k < 4; ++k) {
+    configs[k].model = model("sag");
+    const bool plate = k >= 2;
+    configs[k].pipeline.background_frames = plate ? 10 : 0;
+    configs[k].pipeline.segmentation.mode =
+        plate ? SegmentationMode::kPlate : SegmentationMode::kSkin;
+    configs[k].pipeline.segmentation.room.enabled = k % 2 == 1;
+  }
+  RoomSequenceOptions options;
+  options.frames = 40;
+  options.empty_frames = 10;
+  const RoomParams office = builtinRoom("office");
+  const auto results =
+      evaluateRoomSequence(model("sag"), dexter5(), motion, &office, kConfigDir, configs, options);
+  ASSERT_EQ(results.size(), 4u);
+  for (const RoomRunResult& r : results) {
+    std::printf(
+        "office, 30 frames with the hand, %d: precision %.3f recall %.3f, error %.1f mm "
+        "(%d/%d frames with a pose)\n",
+        static_cast<int>(&r - results.data()), r.precision(), r.recall(), r.errors.mean_mm,
+        r.frames_posed, r.frames);
+    EXPECT_EQ(r.frames, 30);
+  }
+  EXPECT_LT(results[0].precision(), 0.4);                           // skin gate alone
+  EXPECT_GT(results[1].precision(), 2.0 * results[0].precision());  // skin gate + room cues
+  EXPECT_GE(results[1].recall(), 0.85);
+  EXPECT_GE(results[3].precision(), 0.9);  // plate + room cues: the bar
+  EXPECT_GE(results[3].recall(), 0.85);
+  EXPECT_LT(results[1].errors.mean_mm, 25.0);
+  EXPECT_LT(results[3].errors.mean_mm, 25.0);
+}
