@@ -605,9 +605,9 @@ void writePlots(const std::string& dir, const BenchmarkResults& results,
     for (size_t i = 0; i < results.trackers.size(); ++i) {
       const std::string& t = results.trackers[i];
       PlotSeries mean, reversed, rolled;
-      mean.label = displayName(t) + " mean error (mm)";
-      reversed.label = displayName(t) + " reversed (%)";
-      rolled.label = displayName(t) + " rolled over (%)";
+      mean.label = displayName(t) + " mean (mm)";  // short: the legend box is narrow
+      reversed.label = displayName(t) + " reversed %";
+      rolled.label = displayName(t) + " rolled %";
       mean.colour = trackerColour(t, i);
       reversed.colour = mean.colour * 0.6;
       rolled.colour = mean.colour * 0.4 + cv::Scalar(150, 150, 150);
