@@ -548,6 +548,7 @@ void writePlots(const std::string& dir, const BenchmarkResults& results,
   std::vector<cv::Mat> panels, orientation_panels;
   for (const std::string& s : results.sequences) {
     std::vector<PlotSeries> series, angles;
+    std::ostringstream rates;
     for (size_t i = 0; i < results.trackers.size(); ++i) {
       const std::string& t = results.trackers[i];
       for (const BenchmarkRun& run : results.runs) {
@@ -555,11 +556,12 @@ void writePlots(const std::string& dir, const BenchmarkResults& results,
         PlotSeries line;
         line.label = displayName(t) + " (" + fixed(run.stats.mean_mm, 1) + " mm)";
         line.colour = trackerColour(t, i);
+        // The normal's line is unlabelled (lighter colour) so that the legend stays small.
         PlotSeries forward, normal;
-        forward.label =
-            displayName(t) + " hand axis (" + fixed(run.stats.reversed_pct, 0) + " % rev)";
-        normal.label =
-            displayName(t) + " back normal (" + fixed(run.stats.rolled_pct, 0) + " % roll)";
+        forward.label = displayName(t) + " axis (light: normal)";
+        rates << (rates.tellp() > 0 ? ", " : "") << displayName(t) << " rev "
+              << fixed(run.stats.reversed_pct, 0) << " % roll " << fixed(run.stats.rolled_pct, 0)
+              << " %";
         forward.colour = line.colour;
         normal.colour = line.colour * 0.5 + cv::Scalar(128, 128, 128);
         for (size_t k = 0; k < run.errors.errors_mm.size(); ++k) {
@@ -588,9 +590,8 @@ void writePlots(const std::string& dir, const BenchmarkResults& results,
     range.x = {0.0, 0.0};
     range.y = {180.0 / 1.05, kNaN};
     angles.push_back(range);
-    orientation_panels.push_back(
-        linePlot(angles, s + on_hand + ": angle to the truth's hand axis / back normal (deg)",
-                 "frame (with the hand)", "angle (deg)", 900, 260));
+    orientation_panels.push_back(linePlot(angles, s + on_hand + ": angle to truth; " + rates.str(),
+                                          "frame (with the hand)", "angle (deg)", 900, 300));
   }
   if (!panels.empty()) writePng(dir + "/error_per_frame.png", stackVertically(panels));
   if (!orientation_panels.empty()) {
@@ -603,9 +604,9 @@ void writePlots(const std::string& dir, const BenchmarkResults& results,
     for (size_t i = 0; i < results.trackers.size(); ++i) {
       const std::string& t = results.trackers[i];
       PlotSeries mean, reversed, rolled;
-      mean.label = displayName(t) + " mean error (mm)";
-      reversed.label = displayName(t) + " reversed (%)";
-      rolled.label = displayName(t) + " rolled over (%)";
+      mean.label = displayName(t) + " mean (mm)";  // short: the legend box is narrow
+      reversed.label = displayName(t) + " reversed %";
+      rolled.label = displayName(t) + " rolled %";
       mean.colour = trackerColour(t, i);
       reversed.colour = mean.colour * 0.6;
       rolled.colour = mean.colour * 0.4 + cv::Scalar(150, 150, 150);

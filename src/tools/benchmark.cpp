@@ -38,7 +38,8 @@ int main(int argc, char** argv) {
               << " tracking runs in " << seconds << " s; results in " << options.out_dir
               << "/ (results.md, " << (options.csv.empty() ? "results.csv" : options.csv)
               << (options.camera_counts ? ", camera_counts.csv, camera_combinations.csv" : "")
-              << (options.plots ? ", error_per_frame.png" : "")
+              << (options.plots ? ", error_per_frame.png, orientation_per_frame.png" : "")
+              << (options.plots && results.shapes.size() > 1 ? ", shapes.png" : "")
               << (options.plots && options.camera_counts ? ", camera_counts.png" : "") << ")\n";
     return 0;
   } catch (const std::exception& error) {
