@@ -2,9 +2,12 @@
 #pragma once
 
 #include <chrono>
-#include "sag_hand_tracker/util/timing.h"
 
 namespace sag_hand_tracker {
 
 // Seconds from `start` to now, on the monotonic clock.
-inline }  // namespace sag_hand_tracker
+inline double secondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace sag_hand_tracker
