@@ -436,7 +436,7 @@ TEST(MultiCapture, ReopensAStoppedCameraWithBackoff) {
                          EXPECT_EQ(spec.path, "/dev/video7");
                          if (++opens < 3)
                            throw InputError("V4L2 device /dev/video7 cannot be opened");
-                         return std::make_unique<ScriptedSource>(std::vector<R>(10, R::kOk),
+                         return std::make_unique<ScriptedSource>(std::vector<R>(40, R::kOk),
                                                                  &grabs_second);
                        },
                        {1.0, 4.0, 2.0});
