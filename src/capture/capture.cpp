@@ -2,10 +2,12 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdio>
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
+#include <stdexcept>
 #include <system_error>
 
 #include "sag_hand_tracker/util/types.h"
@@ -233,6 +235,29 @@ cv::Mat fitFrame(const cv::Mat& in, int width, int height) {
   return out;
 }
 
+ImageIntrinsics scaleIntrinsics(const ImageIntrinsics& in, int width, int height) {
+  if (in.width <= 0 || in.height <= 0 || width <= 0 || height <= 0) {
+    throw std::invalid_argument("scaleIntrinsics: sizes must be positive, not " +
+                                sizeText(in.width, in.height) + " -> " + sizeText(width, height));
+  }
+  const double sx = static_cast<double>(width) / in.width;
+  const double sy = static_cast<double>(height) / in.height;
+  ImageIntrinsics out = in;
+  out.width = width;
+  out.height = height;
+  // Row r of S M is s_r * row r of M + shift_r * row 2 of M (row 2 of S is [0 0 1]).
+  const auto scaleRows = [&](const double* m, double* result, int columns) {
+    for (int c = 0; c < columns; ++c) {
+      result[c] = sx * m[c] + 0.5 * (sx - 1.0) * m[2 * columns + c];
+      result[columns + c] = sy * m[columns + c] + 0.5 * (sy - 1.0) * m[2 * columns + c];
+      result[2 * columns + c] = m[2 * columns + c];
+    }
+  };
+  scaleRows(in.K.data(), out.K.data(), 3);
+  scaleRows(in.P.data(), out.P.data(), 4);
+  return out;
+}
+
 cv::Mat toBgr8(const cv::Mat& in) {
   if (in.empty()) return in;
   cv::Mat eight = in;
@@ -282,6 +307,33 @@ std::unique_ptr<FrameSource> openFrameSource(const SourceSpec& spec, const Sourc
   return source;
 }
 
+// --- reopening
+// ------------------------------------------------------------------------------------
+
+ReopenSchedule::ReopenSchedule(ReopenBackoff backoff) : backoff_(backoff) {
+  backoff_.first_delay = std::max(0.0, backoff_.first_delay);
+  backoff_.max_delay = std::max(backoff_.first_delay, backoff_.max_delay);
+  backoff_.factor = std::max(1.0, backoff_.factor);
+}
+
+void ReopenSchedule::start(double now) {
+  started_ = true;
+  attempts_ = 0;
+  delay_ = backoff_.first_delay;
+  next_attempt_ = now + delay_;
+}
+
+void ReopenSchedule::failed(double now) {
+  ++attempts_;
+  delay_ = std::min(backoff_.max_delay, delay_ * backoff_.factor);
+  next_attempt_ = now + delay_;
+}
+
+void ReopenSchedule::reset() {
+  started_ = false;
+  attempts_ = 0;
+}
+
 // --- MultiCapture
 // ---------------------------------------------------------------------------------
 
@@ -310,7 +362,60 @@ int MultiCapture::runningCount() const {
 
 std::string MultiCapture::who(int camera) const {
   const Camera& c = cameras_[camera];
-  return "camera " + c.name + " (" + describeSource(c.source->spec()) + ")";
+  if (c.source) return "camera " + c.name + " (" + describeSource(c.source->spec()) + ")";
+  if (c.spec) return "camera " + c.name + " (" + describeSource(*c.spec) + ")";
+  return "camera " + c.name;
+}
+
+void MultiCapture::enableReopen(std::vector<SourceSpec> specs, SourceOpener opener,
+                                ReopenBackoff backoff) {
+  if (specs.size() != cameras_.size() || !opener) {
+    throw std::invalid_argument("MultiCapture::enableReopen: one spec per camera and an opener");
+  }
+  opener_ = std::move(opener);
+  for (std::size_t i = 0; i < cameras_.size(); ++i) {
+    cameras_[i].spec = std::move(specs[i]);
+    cameras_[i].reopen = ReopenSchedule(backoff);
+  }
+}
+
+void MultiCapture::reopenDue(double now) {
+  if (!opener_) return;
+  for (int i = 0; i < size(); ++i) {
+    Camera& c = cameras_[i];
+    // A finished file or folder ended as it should; only failures are retried.
+    if (c.state != CameraState::kStopped && c.state != CameraState::kNotOpened) continue;
+    if (!c.reopen.started()) {
+      c.reopen.start(now);
+      continue;
+    }
+    if (!c.reopen.due(now)) continue;
+    c.source.reset();  // a device must be closed before it can be opened again
+    std::string why;
+    try {
+      c.source = opener_(*c.spec);
+    } catch (const std::exception& e) {
+      why = e.what();
+    }
+    if (!c.source) {
+      if (why.empty()) why = "it cannot be opened";
+      const int attempt = c.reopen.attempts() + 1;
+      c.reopen.failed(now);
+      char next[32];
+      std::snprintf(next, sizeof(next), "%.1f", c.reopen.delay());
+      events_.push_back({i, CaptureEvent::Kind::kReopenFailed,
+                         who(i) + ": reopen attempt " + std::to_string(attempt) + " failed (" +
+                             why + "); next attempt in " + next + " s"});
+      continue;
+    }
+    const int attempts = c.reopen.attempts() + 1;
+    c.reopen.reset();
+    c.state = CameraState::kRunning;
+    c.failures = 0;
+    events_.push_back({i, CaptureEvent::Kind::kReopened,
+                       who(i) + " reopened after " + std::to_string(attempts) +
+                           (attempts == 1 ? " attempt" : " attempts") + "; it is grabbed again"});
+  }
 }
 
 void MultiCapture::fail(int camera, const std::string& why) {

@@ -23,8 +23,13 @@
 //   loop (false): video files and folders start again at their end
 //   max_failures (fps, i.e. about a second): consecutive failed grabs before a camera is
 //     declared stopped
+//   reopen (true): a camera that stopped or could not be opened is opened again, first
+//     reopen_first_delay (0.5) s after, then with the wait doubling up to reopen_max_delay (8) s;
+//     every failed attempt is a WARN naming the camera and the next wait, success an INFO
 // A camera that cannot be opened, or that stops (max_failures failed grabs, or the end of its
 // file or folder without loop), is logged once as an ERROR naming it; the others keep publishing.
+// When frames are resized to width x height, the camera_info (K, P, width, height) of a
+// calibration made at another size is rescaled to match (scaleIntrinsics), logged once.
 #include <camera_info_manager/camera_info_manager.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <image_transport/image_transport.h>
@@ -56,6 +61,7 @@ class CameraDriverNodelet : public nodelet::Nodelet {
     image_transport::CameraPublisher publisher;
     std::unique_ptr<camera_info_manager::CameraInfoManager> info_manager;
     bool info_size_warned = false;
+    bool info_scaled_logged = false;
     bool uncalibrated_warned = false;
     ros::WallTime last_failure_warning;
   };
@@ -140,6 +146,24 @@ class CameraDriverNodelet : public nodelet::Nodelet {
     }
     capture_ =
         std::make_unique<MultiCapture>(names, std::move(opened), width, height, max_failures);
+    reopen_ = pnh.param("reopen", true);
+    if (reopen_) {
+      ReopenBackoff backoff;
+      backoff.first_delay = pnh.param("reopen_first_delay", backoff.first_delay);
+      backoff.max_delay = pnh.param("reopen_max_delay", backoff.max_delay);
+      std::vector<SourceSpec> specs;
+      for (const std::string& source : sources) {
+        try {
+          specs.push_back(parseSourceSpec(source));
+        } catch (const std::exception&) {
+          specs.emplace_back();  // not a source: every attempt fails like the first, with backoff
+          specs.back().text = source;
+        }
+      }
+      capture_->enableReopen(
+          std::move(specs),
+          [options](const SourceSpec& spec) { return openFrameSource(spec, options); }, backoff);
+    }
 
     const std::optional<CameraRig> rig = loadRig(pnh.param<std::string>("rig_file", ""));
 
@@ -159,8 +183,11 @@ class CameraDriverNodelet : public nodelet::Nodelet {
     if (rig) publishExtrinsics(*rig);
 
     if (capture_->runningCount() == 0) {
-      NODELET_ERROR("no camera could be opened: nothing to publish");
-      return;
+      if (!reopen_) {
+        NODELET_ERROR("no camera could be opened: nothing to publish");
+        return;
+      }
+      NODELET_ERROR("no camera could be opened yet: trying again (parameter reopen)");
     }
     NODELET_INFO("capturing %d of %d cameras at %g fps, %dx%d", capture_->runningCount(), count,
                  fps, width, height);
@@ -273,6 +300,7 @@ class CameraDriverNodelet : public nodelet::Nodelet {
   }
 
   void captureSet() {
+    capture_->reopenDue(ros::SteadyTime::now().toSec());
     capture_->grabAll();
     // One stamp for the whole set, taken when every camera has latched its frame.
     std_msgs::Header header;
@@ -290,15 +318,25 @@ class CameraDriverNodelet : public nodelet::Nodelet {
       info->header = header;
       out.publisher.publish(image, info);
     }
-    if (capture_->runningCount() == 0) {
+    if (capture_->runningCount() == 0 && !anyCameraMayReturn()) {
       NODELET_ERROR("no camera is delivering any more: the driver stops capturing");
       timer_.stop();
     }
   }
 
+  // A camera that stopped or was never opened comes back when reopening is on; a finished
+  // file or folder does not.
+  bool anyCameraMayReturn() const {
+    if (!reopen_) return false;
+    for (int i = 0; i < capture_->size(); ++i) {
+      if (capture_->state(i) != CameraState::kFinished) return true;
+    }
+    return false;
+  }
+
   void checkInfoSize(Output* out, sensor_msgs::CameraInfo* info, std::uint32_t width,
                      std::uint32_t height) {
-    if (info->width == 0 && info->height == 0) {  // uncalibrated: at least give the size
+    if (info->width == 0 || info->height == 0) {  // uncalibrated: at least give the size
       info->width = width;
       info->height = height;
       if (!out->uncalibrated_warned) {
@@ -308,13 +346,44 @@ class CameraDriverNodelet : public nodelet::Nodelet {
       }
       return;
     }
-    if ((info->width != width || info->height != height) && !out->info_size_warned) {
+    if (info->width == width && info->height == height) return;
+    // The frames were resized to width x height (or the calibration is for another mode):
+    // rescale the intrinsics so that they describe the published images.
+    const double aspect_in = static_cast<double>(info->width) / std::max(1u, info->height);
+    const double aspect_out = static_cast<double>(width) / std::max(1u, height);
+    if (std::abs(aspect_in / aspect_out - 1.0) > 0.01 && !out->info_size_warned) {
       out->info_size_warned = true;
       NODELET_WARN(
-          "camera %s: camera_info is for %ux%u images but the images are %ux%u (check "
-          "the calibration, or the width and height parameters)",
+          "camera %s: camera_info is for %ux%u images but the images are %ux%u, another aspect "
+          "ratio: rescaled anyway, but check that the calibration is for this camera mode",
           out->name.c_str(), info->width, info->height, width, height);
     }
+    ImageIntrinsics intrinsics;
+    intrinsics.width = static_cast<int>(info->width);
+    intrinsics.height = static_cast<int>(info->height);
+    std::copy(info->K.begin(), info->K.end(), intrinsics.K.begin());
+    std::copy(info->P.begin(), info->P.end(), intrinsics.P.begin());
+    const ImageIntrinsics scaled =
+        scaleIntrinsics(intrinsics, static_cast<int>(width), static_cast<int>(height));
+    std::copy(scaled.K.begin(), scaled.K.end(), info->K.begin());
+    std::copy(scaled.P.begin(), scaled.P.end(), info->P.begin());
+    const double sx = static_cast<double>(width) / info->width;
+    const double sy = static_cast<double>(height) / info->height;
+    if (info->roi.width != 0 && info->roi.height != 0) {
+      info->roi.x_offset = static_cast<std::uint32_t>(std::lround(info->roi.x_offset * sx));
+      info->roi.y_offset = static_cast<std::uint32_t>(std::lround(info->roi.y_offset * sy));
+      info->roi.width = static_cast<std::uint32_t>(std::lround(info->roi.width * sx));
+      info->roi.height = static_cast<std::uint32_t>(std::lround(info->roi.height * sy));
+    }
+    if (!out->info_scaled_logged) {
+      out->info_scaled_logged = true;
+      NODELET_INFO(
+          "camera %s: camera_info calibrated at %ux%u, rescaled (K, P) to the %ux%u "
+          "images",
+          out->name.c_str(), info->width, info->height, width, height);
+    }
+    info->width = width;
+    info->height = height;
   }
 
   void report(const std::vector<CaptureEvent>& events) {
@@ -333,6 +402,12 @@ class CameraDriverNodelet : public nodelet::Nodelet {
           }
           break;
         }
+        case CaptureEvent::Kind::kReopenFailed:  // the backoff spaces them out
+          NODELET_WARN("%s", event.message.c_str());
+          break;
+        case CaptureEvent::Kind::kReopened:
+          NODELET_INFO("%s", event.message.c_str());
+          break;
         case CaptureEvent::Kind::kStopped:
         case CaptureEvent::Kind::kFinished:
           NODELET_ERROR("%s", event.message.c_str());
@@ -343,6 +418,7 @@ class CameraDriverNodelet : public nodelet::Nodelet {
 
   std::vector<Output> outputs_;
   std::unique_ptr<MultiCapture> capture_;
+  bool reopen_ = true;
   std::unique_ptr<tf2_ros::StaticTransformBroadcaster> static_broadcaster_;
   ros::SteadyTimer timer_;  // last: stopped first on destruction
 };

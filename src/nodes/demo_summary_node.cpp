@@ -1,7 +1,9 @@
 // demo_summary_node: the headless demo's report. Watches the camera sets, the tracker's outputs and
 // the studio's ground truth, matches them by stamp, and after `duration` seconds (or when the
-// studio has played its last sequence) prints a summary and shuts down (launch it with
-// required="true" and the whole launch ends with it).
+// studio has played its last sequence) prints a summary and ends the launch: with end_launch it
+// sends SIGINT to its parent roslaunch, which shuts every node down as on Ctrl-C (a required node
+// that simply exits makes roslaunch print "REQUIRED process [...] has died!" even on a normal end,
+// so the node stays up until roslaunch stops it; required="true" remains for a real crash).
 //
 // Topics: in: cam<i>/camera_info (i < num_cameras: one stamp per set), joint_states, fingertips,
 //   status (sag_hand_tracker/TrackingStatus), ground_truth/fingertips, studio/sequence.
@@ -10,6 +12,8 @@
 //   duration (60 s of wall time from the first camera set; 0 = until the studio says "done")
 //   settle (1.0 s): after the end, how long to wait for the outputs of the sets still in flight
 //   summary_file (""): also write the figures there, as YAML
+//   end_launch (false): after the summary, SIGINT the parent process when it is roslaunch (else,
+//     and 10 s after the signal if still running, the node shuts itself down)
 // Latency: ros::WallTime::now() when the joint state arrives minus its header stamp (the image
 // stamp); meaningful with wall-clock stamps (no use_sim_time; the studio stamps with now()).
 #include <geometry_msgs/PoseArray.h>
@@ -18,10 +22,14 @@
 #include <sensor_msgs/JointState.h>
 #include <std_msgs/String.h>
 
+#include <signal.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <mutex>
 #include <set>
@@ -78,6 +86,7 @@ class DemoSummary {
     num_cameras_ = pnh_.param("num_cameras", 5);
     duration_ = pnh_.param("duration", 60.0);
     settle_ = pnh_.param("settle", 1.0);
+    end_launch_ = pnh_.param("end_launch", false);
     summary_file_ = pnh_.param<std::string>("summary_file", "");
     for (int i = 0; i < num_cameras_; ++i) {
       subs_.push_back(nh_.subscribe<sensor_msgs::CameraInfo>(
@@ -165,8 +174,22 @@ class DemoSummary {
     if (ending_ && (now - end_wall_).toSec() >= settle_ && !reported_) {
       reported_ = true;
       report();
+      if (!(end_launch_ && stopParentLaunch())) ros::shutdown();
+      launch_signalled_ = now;
+    }
+    if (reported_ && (now - launch_signalled_).toSec() > 10.0) {
+      ROS_WARN("demo_summary: roslaunch did not stop 10 s after SIGINT; ending this node");
       ros::shutdown();
     }
+  }
+
+  // SIGINT to the parent process if it is roslaunch: the launch ends as on Ctrl-C.
+  static bool stopParentLaunch() {
+    const pid_t parent = getppid();
+    std::ifstream cmdline("/proc/" + std::to_string(parent) + "/cmdline");
+    std::string text((std::istreambuf_iterator<char>(cmdline)), std::istreambuf_iterator<char>());
+    if (text.find("roslaunch") == std::string::npos) return false;
+    return kill(parent, SIGINT) == 0;
   }
 
   void report() {
@@ -274,6 +297,8 @@ class DemoSummary {
   ros::NodeHandle nh_, pnh_;
   int num_cameras_ = 5;
   double duration_ = 60.0, settle_ = 1.0;
+  bool end_launch_ = false;
+  ros::WallTime launch_signalled_;
   std::string summary_file_;
   std::vector<ros::Subscriber> subs_;
   ros::WallTimer timer_;

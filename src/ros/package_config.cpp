@@ -1,6 +1,6 @@
 #include "sag_hand_tracker/ros/package_config.h"
 
-#include "sag_hand_tracker/ros/package_config.h"
+#include <ros/package.h>
 
 #include "sag_hand_tracker/util/types.h"
 

@@ -5,7 +5,8 @@
 // Private parameters:
 //   rate (15 Hz), num_cameras (5), duration (0 = forever)
 //   drop_cameras (list of indices) and drop_after (s): those cameras stop publishing then;
-//     drop_times (list of s, one per drop_cameras entry) gives each camera its own time instead
+//     drop_times (list of s, one per drop_cameras entry) gives each camera its own time instead;
+//     resume_times (list of s, one per drop_cameras entry) makes it publish again from then
 //   malformed (false): cam<last> sends malformed SoGs in turn (size not matching camera_info,
 //     a NaN Gaussian, no Gaussians at all, an unknown frame) and cam<last-1> never sends its
 //     camera_info.
@@ -38,9 +39,13 @@ int main(int argc, char** argv) {
   pnh.getParam("drop_cameras", drop_list);
   std::vector<double> drop_times;
   pnh.getParam("drop_times", drop_times);
-  std::map<int, double> drop;  // camera -> time it stops
+  std::vector<double> resume_times;
+  pnh.getParam("resume_times", resume_times);
+  std::map<int, double> drop;    // camera -> time it stops
+  std::map<int, double> resume;  // camera -> time it publishes again
   for (size_t k = 0; k < drop_list.size(); ++k) {
     drop[drop_list[k]] = k < drop_times.size() ? drop_times[k] : drop_after;
+    resume[drop_list[k]] = k < resume_times.size() ? resume_times[k] : 1e18;
   }
 
   const HandModel model = loadHandModel(sag_test::modelPath("sag"));
@@ -92,7 +97,7 @@ int main(int argc, char** argv) {
     clampToLimits(model, &pose);
 
     for (int i = 0; i < n; ++i) {
-      if (drop.count(i) && t > drop.at(i)) continue;
+      if (drop.count(i) && t > drop.at(i) && t < resume.at(i)) continue;
       const std::string frame_id = "cam" + std::to_string(i) + "_optical_frame";
       const bool broken_info = malformed && i == n - 2;
       const bool broken_sog = malformed && i == n - 1;

@@ -2,6 +2,7 @@
 
 #include "test_support/temp_files.h"
 
+#include <Eigen/Core>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -348,4 +349,157 @@ TEST(MultiCapture, StopsACameraAfterConsecutiveFailures) {
   EXPECT_EQ(grabs, 6);  // a stopped camera is no longer grabbed
   EXPECT_EQ(capture.state(0), CameraState::kStopped);
   EXPECT_EQ(capture.runningCount(), 0);
+}
+
+TEST(ScaleIntrinsics, MapsPixelCentresOfTheResizedImage) {
+  ImageIntrinsics in;
+  in.width = 640;
+  in.height = 480;
+  in.K = {500, 0, 319.5, 0, 510, 239.5, 0, 0, 1};
+  in.P = {500, 0, 319.5, -25, 0, 510, 239.5, 0, 0, 0, 1, 0};
+  const ImageIntrinsics out = scaleIntrinsics(in, 320, 240);
+  EXPECT_EQ(out.width, 320);
+  EXPECT_EQ(out.height, 240);
+  // Halving: focal lengths halve, the centre of the image stays the centre ((w - 1) / 2).
+  EXPECT_DOUBLE_EQ(out.K[0], 250.0);
+  EXPECT_DOUBLE_EQ(out.K[4], 255.0);
+  EXPECT_DOUBLE_EQ(out.K[2], 159.5);
+  EXPECT_DOUBLE_EQ(out.K[5], 119.5);
+  EXPECT_DOUBLE_EQ(out.K[8], 1.0);
+  EXPECT_DOUBLE_EQ(out.P[0], 250.0);
+  EXPECT_DOUBLE_EQ(out.P[2], 159.5);
+  EXPECT_DOUBLE_EQ(out.P[3], -12.5);  // fx * Tx scales with fx
+  EXPECT_DOUBLE_EQ(out.P[5], 255.0);
+  EXPECT_DOUBLE_EQ(out.P[6], 119.5);
+  EXPECT_DOUBLE_EQ(out.P[10], 1.0);
+
+  // A point projected with the scaled K lands where cv::resize puts the pixel it fell on.
+  const Eigen::Vector3d point(0.03, -0.02, 0.5);
+  const auto project = [&](const std::array<double, 9>& K) {
+    return Eigen::Vector2d(K[0] * point.x() / point.z() + K[2],
+                           K[4] * point.y() / point.z() + K[5]);
+  };
+  const Eigen::Vector2d before = project(in.K);
+  const Eigen::Vector2d after = project(scaleIntrinsics(in, 160, 360).K);
+  EXPECT_NEAR(after.x(), (before.x() + 0.5) * 160.0 / 640.0 - 0.5, 1e-9);
+  EXPECT_NEAR(after.y(), (before.y() + 0.5) * 360.0 / 480.0 - 0.5, 1e-9);
+
+  // The same size is the identity; a round trip gives the input back.
+  const ImageIntrinsics same = scaleIntrinsics(in, 640, 480);
+  EXPECT_EQ(same.K, in.K);
+  EXPECT_EQ(same.P, in.P);
+  const ImageIntrinsics back = scaleIntrinsics(scaleIntrinsics(in, 200, 150), 640, 480);
+  for (int i = 0; i < 9; ++i) EXPECT_NEAR(back.K[i], in.K[i], 1e-9) << i;
+  for (int i = 0; i < 12; ++i) EXPECT_NEAR(back.P[i], in.P[i], 1e-9) << i;
+  EXPECT_THROW(scaleIntrinsics(in, 0, 240), std::invalid_argument);
+  ImageIntrinsics empty;
+  EXPECT_THROW(scaleIntrinsics(empty, 320, 240), std::invalid_argument);
+}
+
+TEST(ReopenSchedule, BacksOffUpToTheMaximum) {
+  ReopenSchedule schedule({0.5, 3.0, 2.0});
+  EXPECT_FALSE(schedule.due(100.0));  // not stopped
+  schedule.start(10.0);
+  EXPECT_FALSE(schedule.due(10.4));
+  EXPECT_TRUE(schedule.due(10.5));
+  schedule.failed(10.5);  // waits 1 s
+  EXPECT_FALSE(schedule.due(11.4));
+  EXPECT_TRUE(schedule.due(11.5));
+  schedule.failed(11.5);  // 2 s
+  EXPECT_FALSE(schedule.due(13.4));
+  schedule.failed(13.5);  // 3 s (capped, not 4)
+  EXPECT_DOUBLE_EQ(schedule.delay(), 3.0);
+  schedule.failed(16.5);
+  EXPECT_DOUBLE_EQ(schedule.delay(), 3.0);
+  EXPECT_EQ(schedule.attempts(), 4);
+  schedule.reset();
+  EXPECT_FALSE(schedule.due(1000.0));
+  schedule.start(20.0);
+  EXPECT_TRUE(schedule.due(20.5));  // a new stop starts from the first delay again
+  EXPECT_EQ(schedule.attempts(), 0);
+}
+
+TEST(MultiCapture, ReopensAStoppedCameraWithBackoff) {
+  using R = GrabResult;
+  using K = CaptureEvent::Kind;
+  int grabs_first = 0;
+  int grabs_second = 0;
+  std::vector<std::unique_ptr<FrameSource>> sources;
+  // The device delivers once, then fails twice: stopped (max_failures 2).
+  sources.push_back(std::make_unique<ScriptedSource>(std::vector<R>{R::kOk, R::kFailed, R::kFailed},
+                                                     &grabs_first));
+  MultiCapture capture({"cam3"}, std::move(sources), 0, 0, 2);
+  // The device comes back on the third open attempt.
+  int opens = 0;
+  capture.enableReopen({parseSourceSpec("/dev/video7")},
+                       [&](const SourceSpec& spec) -> std::unique_ptr<FrameSource> {
+                         EXPECT_EQ(spec.path, "/dev/video7");
+                         if (++opens < 3)
+                           throw InputError("V4L2 device /dev/video7 cannot be opened");
+                         return std::make_unique<ScriptedSource>(std::vector<R>(40, R::kOk),
+                                                                 &grabs_second);
+                       },
+                       {1.0, 4.0, 2.0});
+  std::vector<std::pair<double, std::vector<K>>> log;
+  std::vector<std::string> messages;
+  int frames = 0;
+  for (double now = 0.0; now <= 12.0; now += 0.25) {
+    capture.reopenDue(now);
+    capture.grabAll();
+    if (!capture.retrieveAll()[0].empty()) ++frames;
+    std::vector<K> kinds;
+    for (const CaptureEvent& event : capture.takeEvents()) {
+      kinds.push_back(event.kind);
+      if (event.kind == K::kReopenFailed || event.kind == K::kReopened) {
+        messages.push_back(event.message);
+      }
+    }
+    if (!kinds.empty()) log.emplace_back(now, kinds);
+  }
+  // Stopped at 0.5 s; the schedule starts at 0.75 s: attempts at 1.75 (fails, wait 2 s), 3.75
+  // (fails, wait 4 s), 7.75 (succeeds).
+  ASSERT_EQ(log.size(), 5u);
+  EXPECT_EQ(log[0], (std::pair<double, std::vector<K>>{0.25, {K::kReadFailed}}));
+  EXPECT_EQ(log[1], (std::pair<double, std::vector<K>>{0.5, {K::kReadFailed, K::kStopped}}));
+  EXPECT_EQ(log[2], (std::pair<double, std::vector<K>>{1.75, {K::kReopenFailed}}));
+  EXPECT_EQ(log[3], (std::pair<double, std::vector<K>>{3.75, {K::kReopenFailed}}));
+  EXPECT_EQ(log[4], (std::pair<double, std::vector<K>>{7.75, {K::kReopened}}));
+  ASSERT_EQ(messages.size(), 3u);
+  EXPECT_EQ(messages[0],
+            "camera cam3 (V4L2 device /dev/video7): reopen attempt 1 failed (V4L2 device "
+            "/dev/video7 cannot be opened); next attempt in 2.0 s");
+  EXPECT_EQ(messages[2],
+            "camera cam3 (V4L2 device /dev/video7) reopened after 3 attempts; it is grabbed again");
+  EXPECT_EQ(opens, 3);
+  EXPECT_EQ(grabs_first, 3);
+  EXPECT_EQ(capture.state(0), CameraState::kRunning);
+  // One frame before the stop, then one per cycle from 7.75 s to 12 s.
+  EXPECT_EQ(grabs_second, 18);
+  EXPECT_EQ(frames, 1 + 18);
+}
+
+TEST(MultiCapture, WithoutReopenAStoppedCameraStaysStoppedAndFinishedFilesAreNotReopened) {
+  using R = GrabResult;
+  int grabs = 0;
+  int grabs_finished = 0;
+  std::vector<std::unique_ptr<FrameSource>> sources;
+  sources.push_back(std::make_unique<ScriptedSource>(std::vector<R>{R::kFailed}, &grabs));
+  sources.push_back(
+      std::make_unique<ScriptedSource>(std::vector<R>{R::kFinished}, &grabs_finished));
+  MultiCapture capture({"cam0", "cam1"}, std::move(sources), 0, 0, 1);
+  int opens = 0;
+  capture.enableReopen({parseSourceSpec("/dev/video7"), parseSourceSpec("/dev/video8")},
+                       [&](const SourceSpec&) -> std::unique_ptr<FrameSource> {
+                         ++opens;
+                         throw InputError("cannot be opened");
+                       });
+  for (double now = 0.0; now < 3.0; now += 0.1) {
+    capture.reopenDue(now);
+    capture.grabAll();
+    capture.retrieveAll();
+  }
+  EXPECT_EQ(capture.state(1), CameraState::kFinished);
+  // Only cam0 is retried: first attempt 0.5 s after the stop, then 1 s, 2 s later (< 3 s).
+  EXPECT_EQ(opens, 2);
+  EXPECT_EQ(capture.state(0), CameraState::kStopped);
 }

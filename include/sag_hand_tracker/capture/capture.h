@@ -9,8 +9,11 @@
 //   anything else            a video file (or any URL OpenCV's VideoCapture opens)
 #pragma once
 
+#include <array>
+#include <functional>
 #include <memory>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -43,6 +46,22 @@ std::vector<std::string> listImageFiles(const std::string& folder);
 // `in` at width x height: resized (area interpolation when shrinking, linear when enlarging) when
 // its size differs, else shared as is. A width or height of 0 keeps the source size.
 cv::Mat fitFrame(const cv::Mat& in, int width, int height);
+
+// The pinhole part of a camera_info (row-major K 3x3 and P 3x4, image size), ROS-free so that
+// the driver's rescale is testable without ROS.
+struct ImageIntrinsics {
+  int width = 0;
+  int height = 0;
+  std::array<double, 9> K{};
+  std::array<double, 12> P{};
+};
+
+// The intrinsics of the same camera after its images are resized (cv::resize) to width x height:
+// K' = S K and P' = S P with S = [sx 0 (sx-1)/2; 0 sy (sy-1)/2; 0 0 1], sx = width / in.width,
+// sy = height / in.height (the half-pixel terms because resize maps pixel centres, x' + 1/2 =
+// sx (x + 1/2)). Distortion coefficients do not change (they act on normalised coordinates).
+// Throws std::invalid_argument for a size that is not positive.
+ImageIntrinsics scaleIntrinsics(const ImageIntrinsics& in, int width, int height);
 
 // Any 8-bit 1/3/4-channel image (or a 16-bit one, scaled down) as 8-bit BGR; shares `in` when it
 // already is. An empty image stays empty.
@@ -88,14 +107,51 @@ std::unique_ptr<FrameSource> openFrameSource(const SourceSpec& spec, const Sourc
 
 enum class CameraState { kRunning, kNotOpened, kStopped, kFinished };
 
+// When a stopped camera is tried again: the first attempt `first_delay` seconds after it
+// stopped, then each failed attempt multiplies the wait by `factor`, up to `max_delay`.
+struct ReopenBackoff {
+  double first_delay = 0.5;
+  double max_delay = 8.0;
+  double factor = 2.0;
+};
+
+// The reopen attempts of one camera (times in seconds on any monotonic clock).
+class ReopenSchedule {
+ public:
+  explicit ReopenSchedule(ReopenBackoff backoff = {});
+  // The camera stopped at `now`: the first attempt is due first_delay later.
+  void start(double now);
+  bool started() const { return started_; }
+  bool due(double now) const { return started_ && now >= next_attempt_; }
+  // An attempt at `now` failed: the next one waits longer (up to max_delay).
+  void failed(double now);
+  // The camera runs again: the next stop starts from first_delay again.
+  void reset();
+  int attempts() const { return attempts_; }
+  double delay() const { return delay_; }  // the current wait between attempts
+
+ private:
+  ReopenBackoff backoff_;
+  bool started_ = false;
+  double next_attempt_ = 0.0;
+  double delay_ = 0.0;
+  int attempts_ = 0;
+};
+
+// Opens a source again (openFrameSource with the driver's options); throws InputError when it
+// cannot.
+using SourceOpener = std::function<std::unique_ptr<FrameSource>(const SourceSpec&)>;
+
 // Something the driver should report about a camera; each kind is reported once per camera except
 // `read_failed`, which comes every time (the driver throttles it).
 struct CaptureEvent {
   enum class Kind {
-    kResized,     // the first frame whose size differs from width x height (it is resized)
-    kReadFailed,  // no frame from this camera this time (grab or retrieve failed)
-    kStopped,     // max_failures consecutive failures: the camera is no longer grabbed
-    kFinished,    // end of a video file or folder without loop
+    kResized,       // the first frame whose size differs from width x height (it is resized)
+    kReadFailed,    // no frame from this camera this time (grab or retrieve failed)
+    kStopped,       // max_failures consecutive failures: the camera is no longer grabbed
+    kFinished,      // end of a video file or folder without loop
+    kReopenFailed,  // an attempt to reopen a stopped camera failed (comes every attempt)
+    kReopened,      // a stopped camera was reopened and is grabbed again
   };
   int camera = -1;
   Kind kind = Kind::kReadFailed;
@@ -109,6 +165,12 @@ class MultiCapture {
   // width/height: the output size (0 = each source's own); max_failures >= 1.
   MultiCapture(std::vector<std::string> names, std::vector<std::unique_ptr<FrameSource>> sources,
                int width, int height, int max_failures);
+
+  // Stopped cameras (and ones that could not be opened) are reopened with `opener`, on the
+  // schedule of `backoff`, from specs[i] (one per camera). Without this call they stay stopped.
+  void enableReopen(std::vector<SourceSpec> specs, SourceOpener opener, ReopenBackoff backoff = {});
+  // Tries to reopen the stopped cameras whose attempt is due at `now` (seconds, monotonic).
+  void reopenDue(double now);
 
   // grab() on every running camera.
   void grabAll();
@@ -131,6 +193,8 @@ class MultiCapture {
     bool grabbed = false;
     int failures = 0;  // consecutive
     bool resize_reported = false;
+    std::optional<SourceSpec> spec;  // for reopening (enableReopen)
+    ReopenSchedule reopen;
   };
   void fail(int camera, const std::string& why);
   std::string who(int camera) const;
@@ -140,6 +204,7 @@ class MultiCapture {
   int height_ = 0;
   int max_failures_ = 1;
   std::vector<CaptureEvent> events_;
+  SourceOpener opener_;
 };
 
 }  // namespace sag_hand_tracker
