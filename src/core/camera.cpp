@@ -4,6 +4,8 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 
+#include "sag_hand_tracker/input_limits.h"
+
 namespace sag_hand_tracker {
 
 bool Camera::hasDistortion() const {
@@ -33,6 +35,14 @@ Eigen::Vector2d Camera::undistortPixel(const Eigen::Vector2d& pixel) const {
   return Eigen::Vector2d(out[0].x, out[0].y);
 }
 
+void checkDistortionCount(std::size_t count, const std::string& who) {
+  // The counts OpenCV's distortion models take (undistortPoints asserts on any other).
+  if (count == 0 || count == 4 || count == 5 || count == 8 || count == 12 || count == 14) return;
+  throw InputError(who + ": " + std::to_string(count) +
+                   " distortion coefficients; expected 0 (none), 4 or 5 (plumb_bob), 8 "
+                   "(rational_polynomial), 12 or 14");
+}
+
 void validateCamera(const Camera& camera) {
   const std::string which = "camera '" + camera.name + "'";
   if (!camera.K.allFinite()) throw InputError(which + ": intrinsics are not finite");
@@ -45,10 +55,14 @@ void validateCamera(const Camera& camera) {
       camera.K(2, 2) != 1.0) {
     throw InputError(which + ": K must be upper triangular with K(2,2) = 1");
   }
-  if (camera.width <= 0 || camera.height <= 0) {
-    throw InputError(which + ": image size " + std::to_string(camera.width) + "x" +
-                     std::to_string(camera.height) + " is not positive");
+  if (camera.K(0, 0) > kMaxFocalLengthPixels || camera.K(1, 1) > kMaxFocalLengthPixels) {
+    throw InputError(which + ": focal length above the limit of " +
+                     std::to_string(kMaxFocalLengthPixels) +
+                     " pixels (fx=" + std::to_string(camera.K(0, 0)) +
+                     ", fy=" + std::to_string(camera.K(1, 1)) + ")");
   }
+  checkImageSize(camera.width, camera.height, which);
+  checkDistortionCount(camera.distortion.size(), which);
   for (double coefficient : camera.distortion) {
     if (!std::isfinite(coefficient)) throw InputError(which + ": distortion is not finite");
   }

@@ -6,6 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "sag_hand_tracker/atomic_output.h"
 #include "sag_hand_tracker/types.h"
 
 namespace sag_hand_tracker {
@@ -96,8 +97,8 @@ cv::Mat linePlot(const std::vector<PlotSeries>& series, const std::string& title
   if (labelled > 0) {
     const int box_left = width - right - 178;
     cv::rectangle(image, cv::Point(box_left, top + 3),
-                  cv::Point(width - right - 3, top + 8 + 20 * labelled),
-                  cv::Scalar(255, 255, 255), cv::FILLED);
+                  cv::Point(width - right - 3, top + 8 + 20 * labelled), cv::Scalar(255, 255, 255),
+                  cv::FILLED);
     cv::rectangle(image, cv::Point(box_left, top + 3),
                   cv::Point(width - right - 3, top + 8 + 20 * labelled), grey, 1);
   }
@@ -114,13 +115,15 @@ cv::Mat linePlot(const std::vector<PlotSeries>& series, const std::string& title
 }
 
 void writePng(const std::string& path, const cv::Mat& image) {
+  AtomicOutputFile file(path);  // keeps the extension, which imwrite goes by
   bool ok = false;
   try {
-    ok = cv::imwrite(path, image);
+    ok = cv::imwrite(file.tempPath(), image);
   } catch (const cv::Exception&) {
     ok = false;
   }
   if (!ok) throw InputError("cannot write the image '" + path + "'");
+  file.commit();
 }
 
 cv::Mat stackVertically(const std::vector<cv::Mat>& images) {

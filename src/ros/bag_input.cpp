@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <map>
 #include <regex>
@@ -29,6 +30,9 @@ const char* const kImageType = "sensor_msgs/Image";
 const char* const kCameraInfoType = "sensor_msgs/CameraInfo";
 const char* const kTfType = "tf2_msgs/TFMessage";
 const char* const kTfStaticTopic = "/tf_static";
+// Two cameras' stamps closer than this, but not equal, are a stamp mismatch (frames at 1 kHz are
+// still 1 ms apart).
+constexpr std::int64_t kNearStampNs = 1000000;
 
 std::string imageTopic(int id) { return "/cam" + std::to_string(id) + "/image_raw"; }
 std::string cameraInfoTopic(int id) { return "/cam" + std::to_string(id) + "/camera_info"; }
@@ -105,13 +109,48 @@ struct BagReader::Impl {
   void checkFirstImages();
   cv::Mat decode(const sensor_msgs::Image& image, int camera, const std::string& topic) const;
   bool frontIsFinal() const;
+  void noteNearStamps(const std::string& topic, int camera, std::int64_t stamp);
   bool step(FrameSet* set);
 };
+
+// A bag (format 2.0) starts with "#ROSBAG V2.0\n" and a header record whose field index_pos is
+// where the index (written last, on close) begins. Returns "" for a bag that looks complete, else
+// why it is not: truncated (the index lies beyond the end of the file) or never closed.
+std::string describeIncompleteBag(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  std::string head(4096, '\0');
+  file.read(&head[0], static_cast<std::streamsize>(head.size()));
+  head.resize(static_cast<std::size_t>(file.gcount()));
+  if (head.rfind("#ROSBAG V2.0\n", 0) != 0) return "";
+  const std::string field = "index_pos=";
+  const std::size_t at = head.find(field);
+  if (at == std::string::npos || at + field.size() + 8 > head.size()) {
+    return "the bag is truncated (its header is incomplete)";
+  }
+  std::uint64_t index_pos = 0;
+  for (int byte = 7; byte >= 0; --byte) {
+    index_pos = (index_pos << 8) | static_cast<unsigned char>(head[at + field.size() + byte]);
+  }
+  std::error_code error;
+  const std::uintmax_t size = std::filesystem::file_size(path, error);
+  if (error) return "";
+  if (index_pos == 0) {
+    return "the bag was not closed (no index): was the recording interrupted? 'rosbag reindex' "
+           "may repair it";
+  }
+  if (index_pos >= size) {
+    return "the bag is truncated: it has " + std::to_string(size) +
+           " bytes, its index starts at byte " + std::to_string(index_pos);
+  }
+  return "";
+}
 
 void BagReader::Impl::open() {
   std::error_code error;
   if (!std::filesystem::exists(path, error)) fail("bag file does not exist");
   if (std::filesystem::is_directory(path, error)) fail("is a directory, not a bag file");
+  const std::string incomplete = describeIncompleteBag(path);
+  if (!incomplete.empty()) fail(incomplete);
   try {
     bag.open(path, rosbag::bagmode::Read);
   } catch (const rosbag::BagException& exception) {
@@ -191,12 +230,23 @@ void BagReader::Impl::readCameraInfo() {
     }
   }
   std::vector<bool> have(ids.size(), false);
-  std::size_t missing = ids.size();
+  [[maybe_unused]] std::size_t missing = ids.size();
   for (const rosbag::MessageInstance& message : infos) {
     const int camera = info_to_camera.at(message.getTopic());
-    if (have[camera]) continue;
     const sensor_msgs::CameraInfo::ConstPtr info = message.instantiate<sensor_msgs::CameraInfo>();
     if (!info) fail(message.getTopic() + " does not hold sensor_msgs/CameraInfo");
+    if (have[camera]) {
+      // One calibration per camera: a driver that changes resolution mid-bag is refused.
+      const Camera& first = cameras[camera];
+      if (static_cast<int>(info->width) != first.width ||
+          static_cast<int>(info->height) != first.height) {
+        fail(message.getTopic() + " at " + formatStamp(info->header.stamp.toNSec()) +
+             ": the image size changes mid-bag from " + std::to_string(first.width) + "x" +
+             std::to_string(first.height) + " to " + std::to_string(info->width) + "x" +
+             std::to_string(info->height) + " (one calibration per camera is supported)");
+      }
+      continue;
+    }
     try {
       cameras[camera] = fromCameraInfo(*info, cameraName(ids[camera]));
     } catch (const InputError& error) {
@@ -205,7 +255,7 @@ void BagReader::Impl::readCameraInfo() {
     const std::string frame = stripSlash(info->header.frame_id);
     optical_frames[camera] = frame.empty() ? opticalFrame(cameraName(ids[camera])) : frame;
     have[camera] = true;
-    if (--missing == 0) break;
+    --missing;
   }
   for (std::size_t i = 0; i < ids.size(); ++i) {
     if (!have[i]) {
@@ -308,6 +358,27 @@ void BagReader::Impl::checkFirstImages() {
   }
 }
 
+void BagReader::Impl::noteNearStamps(const std::string& topic, int camera, std::int64_t stamp) {
+  // Sets are made of identical stamps: another camera's stamp a few microseconds away means the
+  // cameras are not stamped together, and every set would be missing cameras.
+  const auto near = [&](std::int64_t other) {
+    return other != stamp && std::llabs(other - stamp) < kNearStampNs;
+  };
+  auto neighbour = pending.lower_bound(stamp - kNearStampNs + 1);
+  for (; neighbour != pending.end() && neighbour->first < stamp + kNearStampNs; ++neighbour) {
+    if (!near(neighbour->first)) continue;
+    for (const CameraImage& image : neighbour->second.images) {
+      if (image.camera == camera) continue;
+      if (stats.near_stamp_mismatches++ == 0) {
+        stats.first_near_stamp_mismatch = topic + " at " + formatStamp(stamp) + " vs " +
+                                          cameraName(ids[image.camera]) + " at " +
+                                          formatStamp(neighbour->first);
+      }
+      return;
+    }
+  }
+}
+
 bool BagReader::Impl::frontIsFinal() const {
   const auto& [stamp, set] = *pending.begin();
   if (set.images.size() == ids.size()) return true;
@@ -352,6 +423,11 @@ bool BagReader::Impl::step(FrameSet* set) {
     if (stamp == 0) {
       fail(topic + ": image with a zero header stamp (sets are made by header stamps)");
     }
+    if (stamp < last_stamp[camera] && stats.backward_stamps++ == 0) {
+      stats.first_backward_stamp =
+          topic + " at " + formatStamp(stamp) + " after " + formatStamp(last_stamp[camera]);
+    }
+    noteNearStamps(topic, camera, stamp);
     if (yielded_any && stamp <= last_yielded) {
       ++stats.dropped_images;  // too late: its set is gone
       continue;

@@ -13,6 +13,7 @@
 #include <set>
 #include <sstream>
 
+#include "sag_hand_tracker/atomic_output.h"
 #include "sag_hand_tracker/csv.h"
 #include "sag_hand_tracker/metrics.h"
 #include "sag_hand_tracker/plot.h"
@@ -22,6 +23,18 @@
 
 namespace sag_hand_tracker {
 namespace {
+
+// A whole text output, written next to `path` and renamed there (atomic_output.h).
+void writeOutputFile(const std::string& path, const std::string& text) {
+  AtomicOutputFile file(path);
+  {
+    std::ofstream out(file.tempPath(), std::ios::binary | std::ios::trunc);
+    out << text;
+    out.close();
+    if (!out) throw InputError("cannot write '" + path + "'");
+  }
+  file.commit();
+}
 
 namespace fs = std::filesystem;
 
@@ -104,7 +117,7 @@ SequenceBag prepareBag(const BenchmarkOptions& options, const std::string& seque
   }
   fs::remove(stamp_path);
   const RenderBagSummary summary = renderStudioBag(render, nullptr);
-  std::ofstream(stamp_path) << stamp;
+  writeOutputFile(stamp_path, stamp);
   log << "benchmark: rendered " << summary.sequence << ": " << summary.frames << " frames x "
       << summary.cameras << " cameras in " << fixed(summary.total_seconds, 1) << " s -> " << bag.bag
       << "\n"
@@ -131,7 +144,8 @@ BenchmarkRun trackRun(const BenchmarkOptions& options, const SequenceBag& bag,
   run.sequence = bag.name;
   run.tracker = trackerLabel(model);
   run.cameras = cameras;
-  run.errors = matchToGroundTruth(bag.gt_csv, out_csv);
+  // No CSV when nothing was tracked (and an old one at out_csv is not this run's).
+  run.errors = matchToGroundTruth(bag.gt_csv, summary.csv_written ? out_csv : "");
   run.stats = errorStats(run.errors.errors_mm);
   run.fps = summary.pipelineFps();
   run.pipeline_frames = summary.frames - summary.background_frames;
@@ -353,8 +367,7 @@ std::string report(const BenchmarkOptions& options, const BenchmarkResults& resu
 }
 
 void writeResultsCsv(const std::string& path, const BenchmarkResults& results) {
-  std::ofstream out(path);
-  if (!out) throw InputError("cannot write '" + path + "'");
+  std::ostringstream out;
   out << "sequence,tracker,frames,mean_mm,sd_mm,pct15,pct20,pct25,pct30,pct45,fps,failed\n";
   for (const BenchmarkRun& run : results.runs) {
     out << run.sequence << "," << run.tracker << "," << run.stats.frames << ","
@@ -362,14 +375,13 @@ void writeResultsCsv(const std::string& path, const BenchmarkResults& results) {
     for (double p : run.stats.percent_below) out << "," << fixed(p, 2);
     out << "," << fixed(run.fps, 1) << "," << run.stats.failed << "\n";
   }
-  if (!out) throw InputError("cannot write '" + path + "'");
+  writeOutputFile(path, out.str());
 }
 
 void writeCameraCsvs(const std::string& dir, const BenchmarkResults& results,
                      const std::map<int, int>& combinations_per_count) {
   const std::string counts_path = dir + "/camera_counts.csv";
-  std::ofstream counts(counts_path);
-  if (!counts) throw InputError("cannot write '" + counts_path + "'");
+  std::ostringstream counts;
   counts << "tracker,cameras,combinations,runs,frames,failed,mean_mm,sd_mm\n";
   for (const std::string& t : results.trackers) {
     for (const auto& [count, combos] : combinations_per_count) {
@@ -382,8 +394,8 @@ void writeCameraCsvs(const std::string& dir, const BenchmarkResults& results,
     }
   }
   const std::string runs_path = dir + "/camera_combinations.csv";
-  std::ofstream runs(runs_path);
-  if (!runs) throw InputError("cannot write '" + runs_path + "'");
+  writeOutputFile(counts_path, counts.str());
+  std::ostringstream runs;
   runs << "sequence,tracker,cameras,frames,failed,mean_mm,sd_mm,fps\n";
   for (const BenchmarkRun& r : results.camera_runs) {
     std::string cams = cameraList(r.cameras);
@@ -392,6 +404,7 @@ void writeCameraCsvs(const std::string& dir, const BenchmarkResults& results,
          << r.stats.failed << "," << fixed(r.stats.mean_mm, 3) << "," << fixed(r.stats.sd_mm, 3)
          << "," << fixed(r.fps, 1) << "\n";
   }
+  writeOutputFile(runs_path, runs.str());
 }
 
 cv::Scalar trackerColour(const std::string& tracker, size_t index) {
@@ -543,7 +556,7 @@ BenchmarkOptions parseBenchmarkArguments(const std::vector<std::string>& args) {
 
 RunErrors matchToGroundTruth(const std::string& ground_truth_csv, const std::string& tracked_csv) {
   const TrackingCsv truth = readTrackingCsv(ground_truth_csv);
-  TrackingCsv tracked = readTrackingCsv(tracked_csv);
+  TrackingCsv tracked = tracked_csv.empty() ? TrackingCsv() : readTrackingCsv(tracked_csv);
   std::sort(tracked.rows.begin(), tracked.rows.end(),
             [](const TrackingCsvRow& a, const TrackingCsvRow& b) { return a.stamp < b.stamp; });
   RunErrors errors;
@@ -638,12 +651,7 @@ BenchmarkResults runBenchmark(const BenchmarkOptions& options, std::ostream& log
   }
 
   results.markdown = report(options, results, combinations_per_count);
-  {
-    const std::string md_path = (dir / "results.md").string();
-    std::ofstream md(md_path);
-    md << results.markdown;
-    if (!md) throw InputError("cannot write '" + md_path + "'");
-  }
+  { writeOutputFile((dir / "results.md").string(), results.markdown); }
   writeResultsCsv(options.csv.empty() ? (dir / "results.csv").string() : options.csv, results);
   if (options.camera_counts) writeCameraCsvs(dir.string(), results, combinations_per_count);
   if (options.plots) writePlots(dir.string(), results, combinations_per_count);

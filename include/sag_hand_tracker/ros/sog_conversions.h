@@ -9,14 +9,25 @@
 
 #include "sag_hand_tracker/SumOfGaussians.h"
 #include "sag_hand_tracker/camera.h"
+#include "sag_hand_tracker/input_limits.h"
 #include "sag_hand_tracker/types.h"
 
 namespace sag_hand_tracker {
 namespace ros_util {
 
 // Core image SoG from the message (raw pixels). Throws InputError naming the first non-finite or
-// negative value.
+// negative value, or a size or Gaussian count over the limits (input_limits.h).
 inline ImageSoG sogFromMsg(const sag_hand_tracker::SumOfGaussians& msg) {
+  if (msg.width > static_cast<uint32_t>(kMaxImageSide) ||
+      msg.height > static_cast<uint32_t>(kMaxImageSide)) {
+    throw InputError("image SoG size " + std::to_string(msg.width) + "x" +
+                     std::to_string(msg.height) + " exceeds the limit of " +
+                     std::to_string(kMaxImageSide) + " pixels a side");
+  }
+  if (msg.gaussians.size() > static_cast<size_t>(kMaxImageGaussians)) {
+    throw InputError("image SoG has " + std::to_string(msg.gaussians.size()) +
+                     " Gaussians, more than the limit of " + std::to_string(kMaxImageGaussians));
+  }
   ImageSoG sog;
   sog.width = static_cast<int>(msg.width);
   sog.height = static_cast<int>(msg.height);
@@ -25,8 +36,7 @@ inline ImageSoG sogFromMsg(const sag_hand_tracker::SumOfGaussians& msg) {
     const auto& g = msg.gaussians[i];
     if (!std::isfinite(g.x) || !std::isfinite(g.y) || !std::isfinite(g.sigma) || !(g.sigma > 0) ||
         !std::isfinite(g.h) || !std::isfinite(g.s) || !std::isfinite(g.v)) {
-      throw InputError("image Gaussian " + std::to_string(i) +
-                       " is not finite or has sigma <= 0");
+      throw InputError("image Gaussian " + std::to_string(i) + " is not finite or has sigma <= 0");
     }
     sog.gaussians.push_back({Eigen::Vector2d(g.x, g.y), g.sigma, Hsv(g.h, g.s, g.v)});
   }
