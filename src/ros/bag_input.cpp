@@ -138,7 +138,7 @@ std::string describeIncompleteBag(const std::string& path) {
     return "the bag was not closed (no index): was the recording interrupted? 'rosbag reindex' "
            "may repair it";
   }
-  if (index_pos >= size) {
+  if (index_pos > size) {
     return "the bag is truncated: it has " + std::to_string(size) +
            " bytes, its index starts at byte " + std::to_string(index_pos);
   }

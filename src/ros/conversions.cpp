@@ -102,9 +102,9 @@ Camera fromCameraInfo(const sensor_msgs::CameraInfo& info, const std::string& ca
                      describe(kMaxFocalLengthPixels) + " pixels (fx " + describe(info.K[0]) +
                      ", fy " + describe(info.K[4]) + ")");
   }
-  // image_geometry divides by zero (SIGFPE) on plumb_bob with an empty D, and OpenCV asserts on
-  // counts it does not know: an empty D is no distortion, 4 or 5 (8 rational) are padded with
-  // zeros, anything else is refused here with the camera's name.
+  // image_geometry divides by zero (SIGFPE) on an empty D (with or without a model), and OpenCV
+  // asserts on counts it does not know: an empty D is no distortion, 4 or 5 (8 rational) are
+  // padded with zeros, anything else is refused here with the camera's name.
   const bool rational = model == sensor_msgs::distortion_models::RATIONAL_POLYNOMIAL;
   const std::size_t count = info.D.size();
   if (!(count == 0 || count == 4 || count == 5 || (rational && count == 8))) {
@@ -113,12 +113,10 @@ Camera fromCameraInfo(const sensor_msgs::CameraInfo& info, const std::string& ca
                      " (expected 0, 4 or 5" + (rational ? ", or 8" : "") + ")");
   }
   sensor_msgs::CameraInfo padded = info;
-  if (!padded.D.empty() || !model.empty()) {
-    if (padded.distortion_model.empty()) {
-      padded.distortion_model = sensor_msgs::distortion_models::PLUMB_BOB;
-    }
-    padded.D.resize(rational ? 8 : 5, 0.0);
+  if (padded.distortion_model.empty()) {
+    padded.distortion_model = sensor_msgs::distortion_models::PLUMB_BOB;
   }
+  padded.D.resize(rational ? 8 : 5, 0.0);
 
   image_geometry::PinholeCameraModel pinhole;
   try {

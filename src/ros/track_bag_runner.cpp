@@ -139,8 +139,8 @@ std::string formatSummary(const TrackBagSummary& summary) {
 
   out << "track_bag: " << summary.bag << (summary.interrupted ? " (interrupted)" : "") << "\n";
   out << "  frames:    " << summary.frames << " (" << summary.background_frames << " background, "
-      << summary.tracked_frames << " tracked, " << summary.waiting_frames
-      << " without a hand pose)";
+      << summary.tracked_frames << " tracked, " << summary.lost_frames << " lost, "
+      << summary.waiting_frames << " without a hand pose)";
   if (summary.incomplete_sets > 0) {
     out << ", " << summary.incomplete_sets << " with a camera missing";
   }
@@ -260,6 +260,7 @@ TrackBagSummary runTrackBag(BagReader& reader, const TrackFrameFunction& track,
                      (summary.interrupted ? " (interrupted)" : ""));
   }
   csv.close();
+  summary.csv_written = true;
   return summary;
 }
 
@@ -310,10 +311,8 @@ TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
       reader, [&pipeline](const FrameSet& set) { return pipeline.process(set); }, csv, progress,
       stop);
   summary.csv = options.out;
-  if (summary.tracked_frames > 0 || (summary.interrupted && csv.rows() > 0)) {
-    out.commit();
-    summary.csv_written = true;
-  }
+  summary.csv_written = summary.tracked_frames > 0 || (summary.interrupted && csv.rows() > 0);
+  if (summary.csv_written) out.commit();
   return summary;
 }
 

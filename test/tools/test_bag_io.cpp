@@ -538,8 +538,11 @@ TEST_F(BagFiles, BagReportsStampsThatNearlyMatchAndStampsGoingBackwards) {
       writer.writeCameraImage(cameras_[id], makeImage(id, frame), stamp);
     }
   }
-  // cam0 then goes back in time.
-  writer.writeCameraImage(cameras_[0], makeImage(0, 9), frameTime(1));
+  // cam0 then goes back in time: recorded last, its header stamp is frame 1's.
+  std_msgs::Header header;
+  header.stamp = frameTime(1);
+  header.frame_id = opticalFrame(cameras_[0].name);
+  writer.write(imageTopicOf(cameras_[0]), frameTime(3), toImageMsg(makeImage(0, 9), header));
   writer.close();
   BagReader reader(path("stamps.bag"));
   FrameSet set;

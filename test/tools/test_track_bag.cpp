@@ -47,9 +47,9 @@ class TrackBagTool : public sag_test::TempDirTest {
            std::to_string(kBackgroundFrames);
   }
 
-  // The desk for kBackgroundFrames, then the hand for kHandFrames, on the rendered rig; camera 1
-  // stamped `camera1_offset` seconds after the others.
-  std::string writeSceneBag(const std::string& name, double camera1_offset = 0.0) const {
+  // The desk for kBackgroundFrames, then the hand for kHandFrames, on the rendered rig; camera i
+  // stamped i * `camera_skew` seconds after camera 0.
+  std::string writeSceneBag(const std::string& name, double camera_skew = 0.0) const {
     const HandModel model = loadHandModel(sag_test::modelPath("sag"));
     const std::vector<Camera> cameras = sag_test::renderedRig();
     BagWriter writer(path(name));
@@ -60,8 +60,7 @@ class TrackBagTool : public sag_test::TempDirTest {
                                 ? sag_test::desk(cameras[i])
                                 : sag_test::renderHand(
                                       model, truthAt(model, frame - kBackgroundFrames), cameras[i]);
-        writer.writeCameraImage(cameras[i], rgb,
-                                frameTime(frame) + ros::Duration(i == 1 ? camera1_offset : 0.0),
+        writer.writeCameraImage(cameras[i], rgb, frameTime(frame) + ros::Duration(camera_skew * i),
                                 i % 2 ? "bgr8" : "rgb8");
       }
     }
@@ -87,7 +86,7 @@ TEST_F(TrackBagTool, TrackBagTracksASyntheticBagFromItsFirstFrame) {
                                "' " + modelArgument());
   ASSERT_EQ(run.status, 0) << run.err << run.out;
   EXPECT_NE(run.err.find("100% 11 frames"), std::string::npos) << run.err;  // progress bar
-  EXPECT_NE(run.out.find("frames:    11 (3 background, 8 tracked, 0 without a hand pose)"),
+  EXPECT_NE(run.out.find("frames:    11 (3 background, 8 tracked, 0 lost, 0 without a hand pose)"),
             std::string::npos)
       << run.out;
   EXPECT_NE(run.out.find("cameras:   4 (cam0 cam1 cam2 cam3)"), std::string::npos) << run.out;

@@ -176,13 +176,18 @@ cameras:
 
 TEST(InputValidation, MotionTinyIntervalIsRefusedWithoutSampling) {
   const HandModel model = loadHandModel(sag_test::modelPath("sag"));
-  const std::string message = sag_test::inputErrorOf([&] {
-    studio::parseMotion(
-        "keyframes:\n  - {time: 0, position: [0, 0, 0.15]}\nduration: 10\n"
-        "random: {keyframes: {from: 0, to: 10, interval: 1e-9}}\n",
-        "m.yaml", model, 1);
-  });
+  const auto motionError = [&](const std::string& random) {
+    return sag_test::inputErrorOf([&] {
+      studio::parseMotion(
+          "keyframes:\n  - {time: 0, position: [0, 0, 0.15]}\nduration: 3600\n" + random, "m.yaml",
+          model, 1);
+    });
+  };
+  std::string message = motionError("random: {keyframes: {from: 0, to: 10, interval: 1e-9}}\n");
   EXPECT_TRUE(contains(message, "motion m.yaml:4: key 'random.keyframes.interval'")) << message;
+  EXPECT_TRUE(contains(message, "must be at least 1 ms")) << message;
+  // 3.6 million keyframes are counted, not drawn.
+  message = motionError("random: {keyframes: {from: 0, to: 3600, interval: 0.001}}\n");
   EXPECT_TRUE(contains(message, "more than the limit of 10000")) << message;
 }
 
