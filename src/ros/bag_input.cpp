@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -113,6 +114,84 @@ struct BagReader::Impl {
   bool step(FrameSet* set);
 };
 
+// rosbag allocates whatever a record's length fields say before it checks them against the file
+// (a flipped bit: gigabytes, or std::bad_alloc). So the record structure is walked first: every
+// record <header_len><header><data_len><data> must fit in the file (in its chunk for the records
+// of an uncompressed chunk), and a chunk's uncompressed size must be plausible. Returns "" or
+// what is wrong.
+class BagRecordWalker {
+ public:
+  BagRecordWalker(const std::string& path) : file_(path, std::ios::binary) {}
+
+  std::string walk(std::uint64_t begin, std::uint64_t end, bool inside_chunk) {
+    std::uint64_t pos = begin;
+    while (pos < end) {
+      std::uint32_t header_len = 0, data_len = 0;
+      if (end - pos < 4 || !readU32(pos, &header_len)) return corrupt(pos, "a cut record");
+      if (header_len > end - pos - 4) return corrupt(pos, "a record header longer than the file");
+      std::string header(header_len, '\0');
+      if (!read(pos + 4, &header[0], header_len)) return corrupt(pos, "an unreadable header");
+      const std::uint64_t data_at = pos + 4 + header_len;
+      if (end - data_at < 4 || !readU32(data_at, &data_len)) return corrupt(pos, "a cut record");
+      if (data_len > end - data_at - 4) return corrupt(pos, "record data longer than the file");
+      std::string op, compression;
+      std::uint32_t chunk_size = 0;
+      for (std::size_t at = 0; at < header.size();) {
+        if (header.size() - at < 4) return corrupt(pos, "a cut header field");
+        std::uint32_t field_len = 0;
+        std::memcpy(&field_len, &header[at], 4);
+        at += 4;
+        if (field_len > header.size() - at) return corrupt(pos, "a header field too long");
+        const std::string field = header.substr(at, field_len);
+        at += field_len;
+        const std::size_t equals = field.find('=');
+        if (equals == std::string::npos) return corrupt(pos, "a header field without '='");
+        const std::string name = field.substr(0, equals), value = field.substr(equals + 1);
+        if (name == "op") op = value;
+        if (name == "compression") compression = value;
+        if (name == "size" && value.size() == 4) std::memcpy(&chunk_size, value.data(), 4);
+      }
+      if (op.size() != 1) return corrupt(pos, "a record without its op field");
+      if (op[0] == 0x05) {  // chunk
+        if (inside_chunk) return corrupt(pos, "a chunk inside a chunk");
+        if (chunk_size > kMaxChunkBytes) return corrupt(pos, "a chunk larger than 1 GiB");
+        if (compression == "none") {
+          if (chunk_size != data_len) return corrupt(pos, "a chunk whose size disagrees");
+          const std::string inner = walk(data_at + 4, data_at + 4 + data_len, true);
+          if (!inner.empty()) return inner;
+        }
+      }
+      pos = data_at + 4 + data_len;
+    }
+    return "";
+  }
+
+ private:
+  static constexpr std::uint32_t kMaxChunkBytes = 1u << 30;
+
+  bool read(std::uint64_t pos, char* out, std::size_t n) {
+    file_.clear();
+    file_.seekg(static_cast<std::streamoff>(pos));
+    file_.read(out, static_cast<std::streamsize>(n));
+    return static_cast<std::size_t>(file_.gcount()) == n;
+  }
+  bool readU32(std::uint64_t pos, std::uint32_t* value) {
+    char bytes[4];
+    if (!read(pos, bytes, 4)) return false;
+    std::memcpy(value, bytes, 4);  // little-endian, as the format and this machine
+    return true;
+  }
+  static std::string corrupt(std::uint64_t pos, const std::string& what) {
+    return "the bag is corrupt: " + what + " at byte " + std::to_string(pos);
+  }
+
+  std::ifstream file_;
+};
+
+std::string describeCorruptRecords(const std::string& path, std::uint64_t size) {
+  return BagRecordWalker(path).walk(13, size, false);  // after "#ROSBAG V2.0\n"
+}
+
 // A bag (format 2.0) starts with "#ROSBAG V2.0\n" and a header record whose field index_pos is
 // where the index (written last, on close) begins. Returns "" for a bag that looks complete, else
 // why it is not: truncated (the index lies beyond the end of the file) or never closed.
@@ -142,7 +221,7 @@ std::string describeIncompleteBag(const std::string& path) {
     return "the bag is truncated: it has " + std::to_string(size) +
            " bytes, its index starts at byte " + std::to_string(index_pos);
   }
-  return "";
+  return describeCorruptRecords(path, size);
 }
 
 void BagReader::Impl::open() {

@@ -493,6 +493,19 @@ TEST_F(BagFiles, BagErrorTruncatedBagSaysSo) {
   EXPECT_EQ(message.rfind(bag + ": the bag is truncated: it has ", 0), 0u) << message;
 }
 
+TEST_F(BagFiles, BagErrorCorruptRecordLengthIsCaughtBeforeRosbagAllocatesIt) {
+  // Found by fuzz_bag: rosbag allocated the 2 GB a corrupt header length asked for.
+  const std::string bag = writeGoodBag("corrupt.bag");
+  {
+    std::fstream file(bag, std::ios::binary | std::ios::in | std::ios::out);
+    file.seekp(4117);  // the first record: after the magic line (13) and the bag header (4104)
+    const std::uint32_t huge = 0x7ffffff0u;
+    file.write(reinterpret_cast<const char*>(&huge), 4);
+  }
+  EXPECT_EQ(readError(bag),
+            bag + ": the bag is corrupt: a record header longer than the file at byte 4117");
+}
+
 TEST_F(BagFiles, BagEmptyPlumbBobDistortionIsNoDistortion) {
   // What a driver without a calibration file publishes; image_geometry divided by zero on it.
   const std::string bag =
