@@ -36,7 +36,13 @@ void validateCamera(const Camera& camera);
 // takes (0, 4, 5, 8, 12, 14).
 void checkDistortionCount(std::size_t count, const std::string& who);
 
-// Moves every image Gaussian of `sog` to ideal pinhole coordinates (no-op without distortion).
+// Throws InputError "<who>: the distortion coefficients cannot be inverted ..." when undistorting
+// a grid over the image gives non-finite pixels. Checked where cameras enter (calibration files,
+// camera_info), not per frame.
+void checkDistortionInvertible(const Camera& camera, const std::string& who);
+
+// Moves every image Gaussian of `sog` to ideal pinhole coordinates (no-op without distortion);
+// one the distortion cannot place (non-finite) is dropped.
 void undistortImageSoG(const Camera& camera, ImageSoG* sog);
 
 }  // namespace sag_hand_tracker

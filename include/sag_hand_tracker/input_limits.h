@@ -23,6 +23,8 @@ constexpr std::int64_t kMaxImagePixels = 4096LL * 4096LL;
 constexpr int kMaxImageGaussians = 1 << 20;
 // Focal lengths in pixels (fx, fy): anything larger is not a camera lens.
 constexpr double kMaxFocalLengthPixels = 1e6;
+// ... and anything below a pixel is not one either (4.6e-305 gave NaN undistortion: a fuzz find).
+constexpr double kMinFocalLengthPixels = 1.0;
 // Cameras of a rig or a bag.
 constexpr int kMaxCameras = 64;
 // Two camera centres closer than this are one point (a rig with all cameras at the origin).

@@ -119,10 +119,11 @@ Camera readCameraCalibration(const YamlDocument& document) {
     matrix.fail("has a zero or negative focal length (fx " + formatNumber(camera.K(0, 0)) +
                 ", fy " + formatNumber(camera.K(1, 1)) + ")");
   }
-  if (camera.K(0, 0) > kMaxFocalLengthPixels || camera.K(1, 1) > kMaxFocalLengthPixels) {
-    matrix.fail("has a focal length above the limit of " + formatNumber(kMaxFocalLengthPixels) +
-                " pixels (fx " + formatNumber(camera.K(0, 0)) + ", fy " +
-                formatNumber(camera.K(1, 1)) + ")");
+  if (camera.K(0, 0) > kMaxFocalLengthPixels || camera.K(1, 1) > kMaxFocalLengthPixels ||
+      camera.K(0, 0) < kMinFocalLengthPixels || camera.K(1, 1) < kMinFocalLengthPixels) {
+    matrix.fail("has a focal length outside [" + formatNumber(kMinFocalLengthPixels) + ", " +
+                formatNumber(kMaxFocalLengthPixels) + "] pixels (fx " +
+                formatNumber(camera.K(0, 0)) + ", fy " + formatNumber(camera.K(1, 1)) + ")");
   }
   if (camera.K(1, 0) != 0.0 || camera.K(2, 0) != 0.0 || camera.K(2, 1) != 0.0 ||
       std::abs(camera.K(2, 2) - 1.0) > 1e-9) {
@@ -151,6 +152,11 @@ Camera readCameraCalibration(const YamlDocument& document) {
   }
   try {
     checkDistortionCount(count, "distortion_coefficients");
+  } catch (const InputError& error) {
+    root.get("distortion_coefficients").fail(error.what());
+  }
+  try {
+    checkDistortionInvertible(camera, "the camera");
   } catch (const InputError& error) {
     root.get("distortion_coefficients").fail(error.what());
   }

@@ -55,10 +55,11 @@ void validateCamera(const Camera& camera) {
       camera.K(2, 2) != 1.0) {
     throw InputError(which + ": K must be upper triangular with K(2,2) = 1");
   }
-  if (camera.K(0, 0) > kMaxFocalLengthPixels || camera.K(1, 1) > kMaxFocalLengthPixels) {
-    throw InputError(which + ": focal length above the limit of " +
-                     std::to_string(kMaxFocalLengthPixels) +
-                     " pixels (fx=" + std::to_string(camera.K(0, 0)) +
+  if (camera.K(0, 0) > kMaxFocalLengthPixels || camera.K(1, 1) > kMaxFocalLengthPixels ||
+      camera.K(0, 0) < kMinFocalLengthPixels || camera.K(1, 1) < kMinFocalLengthPixels) {
+    throw InputError(which + ": focal length outside [" + std::to_string(kMinFocalLengthPixels) +
+                     ", " + std::to_string(kMaxFocalLengthPixels) +
+                     "] pixels (fx=" + std::to_string(camera.K(0, 0)) +
                      ", fy=" + std::to_string(camera.K(1, 1)) + ")");
   }
   checkImageSize(camera.width, camera.height, which);
@@ -73,6 +74,25 @@ void validateCamera(const Camera& camera) {
   }
 }
 
+void checkDistortionInvertible(const Camera& camera, const std::string& who) {
+  if (!camera.hasDistortion()) return;
+  // OpenCV inverts the distortion iteratively; wild coefficients give NaN (found by fuzzing
+  // camera_info). A 5 x 5 grid over the image, corners included, must stay finite.
+  std::vector<cv::Point2d> in, out;
+  for (int i = 0; i < 5; ++i) {
+    for (int j = 0; j < 5; ++j) in.emplace_back(0.25 * i * camera.width, 0.25 * j * camera.height);
+  }
+  cv::Mat K_cv;
+  cv::eigen2cv(camera.K, K_cv);
+  cv::undistortPoints(in, out, K_cv, camera.distortion, cv::noArray(), K_cv);
+  for (const cv::Point2d& point : out) {
+    if (!std::isfinite(point.x) || !std::isfinite(point.y)) {
+      throw InputError(who + ": the distortion coefficients cannot be inverted over the image " +
+                       "(undistorted pixels are not finite)");
+    }
+  }
+}
+
 void undistortImageSoG(const Camera& camera, ImageSoG* sog) {
   if (!camera.hasDistortion() || sog->gaussians.empty()) return;
   cv::Mat K_cv;
@@ -81,8 +101,15 @@ void undistortImageSoG(const Camera& camera, ImageSoG* sog) {
   in.reserve(sog->gaussians.size());
   for (const ImageGaussian& g : sog->gaussians) in.emplace_back(g.mean.x(), g.mean.y());
   cv::undistortPoints(in, out, K_cv, camera.distortion, cv::noArray(), K_cv);
-  for (size_t i = 0; i < out.size(); ++i)
-    sog->gaussians[i].mean = Eigen::Vector2d(out[i].x, out[i].y);
+  // A Gaussian the distortion cannot place is dropped rather than passed on as NaN.
+  std::vector<ImageGaussian> placed;
+  placed.reserve(out.size());
+  for (size_t i = 0; i < out.size(); ++i) {
+    if (!std::isfinite(out[i].x) || !std::isfinite(out[i].y)) continue;
+    placed.push_back(sog->gaussians[i]);
+    placed.back().mean = Eigen::Vector2d(out[i].x, out[i].y);
+  }
+  sog->gaussians = std::move(placed);
 }
 
 }  // namespace sag_hand_tracker

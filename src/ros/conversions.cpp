@@ -97,9 +97,10 @@ Camera fromCameraInfo(const sensor_msgs::CameraInfo& info, const std::string& ca
                      ", fy " + describe(info.K[4]) + "): is the camera calibrated?");
   }
 
-  if (info.K[0] > kMaxFocalLengthPixels || info.K[4] > kMaxFocalLengthPixels) {
-    throw InputError(who + "has a focal length above the limit of " +
-                     describe(kMaxFocalLengthPixels) + " pixels (fx " + describe(info.K[0]) +
+  if (info.K[0] > kMaxFocalLengthPixels || info.K[4] > kMaxFocalLengthPixels ||
+      info.K[0] < kMinFocalLengthPixels || info.K[4] < kMinFocalLengthPixels) {
+    throw InputError(who + "has a focal length outside [" + describe(kMinFocalLengthPixels) + ", " +
+                     describe(kMaxFocalLengthPixels) + "] pixels (fx " + describe(info.K[0]) +
                      ", fy " + describe(info.K[4]) + ")");
   }
   // image_geometry divides by zero (SIGFPE) on an empty D (with or without a model), and OpenCV
@@ -134,6 +135,7 @@ Camera fromCameraInfo(const sensor_msgs::CameraInfo& info, const std::string& ca
   const cv::Mat_<double>& D = pinhole.distortionCoeffs();
   camera.distortion.assign(D.begin(), D.end());
   validateCamera(camera);
+  checkDistortionInvertible(camera, who.substr(0, who.size() - 1));
   return camera;
 }
 
