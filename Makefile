@@ -24,16 +24,27 @@ DEBS := ros-desktop-dev catkin rosbash libcv-bridge-dev libimage-geometry-dev \
   libopencv-dev libeigen3-dev libyaml-cpp-dev libgtest-dev libbenchmark-dev xvfb \
   cmake g++ make
 
-.PHONY: deps workspace build test demo clean
+# make fuzz only: clang 14 and its runtimes (libclang-rt-14-dev holds libFuzzer, ASan, UBSan).
+FUZZ_DEBS := clang-14 libclang-rt-14-dev
+FUZZ_SECONDS ?= 60
+FUZZ_BUILD := $(ROOT)/.fuzz_build
+FUZZ_TARGETS := model_yaml rig_yaml motion_yaml bag messages
 
-deps:
-	@missing=$$(for p in $(DEBS); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null \
+.PHONY: deps workspace build test demo clean fuzz
+
+# Installs the Debian packages of $(1) that are missing.
+define install_missing
+	@missing=$$(for p in $(1); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null \
 	  | grep -q 'install ok installed' || echo $$p; done); \
 	if [ -n "$$missing" ]; then \
 	  echo "Installing missing Debian packages: $$missing"; \
 	  $(SUDO) apt-get update -qq; \
 	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; \
 	else echo "All Debian packages present."; fi
+endef
+
+deps:
+	$(call install_missing,$(DEBS))
 
 workspace:
 	@mkdir -p $(WS)/src $(ROS_LOG_DIR)
@@ -53,8 +64,26 @@ test: build
 	    test_summary.txt | awk '{print $$1-$$2-$$3-$$4 " passed, " $$2+$$3 " failed, " $$4 " skipped"}' \
 	  && exit $$status
 
+# libFuzzer targets (test/fuzz/): built with clang 14 and ASan + UBSan in $(FUZZ_BUILD), each run
+# for FUZZ_SECONDS on its seeds (test/fuzz/corpus/<target>/); new inputs go to
+# $(FUZZ_BUILD)/corpus/<target>/, crashes to $(FUZZ_BUILD)/crashes/<target>/ (copy them into the
+# seed folder: make test replays every seed). Stops at the first target that finds something.
+fuzz: build
+	$(call install_missing,$(FUZZ_DEBS))
+	cmake -S $(ROOT)/test/fuzz -B $(FUZZ_BUILD) -DCMAKE_CXX_COMPILER=clang++-14 \
+	  $(if $(CCACHE),-DCMAKE_CXX_COMPILER_LAUNCHER=$(CCACHE)) -DSAG_DEVEL_INCLUDE=$(WS)/devel/include
+	cmake --build $(FUZZ_BUILD) -j$(JOBS)
+	@for t in $(FUZZ_TARGETS); do \
+	  mkdir -p $(FUZZ_BUILD)/corpus/$$t $(FUZZ_BUILD)/crashes/$$t; \
+	  echo "== fuzz_$$t for $(FUZZ_SECONDS) s"; \
+	  ASAN_OPTIONS=detect_leaks=0 $(FUZZ_BUILD)/fuzz_$$t -max_total_time=$(FUZZ_SECONDS) \
+	    -rss_limit_mb=2048 -timeout=10 -print_final_stats=1 \
+	    -artifact_prefix=$(FUZZ_BUILD)/crashes/$$t/ $(FUZZ_BUILD)/corpus/$$t \
+	    $(ROOT)/test/fuzz/corpus/$$t 2>&1 | grep -E '^(stat::|==|SUMMARY|INFO: (Running|Done)|fuzz finding)|Test unit written' || exit 1; \
+	done
+
 demo: build
 	source $(WS)/devel/setup.bash && $(ROOT)/scripts/demo
 
 clean:
-	rm -rf $(WS)
+	rm -rf $(WS) $(FUZZ_BUILD)

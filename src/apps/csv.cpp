@@ -44,8 +44,8 @@ std::vector<std::string> trackingCsvColumns(const std::vector<std::string>& para
 }
 
 TrackingCsvWriter::TrackingCsvWriter(const std::string& path,
-                                     std::vector<std::string> parameter_names)
-    : path_(path), parameter_names_(std::move(parameter_names)) {
+                                     std::vector<std::string> parameter_names, bool status_column)
+    : path_(path), parameter_names_(std::move(parameter_names)), status_column_(status_column) {
   for (const std::string& name : parameter_names_) {
     if (name.empty() || name.find_first_of(",\"\n\r") != std::string::npos) {
       throw std::invalid_argument("TrackingCsvWriter: bad parameter name '" + name + "'");
@@ -53,7 +53,8 @@ TrackingCsvWriter::TrackingCsvWriter(const std::string& path,
   }
   file_.open(path_, std::ios::out | std::ios::trunc);
   if (!file_) throw InputError(path_ + ": cannot create the CSV file");
-  const std::vector<std::string> columns = trackingCsvColumns(parameter_names_);
+  std::vector<std::string> columns = trackingCsvColumns(parameter_names_);
+  if (status_column_) columns.push_back("status");
   std::string header;
   for (std::size_t i = 0; i < columns.size(); ++i) {
     if (i > 0) header += ',';
@@ -92,6 +93,12 @@ void TrackingCsvWriter::write(const TrackingCsvRow& row) {
   }
   line += ',';
   appendNumber(&line, "%.9g", row.energy);
+  if (status_column_) {
+    if (row.status.empty() || row.status.find_first_of(",\"\n\r") != std::string::npos) {
+      throw std::invalid_argument("TrackingCsvWriter: bad status '" + row.status + "'");
+    }
+    line += ',' + row.status;
+  }
   line += '\n';
   file_ << line;
   if (!file_) throw InputError(path_ + ": cannot write the CSV file");
@@ -110,13 +117,15 @@ TrackingCsv readTrackingCsv(const std::string& path) {
   std::string line;
   if (!std::getline(file, line)) throw InputError(path + ": the CSV file is empty");
   if (!line.empty() && line.back() == '\r') line.pop_back();
-  const std::vector<std::string> header = splitFields(line);
+  std::vector<std::string> header = splitFields(line);
+  TrackingCsv csv;
+  csv.has_status = !header.empty() && header.back() == "status";
+  if (csv.has_status) header.pop_back();
   const int num_columns = static_cast<int>(header.size());
   if (num_columns < kFixedLeadingColumns + 1 || header.back() != "energy") {
     throw InputError(path +
                      ":1: not a tracking CSV header (stamp, fingertips, parameters, energy)");
   }
-  TrackingCsv csv;
   csv.parameter_names.assign(header.begin() + kFixedLeadingColumns, header.end() - 1);
   if (header != trackingCsvColumns(csv.parameter_names)) {
     throw InputError(path +
@@ -128,11 +137,21 @@ TrackingCsv readTrackingCsv(const std::string& path) {
     ++line_number;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty()) continue;
-    const std::vector<std::string> fields = splitFields(line);
-    if (static_cast<int>(fields.size()) != num_columns) {
+    std::vector<std::string> fields = splitFields(line);
+    const int expected = num_columns + (csv.has_status ? 1 : 0);
+    if (static_cast<int>(fields.size()) != expected) {
       throw InputError(path + ":" + std::to_string(line_number) + ": " +
                        std::to_string(fields.size()) + " fields, expected " +
-                       std::to_string(num_columns));
+                       std::to_string(expected));
+    }
+    std::string status;
+    if (csv.has_status) {
+      status = fields.back();
+      fields.pop_back();
+      if (status != "started" && status != "tracked" && status != "lost") {
+        throw InputError(path + ":" + std::to_string(line_number) + ": status '" + status +
+                         "' is not started, tracked or lost");
+      }
     }
     std::vector<double> values(fields.size());
     for (std::size_t i = 0; i < fields.size(); ++i) {
@@ -155,6 +174,7 @@ TrackingCsv readTrackingCsv(const std::string& path) {
     row.parameters =
         Eigen::Map<const Eigen::VectorXd>(values.data() + kFixedLeadingColumns, num_parameters);
     row.energy = values.back();
+    row.status = status;
     csv.rows.push_back(std::move(row));
   }
   return csv;

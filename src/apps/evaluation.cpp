@@ -18,6 +18,7 @@
 #include "sag_hand_tracker/apps/metrics.h"
 #include "sag_hand_tracker/apps/plot.h"
 #include "sag_hand_tracker/model/pose.h"
+#include "sag_hand_tracker/util/atomic_output.h"
 #include "sag_hand_tracker/ros/bag_input.h"
 #include "sag_hand_tracker/apps/render_runner.h"
 #include "sag_hand_tracker/studio/hand_shapes.h"
@@ -29,6 +30,18 @@
 
 namespace sag_hand_tracker {
 namespace {
+
+// A whole text output, written next to `path` and renamed there (atomic_output.h).
+void writeOutputFile(const std::string& path, const std::string& text) {
+  AtomicOutputFile file(path);
+  {
+    std::ofstream out(file.tempPath(), std::ios::binary | std::ios::trunc);
+    out << text;
+    out.close();
+    if (!out) throw InputError("cannot write '" + path + "'");
+  }
+  file.commit();
+}
 
 namespace fs = std::filesystem;
 
@@ -137,7 +150,7 @@ SequenceBag prepareBag(const BenchmarkOptions& options, const std::string& seque
   }
   fs::remove(stamp_path);
   const RenderBagSummary summary = renderStudioBag(render, nullptr);
-  std::ofstream(stamp_path) << stamp;
+  writeOutputFile(stamp_path, stamp);
   bag.rendered = true;
   log << "benchmark: rendered " << summary.sequence << " (hand " << hand.name
       << "): " << summary.frames << " frames x " << summary.cameras << " cameras in "
@@ -170,7 +183,8 @@ BenchmarkRun trackRun(const BenchmarkOptions& options, const SequenceBag& bag,
   run.shape = bag.shape;
   run.tracker = trackerLabel(model);
   run.cameras = cameras;
-  run.errors = matchToGroundTruth(bag.gt_csv, out_csv, forward);
+  // No CSV when nothing was tracked (and an old one at out_csv is not this run's).
+  run.errors = matchToGroundTruth(bag.gt_csv, summary.csv_written ? out_csv : "", forward);
   run.stats = errorStats(run.errors);
   run.fps = summary.pipelineFps();
   run.pipeline_frames = summary.frames - summary.background_frames;
@@ -463,8 +477,7 @@ std::string report(const BenchmarkOptions& options, const BenchmarkResults& resu
 // (shape "all"), per shape over the sequences (sequence "all"), and over everything ("all",
 // "all"). Without several shapes only the per-run rows and the "all,all" rows.
 void writeResultsCsv(const std::string& path, const BenchmarkResults& results) {
-  std::ofstream out(path);
-  if (!out) throw InputError("cannot write '" + path + "'");
+  std::ostringstream out;
   out << "sequence,shape,tracker,frames,mean_mm,sd_mm,pct15,pct20,pct25,pct30,pct45,fps,failed,"
          "reversed_pct,rolled_pct,wrist_mm\n";
   auto row = [&](const std::string& sequence, const std::string& shape, const std::string& tracker,
@@ -496,14 +509,13 @@ void writeResultsCsv(const std::string& path, const BenchmarkResults& results) {
         pool(select(results.runs, [&](const BenchmarkRun& r) { return r.tracker == t; }));
     row("all", "all", t, p.stats, p.fps);
   }
-  if (!out) throw InputError("cannot write '" + path + "'");
+  writeOutputFile(path, out.str());
 }
 
 void writeCameraCsvs(const std::string& dir, const BenchmarkResults& results,
                      const std::map<int, int>& combinations_per_count) {
   const std::string counts_path = dir + "/camera_counts.csv";
-  std::ofstream counts(counts_path);
-  if (!counts) throw InputError("cannot write '" + counts_path + "'");
+  std::ostringstream counts;
   counts << "tracker,cameras,combinations,runs,frames,failed,mean_mm,sd_mm\n";
   for (const std::string& t : results.trackers) {
     for (const auto& [count, combos] : combinations_per_count) {
@@ -516,8 +528,8 @@ void writeCameraCsvs(const std::string& dir, const BenchmarkResults& results,
     }
   }
   const std::string runs_path = dir + "/camera_combinations.csv";
-  std::ofstream runs(runs_path);
-  if (!runs) throw InputError("cannot write '" + runs_path + "'");
+  writeOutputFile(counts_path, counts.str());
+  std::ostringstream runs;
   runs << "sequence,tracker,cameras,frames,failed,mean_mm,sd_mm,fps\n";
   for (const BenchmarkRun& r : results.camera_runs) {
     std::string cams = cameraList(r.cameras);
@@ -526,6 +538,7 @@ void writeCameraCsvs(const std::string& dir, const BenchmarkResults& results,
          << r.stats.failed << "," << fixed(r.stats.mean_mm, 3) << "," << fixed(r.stats.sd_mm, 3)
          << "," << fixed(r.fps, 1) << "\n";
   }
+  writeOutputFile(runs_path, runs.str());
 }
 
 cv::Scalar trackerColour(const std::string& tracker, size_t index) {
@@ -802,7 +815,7 @@ bool hasRootParameters(const TrackingCsv& csv) {
 RunErrors matchToGroundTruth(const std::string& ground_truth_csv, const std::string& tracked_csv,
                              const Eigen::Vector3d& forward_in_palm) {
   const TrackingCsv truth = readTrackingCsv(ground_truth_csv);
-  TrackingCsv tracked = readTrackingCsv(tracked_csv);
+  TrackingCsv tracked = tracked_csv.empty() ? TrackingCsv() : readTrackingCsv(tracked_csv);
   const bool oriented = hasRootParameters(truth) && hasRootParameters(tracked);
   std::sort(tracked.rows.begin(), tracked.rows.end(),
             [](const TrackingCsvRow& a, const TrackingCsvRow& b) { return a.stamp < b.stamp; });
@@ -980,12 +993,7 @@ BenchmarkResults runBenchmark(const BenchmarkOptions& options, std::ostream& log
   }
 
   results.markdown = report(options, results, combinations_per_count);
-  {
-    const std::string md_path = (dir / "results.md").string();
-    std::ofstream md(md_path);
-    md << results.markdown;
-    if (!md) throw InputError("cannot write '" + md_path + "'");
-  }
+  { writeOutputFile((dir / "results.md").string(), results.markdown); }
   writeResultsCsv(options.csv.empty() ? (dir / "results.csv").string() : options.csv, results);
   if (options.camera_counts) writeCameraCsvs(dir.string(), results, combinations_per_count);
   if (options.plots) writePlots(dir.string(), results, combinations_per_count);

@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "sag_hand_tracker/util/types.h"
+#include "sag_hand_tracker/util/atomic_output.h"
 
 namespace sag_hand_tracker {
 namespace {
@@ -114,13 +115,15 @@ cv::Mat linePlot(const std::vector<PlotSeries>& series, const std::string& title
 }
 
 void writePng(const std::string& path, const cv::Mat& image) {
+  AtomicOutputFile file(path);  // keeps the extension, which imwrite goes by
   bool ok = false;
   try {
-    ok = cv::imwrite(path, image);
+    ok = cv::imwrite(file.tempPath(), image);
   } catch (const cv::Exception&) {
     ok = false;
   }
   if (!ok) throw InputError("cannot write the image '" + path + "'");
+  file.commit();
 }
 
 cv::Mat stackVertically(const std::vector<cv::Mat>& images) {

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
+#include <memory>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
@@ -18,6 +19,7 @@
 #include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/apps/csv.h"
 #include "sag_hand_tracker/model/hand_model.h"
+#include "sag_hand_tracker/util/atomic_output.h"
 #include "sag_hand_tracker/ros/conversions.h"
 #include "sag_hand_tracker/studio/hand_shapes.h"
 #include "sag_hand_tracker/studio/motion.h"
@@ -76,7 +78,7 @@ std::string renderBagUsage() {
          "                     random tigergrasp) or a motion file (config/motions/README.md)\n"
          "  --rig R            built-in rig name, a directory with rig.yaml, or a rig file\n"
          "                     (default dexter5)\n"
-         "  --out OUT.bag      the bag to write (overwritten)\n"
+         "  --out OUT.bag      the bag to write (replaced only when the whole run succeeds)\n"
          "  --gt-csv FILE      ground-truth CSV (default: OUT.bag with the extension .gt.csv)\n"
          "  --fps F            frame rate, 25 (Dexter 1, default) or 60\n"
          "  --frames N         number of frames (default: the motion's duration * fps)\n"
@@ -233,10 +235,19 @@ RenderBagOptions parseRenderBagArguments(const std::vector<std::string>& args) {
 
 RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* progress) {
   const std::string config = packageConfigDir(options.config_dir);
-  const HandModel model = loadHandModel(resolveModelPath(options.model, config));
-  const CameraRig rig = loadCameraRig(studio::resolveRigPath(options.rig, config));
-  if (rig.cameras.empty()) throw InputError("the rig has no cameras");
+  const std::string model_path = resolveModelPath(options.model, config);
+  const std::string rig_path = studio::resolveRigPath(options.rig, config);
   const std::string motion_path = studio::resolveMotionPath(options.sequence, config);
+  // Before anything is opened: no output may be an input or another output.
+  checkOutputPath(options.out, {model_path, rig_path, motion_path});
+  checkOutputPath(options.gt_csv, {model_path, rig_path, motion_path, options.out}, "--gt-csv");
+  if (!options.preview.empty()) {
+    checkOutputPath(options.preview,
+                    {model_path, rig_path, motion_path, options.out, options.gt_csv}, "--preview");
+  }
+  const HandModel model = loadHandModel(model_path);
+  const CameraRig rig = loadCameraRig(rig_path);
+  if (rig.cameras.empty()) throw InputError("the rig has no cameras");
   studio::Motion motion = studio::loadMotion(motion_path, model, options.seed);
 
   studio::SequenceParams params;
@@ -271,8 +282,14 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
       std::chrono::duration<double>(std::chrono::steady_clock::now() - setup_start).count();
 
   const std::vector<std::string> names = model.parameterNames();
-  BagWriter bag(options.out, options.compression);
-  TrackingCsvWriter csv(options.gt_csv, names);
+  // Every output is written next to its path and renamed there only when all succeeded: a
+  // failure half way leaves no partial bag, CSV or preview, and the old files untouched.
+  AtomicOutputFile bag_file(options.out);
+  AtomicOutputFile csv_file(options.gt_csv);
+  std::unique_ptr<AtomicOutputFile> preview_file;
+  if (!options.preview.empty()) preview_file = std::make_unique<AtomicOutputFile>(options.preview);
+  BagWriter bag(bag_file.tempPath(), options.compression);
+  TrackingCsvWriter csv(csv_file.tempPath(), names);
   bag.writeStaticTransforms(rig, frameStamp(options.start_stamp, 0, options.fps));
 
   double render_seconds = 0.0;
@@ -296,7 +313,7 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
       csv.write(groundTruthRow(frame, stamp));
     }
     if (k == preview_frame) {
-      writeContactSheet(options.preview, images, rig.cameras, frame,
+      writeContactSheet(preview_file->tempPath(), images, rig.cameras, frame,
                         sequence.motion().name + " / " + hand.name + " frame " + std::to_string(k));
     }
     if (progress) {
@@ -306,6 +323,9 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
   }
   csv.close();
   bag.close();
+  bag_file.commit();
+  csv_file.commit();
+  if (preview_file) preview_file->commit();
   const double total_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - loop_start).count();
   if (progress) progress->finish("frame " + std::to_string(frames) + "/" + std::to_string(frames));

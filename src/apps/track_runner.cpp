@@ -15,6 +15,7 @@
 #include "sag_hand_tracker/ros/package_config.h"
 #include "sag_hand_tracker/util/timing.h"
 #include "sag_hand_tracker/util/types.h"
+#include "sag_hand_tracker/util/atomic_output.h"
 
 namespace sag_hand_tracker {
 namespace {
@@ -51,8 +52,10 @@ std::string trackBagUsage() {
 
 Tracks the hand in a bag of calibrated cameras (/cam<i>/image_raw rgb8|bgr8, /cam<i>/camera_info,
 /tf_static) without a ROS master, as fast as the CPU allows, and writes one CSV row per tracked
-frame: stamp, the 5 fingertips (x,y,z in metres in the root frame), the 26 pose parameters, the
-energy.
+frame with a pose: stamp, the 5 fingertips (x,y,z in metres in the root frame), the 26 pose
+parameters, the energy and the status (started, tracked, or lost: a pose the tracker rejected).
+Nothing tracked is an error (exit status 1) and writes no CSV; --out is never an input and a
+failed run leaves whatever was at --out untouched.
 
 Options:
   --bag FILE               input bag (required)
@@ -134,8 +137,8 @@ std::string formatSummary(const TrackBagSummary& summary) {
 
   out << "track_bag: " << summary.bag << (summary.interrupted ? " (interrupted)" : "") << "\n";
   out << "  frames:    " << summary.frames << " (" << summary.background_frames << " background, "
-      << summary.tracked_frames << " tracked, " << summary.waiting_frames
-      << " without a hand pose)";
+      << summary.tracked_frames << " tracked, " << summary.lost_frames << " lost, "
+      << summary.waiting_frames << " without a hand pose)";
   if (summary.incomplete_sets > 0) {
     out << ", " << summary.incomplete_sets << " with a camera missing";
   }
@@ -151,8 +154,39 @@ std::string formatSummary(const TrackBagSummary& summary) {
       << formatSeconds(summary.background_seconds) << "\n";
   out << "  track:     lost in " << summary.lost_frames << " frames, restarted in "
       << summary.restarted_frames << " frames\n";
-  out << "  output:    " << summary.tracked_frames << " rows in " << summary.csv << "\n";
+  if (summary.backward_stamps > 0) {
+    out << "  warning:   " << summary.backward_stamps
+        << " images with stamps going backwards (first: " << summary.first_backward_stamp
+        << "); images whose set was already tracked are dropped\n";
+  }
+  if (summary.near_stamp_mismatches > 0) {
+    out << "  warning:   " << summary.near_stamp_mismatches
+        << " images whose stamps differ from another camera's by less than 1 ms (first: "
+        << summary.first_near_stamp_mismatch
+        << "): sets are made of identical stamps, so these cameras are never seen together\n";
+  }
+  if (summary.csv_written) {
+    out << "  output:    " << summary.tracked_frames + summary.lost_frames << " rows ("
+        << summary.tracked_frames << " tracked or started, " << summary.lost_frames << " lost) in "
+        << summary.csv << "\n";
+  } else {
+    out << "  output:    none (no frame was tracked; " << summary.csv << " not written)\n";
+  }
   return out.str();
+}
+
+std::string csvStatus(TrackStatus status) {
+  switch (status) {
+    case TrackStatus::kStarted:
+      return "started";
+    case TrackStatus::kLost:
+      return "lost";
+    case TrackStatus::kTracking:
+      return "tracked";
+    case TrackStatus::kWaiting:
+      break;
+  }
+  return "waiting";
 }
 
 TrackingCsvRow toCsvRow(const FrameResult& result) {
@@ -161,6 +195,7 @@ TrackingCsvRow toCsvRow(const FrameResult& result) {
   row.fingertips = result.fingertips;
   row.parameters = result.pose.toVector();
   row.energy = result.energy.total;
+  row.status = csvStatus(result.status);
   return row;
 }
 
@@ -191,13 +226,15 @@ TrackBagSummary runTrackBag(BagReader& reader, const TrackFrameFunction& track,
       summary.tracking_seconds += processed.tracking_seconds;
       summary.image_gaussians += processed.image_gaussians;
       const FrameResult& result = processed.result;
-      if (result.has_pose) {
-        csv.write(toCsvRow(result));
+      // A lost frame's pose is written with its status, never counted as tracked.
+      if (result.has_pose) csv.write(toCsvRow(result));
+      if (result.status == TrackStatus::kLost) {
+        ++summary.lost_frames;
+      } else if (result.has_pose) {
         ++summary.tracked_frames;
       } else {
         ++summary.waiting_frames;
       }
-      if (result.status == TrackStatus::kLost) ++summary.lost_frames;
       if (result.restarted) ++summary.restarted_frames;
     }
     if (progress) {
@@ -212,11 +249,16 @@ TrackBagSummary runTrackBag(BagReader& reader, const TrackFrameFunction& track,
   summary.decode_seconds = stats.decode_seconds;
   summary.incomplete_sets = static_cast<int>(stats.incomplete_sets);
   summary.dropped_images = static_cast<int>(stats.dropped_images);
+  summary.backward_stamps = static_cast<int>(stats.backward_stamps);
+  summary.first_backward_stamp = stats.first_backward_stamp;
+  summary.near_stamp_mismatches = static_cast<int>(stats.near_stamp_mismatches);
+  summary.first_near_stamp_mismatch = stats.first_near_stamp_mismatch;
   if (progress) {
     progress->finish(std::to_string(summary.frames) + " frames" +
                      (summary.interrupted ? " (interrupted)" : ""));
   }
   csv.close();
+  summary.csv_written = true;
   return summary;
 }
 
@@ -241,8 +283,10 @@ PipelineParams trackBagPipelineParams(const TrackBagOptions& options) {
 // =================================================================================================
 TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
                          const std::atomic<bool>* stop) {
-  const HandModel model =
-      loadHandModel(trackBagModelPath(options.model, options.config_dir), options.hand);
+  const std::string model_path = trackBagModelPath(options.model, options.config_dir);
+  // Before anything is opened: --out must not be an input (the bag, the model file).
+  checkOutputPath(options.out, {options.bag, model_path});
+  const HandModel model = loadHandModel(model_path, options.hand);
 
   BagReaderOptions reader_options;
   reader_options.cameras = options.cameras;
@@ -251,17 +295,17 @@ TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
 
   TrackingPipeline pipeline(model, reader.cameras(), trackBagPipelineParams(options));
 
-  try {
-    TrackingCsvWriter csv(options.out, model.parameterNames());
-    return runTrackBag(
-        reader, [&pipeline](const FrameSet& set) { return pipeline.process(set); }, csv, progress,
-        stop);
-  } catch (...) {
-    // A run that failed half way leaves no CSV that could pass for a result.
-    std::error_code ignored;
-    std::filesystem::remove(options.out, ignored);
-    throw;
-  }
+  // The CSV is written next to --out and renamed over it only when frames were tracked: a run
+  // that fails half way, or tracks nothing, leaves no CSV and whatever was at --out untouched.
+  AtomicOutputFile out(options.out);
+  TrackingCsvWriter csv(out.tempPath(), model.parameterNames(), /*status_column=*/true);
+  TrackBagSummary summary = runTrackBag(
+      reader, [&pipeline](const FrameSet& set) { return pipeline.process(set); }, csv, progress,
+      stop);
+  summary.csv = options.out;
+  summary.csv_written = summary.tracked_frames > 0 || (summary.interrupted && csv.rows() > 0);
+  if (summary.csv_written) out.commit();
+  return summary;
 }
 
 }  // namespace sag_hand_tracker

@@ -10,36 +10,30 @@
 #include <sstream>
 
 #include "sag_hand_tracker/util/types.h"
+#include "sag_hand_tracker/util/input_limits.h"
+#include "sag_hand_tracker/util/yaml_reader.h"
 
 namespace sag_hand_tracker {
 namespace {
 
 namespace fs = std::filesystem;
 
-// "source:line: problem" (line 1-based) when the node has a position, else "source: problem".
-[[noreturn]] void fail(const std::string& source, const YAML::Mark& mark,
-                       const std::string& problem) {
-  std::ostringstream message;
-  message << source;
-  if (!mark.is_null() && mark.line >= 0) message << ":" << mark.line + 1;
-  message << ": " << problem;
-  throw InputError(message.str());
-}
-
-[[noreturn]] void fail(const std::string& source, const YAML::Node& node,
-                       const std::string& problem) {
-  fail(source, node.Mark(), problem);
-}
-
-std::string readTextFile(const std::string& path, const std::string& what) {
-  std::error_code error;
-  if (!fs::exists(path, error)) throw InputError(path + ": " + what + " does not exist");
-  if (fs::is_directory(path, error)) throw InputError(path + ": " + what + " is a directory");
-  std::ifstream file(path, std::ios::binary);
-  if (!file) throw InputError(path + ": cannot open " + what);
-  std::ostringstream text;
-  text << file.rdbuf();
-  return text.str();
+// A {rows, cols, data} matrix; expected_rows/cols < 0 accept any size.
+std::vector<double> readMatrix(const YamlValue& matrix, int expected_rows, int expected_cols) {
+  if (!matrix.isMap()) matrix.fail("must be a map with rows, cols and data");
+  const int rows = matrix["rows"].integer();
+  const int cols = matrix["cols"].integer();
+  if ((expected_rows >= 0 && rows != expected_rows) ||
+      (expected_cols >= 0 && cols != expected_cols)) {
+    matrix.fail("must be " + std::to_string(expected_rows) + "x" + std::to_string(expected_cols) +
+                ", got " + std::to_string(rows) + "x" + std::to_string(cols));
+  }
+  const std::vector<double> data = matrix["data"].numbers();
+  if (rows < 0 || cols < 0 || static_cast<std::size_t>(rows) * cols != data.size()) {
+    matrix.fail("has " + std::to_string(data.size()) + " values for " + std::to_string(rows) + "x" +
+                std::to_string(cols));
+  }
+  return data;
 }
 
 void writeTextFile(const std::string& path, const std::string& text, const std::string& what) {
@@ -48,84 +42,6 @@ void writeTextFile(const std::string& path, const std::string& text, const std::
   file << text;
   file.close();
   if (!file) throw InputError(path + ": error while writing " + what);
-}
-
-YAML::Node parseYaml(const std::string& text, const std::string& source) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::ParserException& error) {
-    fail(source, error.mark, "malformed YAML: " + error.msg);
-  }
-  if (!root.IsMap()) fail(source, root, "expected a YAML map at the top level");
-  return root;
-}
-
-const YAML::Node require(const YAML::Node& map, const std::string& key, const std::string& source,
-                         const std::string& where = "") {
-  const YAML::Node value = map[key];
-  if (!value) fail(source, map, "missing key '" + where + key + "'");
-  return value;
-}
-
-double toDouble(const YAML::Node& node, const std::string& source, const std::string& what) {
-  double value = 0.0;
-  try {
-    if (!node.IsScalar()) throw YAML::BadConversion(node.Mark());
-    value = node.as<double>();
-  } catch (const YAML::BadConversion&) {
-    fail(source, node, "'" + what + "' must be a number");
-  }
-  if (!std::isfinite(value)) fail(source, node, "'" + what + "' must be finite");
-  return value;
-}
-
-int toInt(const YAML::Node& node, const std::string& source, const std::string& what) {
-  try {
-    if (!node.IsScalar()) throw YAML::BadConversion(node.Mark());
-    return node.as<int>();
-  } catch (const YAML::BadConversion&) {
-    fail(source, node, "'" + what + "' must be an integer");
-  }
-}
-
-std::string toString(const YAML::Node& node, const std::string& source, const std::string& what) {
-  if (!node.IsScalar()) fail(source, node, "'" + what + "' must be a string");
-  return node.Scalar();
-}
-
-std::vector<double> toNumbers(const YAML::Node& node, const std::string& source,
-                              const std::string& what) {
-  if (!node.IsSequence()) fail(source, node, "'" + what + "' must be a list of numbers");
-  std::vector<double> values;
-  for (std::size_t i = 0; i < node.size(); ++i) {
-    values.push_back(toDouble(node[i], source, what + "[" + std::to_string(i) + "]"));
-  }
-  return values;
-}
-
-// A {rows, cols, data} matrix; expected_rows/cols < 0 accept any size.
-std::vector<double> readMatrix(const YAML::Node& map, const std::string& key,
-                               const std::string& source, int expected_rows, int expected_cols) {
-  const YAML::Node matrix = require(map, key, source);
-  if (!matrix.IsMap()) fail(source, matrix, "'" + key + "' must be a map with rows, cols and data");
-  const int rows = toInt(require(matrix, "rows", source, key + "."), source, key + ".rows");
-  const int cols = toInt(require(matrix, "cols", source, key + "."), source, key + ".cols");
-  const std::vector<double> data =
-      toNumbers(require(matrix, "data", source, key + "."), source, key + ".data");
-  if ((expected_rows >= 0 && rows != expected_rows) ||
-      (expected_cols >= 0 && cols != expected_cols)) {
-    fail(source, matrix,
-         "'" + key + "' must be " + std::to_string(expected_rows) + "x" +
-             std::to_string(expected_cols) + ", got " + std::to_string(rows) + "x" +
-             std::to_string(cols));
-  }
-  if (rows < 0 || cols < 0 || static_cast<std::size_t>(rows) * cols != data.size()) {
-    fail(source, matrix,
-         "'" + key + "' has " + std::to_string(data.size()) + " values for " +
-             std::to_string(rows) + "x" + std::to_string(cols));
-  }
-  return data;
 }
 
 // Shortest decimal text that reads back to the same double.
@@ -158,92 +74,105 @@ void writeMatrix(std::ostream& out, const std::string& key, int rows, int cols,
       << "\n";
 }
 
-void checkIntrinsics(const Eigen::Matrix3d& K, const std::string& source, const YAML::Node& node) {
-  if (!(K(0, 0) > 0.0) || !(K(1, 1) > 0.0)) {
-    fail(source, node,
-         "camera_matrix has a zero or negative focal length (fx " + formatNumber(K(0, 0)) +
-             ", fy " + formatNumber(K(1, 1)) + ")");
+Eigen::Quaterniond readQuaternion(const YamlValue& value) {
+  const std::vector<double> q = value.numbers();
+  if (q.size() != 4) value.fail("must be a quaternion [qx, qy, qz, qw]");
+  const Eigen::Quaterniond rotation(q[3], q[0], q[1], q[2]);
+  if (std::abs(rotation.norm() - 1.0) > 1e-3) {
+    value.fail("is not a unit quaternion (norm " + formatNumber(rotation.norm()) + ")");
   }
-  if (K(1, 0) != 0.0 || K(2, 0) != 0.0 || K(2, 1) != 0.0 || std::abs(K(2, 2) - 1.0) > 1e-9) {
-    fail(source, node, "camera_matrix is not an intrinsic matrix (its last row must be 0 0 1)");
-  }
+  return rotation.normalized();
 }
 
-Eigen::Vector3d readVector3(const YAML::Node& map, const std::string& key,
-                            const std::string& source, const std::string& where) {
-  const YAML::Node node = require(map, key, source, where);
-  const std::vector<double> values = toNumbers(node, source, where + key);
-  if (values.size() != 3) fail(source, node, "'" + where + key + "' must have 3 values [x, y, z]");
-  return Eigen::Vector3d(values[0], values[1], values[2]);
-}
-
-Eigen::Quaterniond readQuaternion(const YAML::Node& map, const std::string& key,
-                                  const std::string& source, const std::string& where) {
-  const YAML::Node node = require(map, key, source, where);
-  const std::vector<double> values = toNumbers(node, source, where + key);
-  if (values.size() != 4) {
-    fail(source, node, "'" + where + key + "' must be a quaternion [qx, qy, qz, qw]");
-  }
-  const Eigen::Quaterniond q(values[3], values[0], values[1], values[2]);
-  if (std::abs(q.norm() - 1.0) > 1e-3) {
-    fail(source, node,
-         "'" + where + key + "' is not a unit quaternion (norm " + formatNumber(q.norm()) + ")");
-  }
-  return q.normalized();
-}
+const char* const kNameRule = " (a letter, then letters, digits or '_')";
+// A rig is a room, not a continent (and huge values overflow the inverse transform).
+constexpr double kMaxRigExtentMetres = 1000.0;
 
 }  // namespace
 
 std::string opticalFrame(const std::string& camera_name) { return camera_name + "_optical_frame"; }
 
-Camera parseCameraCalibration(const std::string& yaml_text, const std::string& source) {
-  const YAML::Node root = parseYaml(yaml_text, source);
-  Camera camera;
-  const YAML::Node width = require(root, "image_width", source);
-  const YAML::Node height = require(root, "image_height", source);
-  camera.width = toInt(width, source, "image_width");
-  camera.height = toInt(height, source, "image_height");
-  if (camera.width <= 0) fail(source, width, "image_width must be positive");
-  if (camera.height <= 0) fail(source, height, "image_height must be positive");
-  if (root["camera_name"]) camera.name = toString(root["camera_name"], source, "camera_name");
+namespace {
 
-  const std::vector<double> k = readMatrix(root, "camera_matrix", source, 3, 3);
+Camera readCameraCalibration(const YamlDocument& document) {
+  const YamlValue root = document.root();
+  Camera camera;
+  const YamlValue width = root["image_width"];
+  const YamlValue height = root["image_height"];
+  camera.width = width.integer();
+  camera.height = height.integer();
+  if (camera.width <= 0) width.fail("must be positive");
+  if (camera.height <= 0) height.fail("must be positive");
+  try {
+    checkImageSize(camera.width, camera.height, "the camera");
+  } catch (const InputError& error) {
+    width.fail(error.what());
+  }
+  camera.name = root.textOr("camera_name", "");
+
+  const YamlValue matrix = root["camera_matrix"];
+  const std::vector<double> k = readMatrix(matrix, 3, 3);
   for (int r = 0; r < 3; ++r) {
     for (int c = 0; c < 3; ++c) camera.K(r, c) = k[3 * r + c];
   }
-  checkIntrinsics(camera.K, source, root["camera_matrix"]);
+  if (!(camera.K(0, 0) > 0.0) || !(camera.K(1, 1) > 0.0)) {
+    matrix.fail("has a zero or negative focal length (fx " + formatNumber(camera.K(0, 0)) +
+                ", fy " + formatNumber(camera.K(1, 1)) + ")");
+  }
+  if (camera.K(0, 0) > kMaxFocalLengthPixels || camera.K(1, 1) > kMaxFocalLengthPixels ||
+      camera.K(0, 0) < kMinFocalLengthPixels || camera.K(1, 1) < kMinFocalLengthPixels) {
+    matrix.fail("has a focal length outside [" + formatNumber(kMinFocalLengthPixels) + ", " +
+                formatNumber(kMaxFocalLengthPixels) + "] pixels (fx " +
+                formatNumber(camera.K(0, 0)) + ", fy " + formatNumber(camera.K(1, 1)) + ")");
+  }
+  if (camera.K(1, 0) != 0.0 || camera.K(2, 0) != 0.0 || camera.K(2, 1) != 0.0 ||
+      std::abs(camera.K(2, 2) - 1.0) > 1e-9) {
+    matrix.fail("is not an intrinsic matrix (its last row must be 0 0 1)");
+  }
 
-  std::string model = "plumb_bob";
-  if (root["distortion_model"]) {
-    model = toString(root["distortion_model"], source, "distortion_model");
+  const YamlValue model_node = root.get("distortion_model");
+  const std::string model = root.textOr("distortion_model", "plumb_bob");
+  if (root.has("distortion_coefficients")) {
+    camera.distortion = readMatrix(root["distortion_coefficients"], 1, -1);
   }
-  if (root["distortion_coefficients"]) {
-    camera.distortion = readMatrix(root, "distortion_coefficients", source, 1, -1);
-  }
-  const YAML::Node model_node = root["distortion_model"] ? root["distortion_model"] : root;
+  const std::size_t count = camera.distortion.size();
   if (model == "plumb_bob") {
-    if (camera.distortion.size() > 5) {
-      fail(source, model_node,
-           "plumb_bob takes at most 5 distortion coefficients, got " +
-               std::to_string(camera.distortion.size()));
+    if (count > 5) {
+      model_node.fail("plumb_bob takes at most 5 distortion coefficients, got " +
+                      std::to_string(count));
     }
   } else if (model == "rational_polynomial") {
-    if (camera.distortion.size() > 8) {
-      fail(source, model_node,
-           "rational_polynomial takes at most 8 distortion coefficients, got " +
-               std::to_string(camera.distortion.size()));
+    if (count > 8) {
+      model_node.fail("rational_polynomial takes at most 8 distortion coefficients, got " +
+                      std::to_string(count));
     }
   } else {
-    fail(source, model_node,
-         "unsupported distortion_model '" + model + "' (plumb_bob or rational_polynomial)");
+    model_node.fail("unsupported distortion_model '" + model +
+                    "' (plumb_bob or rational_polynomial)");
   }
-  if (root["rectification_matrix"]) readMatrix(root, "rectification_matrix", source, 3, 3);
-  if (root["projection_matrix"]) readMatrix(root, "projection_matrix", source, 3, 4);
+  try {
+    checkDistortionCount(count, "distortion_coefficients");
+  } catch (const InputError& error) {
+    root.get("distortion_coefficients").fail(error.what());
+  }
+  try {
+    checkDistortionInvertible(camera, "the camera");
+  } catch (const InputError& error) {
+    root.get("distortion_coefficients").fail(error.what());
+  }
+  if (root.has("rectification_matrix")) readMatrix(root["rectification_matrix"], 3, 3);
+  if (root.has("projection_matrix")) readMatrix(root["projection_matrix"], 3, 4);
   return camera;
 }
 
+}  // namespace
+
+Camera parseCameraCalibration(const std::string& yaml_text, const std::string& source) {
+  return readCameraCalibration(YamlDocument(yaml_text, source, "calibration file"));
+}
+
 Camera loadCameraCalibration(const std::string& path) {
-  return parseCameraCalibration(readTextFile(path, "calibration file"), path);
+  return readCameraCalibration(YamlDocument::fromFile(path, "calibration file"));
 }
 
 std::string cameraCalibrationToYaml(const Camera& camera) {
@@ -278,45 +207,68 @@ void saveCameraCalibration(const std::string& path, const Camera& camera) {
   writeTextFile(path, cameraCalibrationToYaml(camera), "calibration file");
 }
 
-CameraRig loadCameraRig(const std::string& path) {
-  const YAML::Node root = parseYaml(readTextFile(path, "rig file"), path);
+CameraRig parseCameraRig(const std::string& yaml_text, const std::string& source,
+                         const CalibrationLoader& load_calibration) {
+  const YamlDocument document(yaml_text, source, "rig file");
+  const YamlValue root = document.root();
   CameraRig rig;
-  rig.root_frame = toString(require(root, "root_frame", path), path, "root_frame");
-  if (rig.root_frame.empty()) fail(path, root["root_frame"], "root_frame is empty");
-  const YAML::Node cameras = require(root, "cameras", path);
-  if (!cameras.IsSequence() || cameras.size() == 0) {
-    fail(path, cameras, "'cameras' must be a non-empty list");
+  const YamlValue root_frame = root["root_frame"];
+  rig.root_frame = root_frame.text();
+  if (!isSafeName(rig.root_frame)) {
+    root_frame.fail("'" + rig.root_frame + "' is not a safe frame name" + kNameRule);
   }
-  const fs::path directory = fs::path(path).parent_path();
+  const YamlValue cameras = root["cameras"];
+  const std::size_t count = cameras.size(kMaxCameras);
+  if (count == 0) cameras.fail("must be a non-empty list");
   std::set<std::string> names;
-  for (std::size_t i = 0; i < cameras.size(); ++i) {
-    const YAML::Node entry = cameras[i];
-    const std::string where = "cameras[" + std::to_string(i) + "].";
-    if (!entry.IsMap()) fail(path, entry, "'" + where + "' must be a map");
-    const YAML::Node name_node = require(entry, "name", path, where);
-    const std::string name = toString(name_node, path, where + "name");
-    if (name.empty()) fail(path, name_node, "'" + where + "name' is empty");
-    if (!names.insert(name).second) fail(path, name_node, "camera '" + name + "' appears twice");
-    const YAML::Node file_node = require(entry, "calibration", path, where);
-    fs::path file = toString(file_node, path, where + "calibration");
-    if (file.is_relative()) file = directory / file;
-    const Eigen::Vector3d translation = readVector3(entry, "translation", path, where);
-    const Eigen::Quaterniond rotation = readQuaternion(entry, "rotation", path, where);
-
-    std::error_code error;
-    if (!fs::is_regular_file(file, error)) {
-      fail(path, file_node,
-           "calibration file '" + file.string() + "' of camera '" + name + "' does not exist");
+  for (std::size_t i = 0; i < count; ++i) {
+    const YamlValue entry = cameras[i];
+    entry.allowOnly({"name", "calibration", "translation", "rotation"});
+    const YamlValue name_node = entry["name"];
+    const std::string name = name_node.text();
+    if (!isSafeName(name)) {
+      name_node.fail("'" + name + "' is not a safe camera name (it becomes topics and frames)" +
+                     kNameRule);
     }
-    Camera camera = loadCameraCalibration(file.string());
+    if (!names.insert(name).second) name_node.fail("camera '" + name + "' appears twice");
+    const YamlValue file_node = entry["calibration"];
+    const std::string file = file_node.text();
+    const Eigen::Vector3d translation = entry["translation"].vector3();
+    if (!(translation.cwiseAbs().maxCoeff() <= kMaxRigExtentMetres)) {
+      entry["translation"].fail("values must lie within +-" + formatNumber(kMaxRigExtentMetres) +
+                                " m");
+    }
+    const Eigen::Quaterniond rotation = readQuaternion(entry["rotation"]);
+    Camera camera;
+    try {
+      camera = load_calibration(file);
+    } catch (const InputError& error) {
+      file_node.fail("camera '" + name + "': " + error.what());
+    }
     camera.name = name;
     Eigen::Isometry3d root_to_optical = Eigen::Isometry3d::Identity();
     root_to_optical.linear() = rotation.toRotationMatrix();
     root_to_optical.translation() = translation;
     camera.world_to_camera = root_to_optical.inverse();
+    for (const Camera& other : rig.cameras) {
+      if ((other.centre() - camera.centre()).norm() < kMinCameraSeparation) {
+        entry["translation"].fail("camera '" + name + "' is at the same point as camera '" +
+                                  other.name + "' (closer than " +
+                                  formatNumber(kMinCameraSeparation) + " m)");
+      }
+    }
     rig.cameras.push_back(camera);
   }
   return rig;
+}
+
+CameraRig loadCameraRig(const std::string& path) {
+  const fs::path directory = fs::path(path).parent_path();
+  return parseCameraRig(readYamlFileText(path, "rig file"), path, [&](const std::string& name) {
+    fs::path file = name;
+    if (file.is_relative()) file = directory / file;
+    return loadCameraCalibration(file.string());
+  });
 }
 
 void saveCameraRig(const std::string& path, const CameraRig& rig) {

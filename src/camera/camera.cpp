@@ -4,6 +4,8 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 
+#include "sag_hand_tracker/util/input_limits.h"
+
 namespace sag_hand_tracker {
 
 bool Camera::hasDistortion() const {
@@ -33,6 +35,14 @@ Eigen::Vector2d Camera::undistortPixel(const Eigen::Vector2d& pixel) const {
   return Eigen::Vector2d(out[0].x, out[0].y);
 }
 
+void checkDistortionCount(std::size_t count, const std::string& who) {
+  // The counts OpenCV's distortion models take (undistortPoints asserts on any other).
+  if (count == 0 || count == 4 || count == 5 || count == 8 || count == 12 || count == 14) return;
+  throw InputError(who + ": " + std::to_string(count) +
+                   " distortion coefficients; expected 0 (none), 4 or 5 (plumb_bob), 8 "
+                   "(rational_polynomial), 12 or 14");
+}
+
 void validateCamera(const Camera& camera) {
   const std::string which = "camera '" + camera.name + "'";
   if (!camera.K.allFinite()) throw InputError(which + ": intrinsics are not finite");
@@ -45,10 +55,15 @@ void validateCamera(const Camera& camera) {
       camera.K(2, 2) != 1.0) {
     throw InputError(which + ": K must be upper triangular with K(2,2) = 1");
   }
-  if (camera.width <= 0 || camera.height <= 0) {
-    throw InputError(which + ": image size " + std::to_string(camera.width) + "x" +
-                     std::to_string(camera.height) + " is not positive");
+  if (camera.K(0, 0) > kMaxFocalLengthPixels || camera.K(1, 1) > kMaxFocalLengthPixels ||
+      camera.K(0, 0) < kMinFocalLengthPixels || camera.K(1, 1) < kMinFocalLengthPixels) {
+    throw InputError(which + ": focal length outside [" + std::to_string(kMinFocalLengthPixels) +
+                     ", " + std::to_string(kMaxFocalLengthPixels) +
+                     "] pixels (fx=" + std::to_string(camera.K(0, 0)) +
+                     ", fy=" + std::to_string(camera.K(1, 1)) + ")");
   }
+  checkImageSize(camera.width, camera.height, which);
+  checkDistortionCount(camera.distortion.size(), which);
   for (double coefficient : camera.distortion) {
     if (!std::isfinite(coefficient)) throw InputError(which + ": distortion is not finite");
   }
@@ -56,6 +71,25 @@ void validateCamera(const Camera& camera) {
   if (!R.allFinite() || !camera.world_to_camera.translation().allFinite() ||
       (R * R.transpose() - Eigen::Matrix3d::Identity()).norm() > 1e-6 || R.determinant() < 0.0) {
     throw InputError(which + ": extrinsics are not a rigid transform");
+  }
+}
+
+void checkDistortionInvertible(const Camera& camera, const std::string& who) {
+  if (!camera.hasDistortion()) return;
+  // OpenCV inverts the distortion iteratively; wild coefficients give NaN (found by fuzzing
+  // camera_info). A 5 x 5 grid over the image, corners included, must stay finite.
+  std::vector<cv::Point2d> in, out;
+  for (int i = 0; i < 5; ++i) {
+    for (int j = 0; j < 5; ++j) in.emplace_back(0.25 * i * camera.width, 0.25 * j * camera.height);
+  }
+  cv::Mat K_cv;
+  cv::eigen2cv(camera.K, K_cv);
+  cv::undistortPoints(in, out, K_cv, camera.distortion, cv::noArray(), K_cv);
+  for (const cv::Point2d& point : out) {
+    if (!std::isfinite(point.x) || !std::isfinite(point.y)) {
+      throw InputError(who + ": the distortion coefficients cannot be inverted over the image " +
+                       "(undistorted pixels are not finite)");
+    }
   }
 }
 
@@ -68,9 +102,24 @@ void undistortImageSoG(const Camera& camera, ImageSoG* sog) {
   for (const ImageGaussian& g : sog->gaussians) in.emplace_back(g.mean.x(), g.mean.y());
   in.emplace_back(sog->arm_centroid.x(), sog->arm_centroid.y());
   cv::undistortPoints(in, out, K_cv, camera.distortion, cv::noArray(), K_cv);
-  for (size_t i = 0; i < sog->gaussians.size(); ++i)
-    sog->gaussians[i].mean = Eigen::Vector2d(out[i].x, out[i].y);
-  if (sog->arm_cells > 0) sog->arm_centroid = Eigen::Vector2d(out.back().x, out.back().y);
+  // A Gaussian the distortion cannot place is dropped rather than passed on as NaN.
+  const size_t count = sog->gaussians.size();
+  std::vector<ImageGaussian> placed;
+  placed.reserve(count);
+  for (size_t i = 0; i < count; ++i) {
+    if (!std::isfinite(out[i].x) || !std::isfinite(out[i].y)) continue;
+    placed.push_back(sog->gaussians[i]);
+    placed.back().mean = Eigen::Vector2d(out[i].x, out[i].y);
+  }
+  sog->gaussians = std::move(placed);
+  if (sog->arm_cells > 0) {
+    const cv::Point2d& arm = out.back();
+    if (std::isfinite(arm.x) && std::isfinite(arm.y)) {
+      sog->arm_centroid = Eigen::Vector2d(arm.x, arm.y);
+    } else {
+      sog->arm_cells = 0;  // the sleeve's centroid cannot be placed: no forearm cue
+    }
+  }
 }
 
 }  // namespace sag_hand_tracker

@@ -8,153 +8,106 @@
 #include <fstream>
 #include <iomanip>
 #include <map>
+#include <set>
 #include <sstream>
+
+#include "sag_hand_tracker/util/yaml_reader.h"
 
 namespace sag_hand_tracker {
 namespace {
 
 constexpr double kDegToRad = M_PI / 180.0;
 
-// Reads one model file; every error names the file, the line and the key.
+Eigen::Matrix3d rpyDegrees(const Eigen::Vector3d& rpy) {
+  return (Eigen::AngleAxisd(rpy[2] * kDegToRad, Eigen::Vector3d::UnitZ()) *
+          Eigen::AngleAxisd(rpy[1] * kDegToRad, Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(rpy[0] * kDegToRad, Eigen::Vector3d::UnitX()))
+      .toRotationMatrix();
+}
+
+// Reads one model document (yaml_reader.h: every error names the file, the line and the key).
 class ModelParser {
  public:
-  explicit ModelParser(std::string path) : path_(std::move(path)) {}
+  explicit ModelParser(const YamlDocument& document) : document_(document) {}
 
   HandModel parse() {
-    std::ifstream file(path_);
-    if (!file) throw InputError("hand model '" + path_ + "': cannot open the file");
-    YAML::Node root;
-    try {
-      root = YAML::Load(file);
-    } catch (const YAML::Exception& e) {
-      throw InputError("hand model '" + path_ + "' line " + std::to_string(e.mark.line + 1) +
-                       ": malformed YAML: " + e.msg);
-    }
-    if (!root.IsMap()) fail(root, "", "the file must be a YAML map");
-
+    const YamlValue root = document_.root();
     HandModel model;
-    model.name = scalar<std::string>(root, "name");
-    const std::string handedness = scalar<std::string>(root, "handedness");
-    if (handedness == "right") {
+    model.name = root["name"].text();
+    const YamlValue handedness = root["handedness"];
+    if (handedness.text() == "right") {
       model.handedness = Handedness::kRight;
-    } else if (handedness == "left") {
+    } else if (handedness.text() == "left") {
       model.handedness = Handedness::kLeft;
     } else {
-      fail(root["handedness"], "handedness", "must be 'right' or 'left', not '" + handedness + "'");
+      handedness.fail("must be 'right' or 'left', not '" + handedness.text() + "'");
     }
-    const std::string projection = scalar<std::string>(root, "projection");
-    if (projection == "perspective") {
+    const YamlValue projection = root["projection"];
+    if (projection.text() == "perspective") {
       model.projection = ProjectionMode::kPerspective;
-    } else if (projection == "scaled_orthographic") {
+    } else if (projection.text() == "scaled_orthographic") {
       model.projection = ProjectionMode::kScaledOrthographic;
     } else {
-      fail(root["projection"], "projection",
-           "must be 'perspective' or 'scaled_orthographic', not '" + projection + "'");
+      projection.fail("must be 'perspective' or 'scaled_orthographic', not '" + projection.text() +
+                      "'");
     }
-
-    parseBones(sequence(root, "bones"), &model);
-    parseGaussians(sequence(root, "gaussians"), &model);
-    parseFingertips(map(root, "fingertips"), &model);
+    parseBones(root["bones"], &model);
+    parseGaussians(root["gaussians"], &model);
+    parseFingertips(root["fingertips"], &model);
     try {
       validateHandModel(model);
     } catch (const InputError& e) {
-      throw InputError("hand model '" + path_ + "': " + e.what());
+      document_.fail(0, "", e.what());
     }
     return model;
   }
 
  private:
-  [[noreturn]] void fail(const YAML::Node& node, const std::string& key, const std::string& what) {
-    std::ostringstream out;
-    out << "hand model '" << path_ << "'";
-    if (node.IsDefined() && node.Mark().line >= 0) out << " line " << node.Mark().line + 1;
-    if (!key.empty()) out << ", key '" << key << "'";
-    out << ": " << what;
-    throw InputError(out.str());
-  }
-
-  YAML::Node require(const YAML::Node& parent, const std::string& key) {
-    const YAML::Node node = parent[key];
-    if (!node.IsDefined() || node.IsNull()) fail(parent, key, "missing");
-    return node;
-  }
-  YAML::Node sequence(const YAML::Node& parent, const std::string& key) {
-    YAML::Node node = require(parent, key);
-    if (!node.IsSequence()) fail(node, key, "must be a list");
-    return node;
-  }
-  YAML::Node map(const YAML::Node& parent, const std::string& key) {
-    YAML::Node node = require(parent, key);
-    if (!node.IsMap()) fail(node, key, "must be a map");
-    return node;
-  }
-  template <typename T>
-  T scalar(const YAML::Node& parent, const std::string& key) {
-    const YAML::Node node = require(parent, key);
-    try {
-      return node.as<T>();
-    } catch (const YAML::Exception&) {
-      fail(node, key, "has the wrong type");
-    }
-  }
-  template <typename T>
-  T scalarOr(const YAML::Node& parent, const std::string& key, const T& fallback) {
-    if (!parent[key].IsDefined()) return fallback;
-    return scalar<T>(parent, key);
-  }
-  Eigen::Vector3d vector3(const YAML::Node& parent, const std::string& key) {
-    const YAML::Node node = require(parent, key);
-    if (!node.IsSequence() || node.size() != 3) fail(node, key, "must be a list of 3 numbers");
-    Eigen::Vector3d v;
-    for (int i = 0; i < 3; ++i) {
-      try {
-        v[i] = node[i].as<double>();
-      } catch (const YAML::Exception&) {
-        fail(node, key, "must be a list of 3 numbers");
-      }
-      if (!std::isfinite(v[i])) fail(node, key, "must be finite");
-    }
-    return v;
-  }
-  Eigen::Vector3d vector3Or(const YAML::Node& parent, const std::string& key) {
-    return parent[key].IsDefined() ? vector3(parent, key) : Eigen::Vector3d::Zero();
-  }
-
-  static Eigen::Matrix3d rpyDegrees(const Eigen::Vector3d& rpy) {
-    return (Eigen::AngleAxisd(rpy[2] * kDegToRad, Eigen::Vector3d::UnitZ()) *
-            Eigen::AngleAxisd(rpy[1] * kDegToRad, Eigen::Vector3d::UnitY()) *
-            Eigen::AngleAxisd(rpy[0] * kDegToRad, Eigen::Vector3d::UnitX()))
-        .toRotationMatrix();
-  }
-
-  void parseBones(const YAML::Node& bones, HandModel* model) {
-    for (const YAML::Node& node : bones) {
+  void parseBones(const YamlValue& bones, HandModel* model) {
+    const std::size_t count = bones.size(kMaxModelBones);
+    std::set<std::string> dof_names;
+    for (std::size_t b = 0; b < count; ++b) {
+      const YamlValue node = bones[b];
+      node.allowOnly({"name", "parent", "offset", "rest_rpy_deg", "length", "dofs"});
       Bone bone;
-      bone.name = scalar<std::string>(node, "name");
-      if (bone_index_.count(bone.name))
-        fail(node, "name", "bone '" + bone.name + "' defined twice");
-      const std::string parent = scalarOr<std::string>(node, "parent", "");
+      const YamlValue name = node["name"];
+      bone.name = name.text();
+      if (!isSafeName(bone.name))
+        name.fail("'" + bone.name + "' is not a safe frame name" + kNameRule);
+      if (bone_index_.count(bone.name)) name.fail("bone '" + bone.name + "' defined twice");
+      const std::string parent = node.textOr("parent", "");
       if (!parent.empty()) {
         const auto it = bone_index_.find(parent);
         if (it == bone_index_.end()) {
-          fail(node, "parent", "bone '" + parent + "' is not defined before '" + bone.name + "'");
+          node["parent"].fail("bone '" + parent + "' is not defined before '" + bone.name + "'");
         }
         bone.parent = it->second;
       } else if (!model->bones.empty()) {
-        fail(node, "parent", "only the first bone (the palm) may be the root");
+        node.get("parent").fail("only the first bone (the palm) may be the root");
       }
-      bone.offset = vector3Or(node, "offset");
-      bone.rest_rotation = rpyDegrees(vector3Or(node, "rest_rpy_deg"));
-      bone.length = scalarOr<double>(node, "length", 0.0);
-      if (node["dofs"].IsDefined()) {
-        for (const YAML::Node& dof_node : sequence(node, "dofs")) {
+      bone.offset = node["offset"].vector3();
+      bone.rest_rotation = rpyDegrees(node.vector3Or("rest_rpy_deg", Eigen::Vector3d::Zero()));
+      bone.length = node.has("length") ? node["length"].number(0.0, kMaxLengthMetres) : 0.0;
+      if (node.has("dofs")) {
+        const YamlValue dofs = node["dofs"];
+        const std::size_t dof_count = dofs.size(kNumJointDof);
+        for (std::size_t d = 0; d < dof_count; ++d) {
+          const YamlValue dof_node = dofs[d];
+          dof_node.allowOnly({"name", "axis", "min_deg", "max_deg"});
           JointDof dof;
-          dof.name = scalar<std::string>(dof_node, "name");
+          const YamlValue dof_name = dof_node["name"];
+          dof.name = dof_name.text();
+          if (!isSafeName(dof.name)) {
+            dof_name.fail("'" + dof.name + "' is not a safe joint name" + kNameRule);
+          }
+          if (!dof_names.insert(dof.name).second) {
+            dof_name.fail("DOF '" + dof.name + "' defined twice");
+          }
           dof.bone = static_cast<int>(model->bones.size());
           // A leading '-' reverses the axis (mirrored models, see mirrorHandModel).
-          const std::string axis = scalar<std::string>(dof_node, "axis");
-          const bool negative = !axis.empty() && axis[0] == '-';
-          const std::string name = negative ? axis.substr(1) : axis;
+          const YamlValue axis = dof_node["axis"];
+          const bool negative = !axis.text().empty() && axis.text()[0] == '-';
+          const std::string name = negative ? axis.text().substr(1) : axis.text();
           if (name == "x") {
             dof.axis = Eigen::Vector3d::UnitX();
           } else if (name == "y") {
@@ -162,12 +115,12 @@ class ModelParser {
           } else if (name == "z") {
             dof.axis = Eigen::Vector3d::UnitZ();
           } else {
-            fail(dof_node, "axis", "must be x, y or z (or -x, -y, -z), not '" + axis + "'");
+            axis.fail("must be x, y or z (or -x, -y, -z), not '" + axis.text() + "'");
           }
           if (negative) dof.axis = -dof.axis;
-          dof.min = scalar<double>(dof_node, "min_deg") * kDegToRad;
-          dof.max = scalar<double>(dof_node, "max_deg") * kDegToRad;
-          if (!(dof.min <= dof.max)) fail(dof_node, "min_deg", "must not exceed max_deg");
+          dof.min = dof_node["min_deg"].number(-360.0, 360.0) * kDegToRad;
+          dof.max = dof_node["max_deg"].number(-360.0, 360.0) * kDegToRad;
+          if (!(dof.min <= dof.max)) dof_node["min_deg"].fail("must not exceed max_deg");
           bone.joint_dofs.push_back(static_cast<int>(model->joints.size()));
           model->joints.push_back(dof);
         }
@@ -177,34 +130,54 @@ class ModelParser {
     }
   }
 
-  int boneIndex(const YAML::Node& node, const std::string& key) {
-    const std::string name = scalar<std::string>(node, key);
+  int boneIndex(const YamlValue& node) {
+    const std::string name = node.text();
     const auto it = bone_index_.find(name);
-    if (it == bone_index_.end()) fail(node, key, "unknown bone '" + name + "'");
+    if (it == bone_index_.end()) node.fail("unknown bone '" + name + "'");
     return it->second;
   }
 
-  void parseGaussians(const YAML::Node& gaussians, HandModel* model) {
-    for (const YAML::Node& node : gaussians) {
+  void parseGaussians(const YamlValue& gaussians, HandModel* model) {
+    const std::size_t count = gaussians.size(kMaxModelGaussians);
+    model->gaussians.reserve(count);
+    for (std::size_t g = 0; g < count; ++g) {
+      const YamlValue node = gaussians[g];
+      node.allowOnly({"bone", "mean", "sigma", "rpy_deg", "hsv", "weight"});
       ModelGaussian gaussian;
-      gaussian.bone = boneIndex(node, "bone");
-      gaussian.mean = vector3(node, "mean");
-      const Eigen::Vector3d sigma = vector3(node, "sigma");
-      if (!(sigma.minCoeff() > 0.0)) {
-        fail(node, "sigma",
-             "standard deviations must be positive (covariance not positive definite)");
+      gaussian.bone = boneIndex(node["bone"]);
+      gaussian.mean = node["mean"].vector3();
+      if (!(gaussian.mean.norm() <= kMaxLengthMetres)) {
+        node["mean"].fail("is more than " + std::to_string(kMaxLengthMetres) +
+                          " m from its bone's origin");
       }
-      const Eigen::Matrix3d rotation = rpyDegrees(vector3Or(node, "rpy_deg"));
+      const YamlValue sigma_node = node["sigma"];
+      const Eigen::Vector3d sigma = sigma_node.vector3();
+      if (!(sigma.minCoeff() > 0.0)) {
+        sigma_node.fail("standard deviations must be positive (covariance not positive definite)");
+      }
+      if (!(sigma.maxCoeff() <= kMaxLengthMetres)) {
+        sigma_node.fail("standard deviations must be at most " + std::to_string(kMaxLengthMetres) +
+                        " m");
+      }
+      const Eigen::Matrix3d rotation =
+          rpyDegrees(node.vector3Or("rpy_deg", Eigen::Vector3d::Zero()));
       gaussian.cov = rotation * sigma.cwiseAbs2().asDiagonal() * rotation.transpose();
-      gaussian.hsv = vector3(node, "hsv");
-      gaussian.weight = scalarOr<double>(node, "weight", 1.0);
+      const YamlValue hsv = node["hsv"];
+      gaussian.hsv = hsv.vector3();
+      if (!(gaussian.hsv[0] >= 0.0 && gaussian.hsv[0] <= 360.0 && gaussian.hsv[1] >= 0.0 &&
+            gaussian.hsv[1] <= 1.0 && gaussian.hsv[2] >= 0.0 && gaussian.hsv[2] <= 1.0)) {
+        hsv.fail("must be [h, s, v] with h in [0, 360] degrees and s, v in [0, 1]");
+      }
+      gaussian.weight = node.has("weight") ? node["weight"].number(1e-6, 1e6) : 1.0;
       model->gaussians.push_back(gaussian);
     }
   }
 
-  void parseFingertips(const YAML::Node& tips, HandModel* model) {
+  void parseFingertips(const YamlValue& tips, HandModel* model) {
+    tips.allowOnly({fingerNames().begin(), fingerNames().end()});
     for (int finger = 0; finger < kNumFingers; ++finger) {
-      const int bone = boneIndex(tips, fingerNames()[finger]);
+      const YamlValue tip = tips[fingerNames()[finger]];
+      const int bone = boneIndex(tip);
       // The fingertip Gaussian: the one on that bone reaching furthest along the bone axis.
       int best = -1;
       double best_reach = -1e9;
@@ -217,12 +190,15 @@ class ModelParser {
           best = static_cast<int>(g);
         }
       }
-      if (best < 0) fail(tips, fingerNames()[finger], "the fingertip bone has no Gaussian");
+      if (best < 0) tip.fail("the fingertip bone has no Gaussian");
       model->fingertip_gaussians[finger] = best;
     }
   }
 
-  std::string path_;
+  // Lengths, offsets and sigmas of a hand are centimetres; a metre is a typo (mm vs m).
+  static constexpr double kMaxLengthMetres = 1.0;
+  static constexpr const char* kNameRule = " (a letter, then letters, digits or '_')";
+  const YamlDocument& document_;
   std::map<std::string, int> bone_index_;
 };
 
@@ -257,8 +233,23 @@ void validateHandModel(const HandModel& model) {
       throw InputError("bone '" + bone.name + "' has an invalid parent");
     }
   }
+  for (const Bone& bone : model.bones) {
+    if (!bone.offset.allFinite() || !bone.rest_rotation.allFinite() ||
+        !std::isfinite(bone.length) || bone.length < 0.0) {
+      throw InputError("bone '" + bone.name +
+                       "': offset, rotation and length must be finite, the length >= 0");
+    }
+  }
+  std::set<std::string> dof_names;
   for (const JointDof& dof : model.joints) {
     if (!(dof.min <= dof.max)) throw InputError("dof '" + dof.name + "': min exceeds max");
+    if (!dof_names.insert(dof.name).second) {
+      throw InputError("dof '" + dof.name + "' is defined twice");
+    }
+  }
+  if (model.gaussians.size() > static_cast<std::size_t>(kMaxModelGaussians)) {
+    throw InputError("the model has " + std::to_string(model.gaussians.size()) +
+                     " Gaussians, more than the limit of " + std::to_string(kMaxModelGaussians));
   }
   if (model.gaussians.empty()) throw InputError("the model has no Gaussians");
   for (size_t g = 0; g < model.gaussians.size(); ++g) {
@@ -274,6 +265,7 @@ void validateHandModel(const HandModel& model) {
     if (!(eigen.eigenvalues().minCoeff() > 0.0)) {
       throw InputError(which + ": covariance is not positive definite");
     }
+    if (!gaussian.mean.allFinite()) throw InputError(which + ": mean is not finite");
     if (!(gaussian.weight > 0.0) || !gaussian.hsv.allFinite()) {
       throw InputError(which + ": weight must be positive and the colour finite");
     }
@@ -286,7 +278,15 @@ void validateHandModel(const HandModel& model) {
   }
 }
 
-HandModel loadHandModel(const std::string& path) { return ModelParser(path).parse(); }
+HandModel parseHandModel(const std::string& yaml_text, const std::string& source) {
+  const YamlDocument document(yaml_text, source, "hand model");
+  return ModelParser(document).parse();
+}
+
+HandModel loadHandModel(const std::string& path) {
+  const YamlDocument document = YamlDocument::fromFile(path, "hand model");
+  return ModelParser(document).parse();
+}
 
 HandModel loadHandModel(const std::string& path, Handedness handedness) {
   HandModel model = loadHandModel(path);

@@ -11,7 +11,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <map>
 #include <regex>
@@ -29,6 +31,9 @@ const char* const kImageType = "sensor_msgs/Image";
 const char* const kCameraInfoType = "sensor_msgs/CameraInfo";
 const char* const kTfType = "tf2_msgs/TFMessage";
 const char* const kTfStaticTopic = "/tf_static";
+// Two cameras' stamps closer than this, but not equal, are a stamp mismatch (frames at 1 kHz are
+// still 1 ms apart).
+constexpr std::int64_t kNearStampNs = 1000000;
 
 std::string imageTopic(int id) { return "/cam" + std::to_string(id) + "/image_raw"; }
 std::string cameraInfoTopic(int id) { return "/cam" + std::to_string(id) + "/camera_info"; }
@@ -105,13 +110,126 @@ struct BagReader::Impl {
   void checkFirstImages();
   cv::Mat decode(const sensor_msgs::Image& image, int camera, const std::string& topic) const;
   bool frontIsFinal() const;
+  void noteNearStamps(const std::string& topic, int camera, std::int64_t stamp);
   bool step(FrameSet* set);
 };
+
+// rosbag allocates whatever a record's length fields say before it checks them against the file
+// (a flipped bit: gigabytes, or std::bad_alloc). So the record structure is walked first: every
+// record <header_len><header><data_len><data> must fit in the file (in its chunk for the records
+// of an uncompressed chunk), and a chunk's uncompressed size must be plausible. Returns "" or
+// what is wrong.
+class BagRecordWalker {
+ public:
+  BagRecordWalker(const std::string& path) : file_(path, std::ios::binary) {}
+
+  std::string walk(std::uint64_t begin, std::uint64_t end, bool inside_chunk) {
+    std::uint64_t pos = begin;
+    while (pos < end) {
+      std::uint32_t header_len = 0, data_len = 0;
+      if (end - pos < 4 || !readU32(pos, &header_len)) return corrupt(pos, "a cut record");
+      if (header_len > end - pos - 4) return corrupt(pos, "a record header longer than the file");
+      std::string header(header_len, '\0');
+      if (!read(pos + 4, &header[0], header_len)) return corrupt(pos, "an unreadable header");
+      const std::uint64_t data_at = pos + 4 + header_len;
+      if (end - data_at < 4 || !readU32(data_at, &data_len)) return corrupt(pos, "a cut record");
+      if (data_len > end - data_at - 4) return corrupt(pos, "record data longer than the file");
+      std::string op, compression;
+      std::uint32_t chunk_size = 0;
+      for (std::size_t at = 0; at < header.size();) {
+        if (header.size() - at < 4) return corrupt(pos, "a cut header field");
+        std::uint32_t field_len = 0;
+        std::memcpy(&field_len, &header[at], 4);
+        at += 4;
+        if (field_len > header.size() - at) return corrupt(pos, "a header field too long");
+        const std::string field = header.substr(at, field_len);
+        at += field_len;
+        const std::size_t equals = field.find('=');
+        if (equals == std::string::npos) return corrupt(pos, "a header field without '='");
+        const std::string name = field.substr(0, equals), value = field.substr(equals + 1);
+        if (name == "op") op = value;
+        if (name == "compression") compression = value;
+        if (name == "size" && value.size() == 4) std::memcpy(&chunk_size, value.data(), 4);
+      }
+      if (op.size() != 1) return corrupt(pos, "a record without its op field");
+      if (op[0] == 0x05) {  // chunk
+        if (inside_chunk) return corrupt(pos, "a chunk inside a chunk");
+        if (chunk_size > kMaxChunkBytes) return corrupt(pos, "a chunk larger than 1 GiB");
+        if (compression == "none") {
+          if (chunk_size != data_len) return corrupt(pos, "a chunk whose size disagrees");
+          const std::string inner = walk(data_at + 4, data_at + 4 + data_len, true);
+          if (!inner.empty()) return inner;
+        }
+      }
+      pos = data_at + 4 + data_len;
+    }
+    return "";
+  }
+
+ private:
+  static constexpr std::uint32_t kMaxChunkBytes = 1u << 30;
+
+  bool read(std::uint64_t pos, char* out, std::size_t n) {
+    file_.clear();
+    file_.seekg(static_cast<std::streamoff>(pos));
+    file_.read(out, static_cast<std::streamsize>(n));
+    return static_cast<std::size_t>(file_.gcount()) == n;
+  }
+  bool readU32(std::uint64_t pos, std::uint32_t* value) {
+    char bytes[4];
+    if (!read(pos, bytes, 4)) return false;
+    std::memcpy(value, bytes, 4);  // little-endian, as the format and this machine
+    return true;
+  }
+  static std::string corrupt(std::uint64_t pos, const std::string& what) {
+    return "the bag is corrupt: " + what + " at byte " + std::to_string(pos);
+  }
+
+  std::ifstream file_;
+};
+
+std::string describeCorruptRecords(const std::string& path, std::uint64_t size) {
+  return BagRecordWalker(path).walk(13, size, false);  // after "#ROSBAG V2.0\n"
+}
+
+// A bag (format 2.0) starts with "#ROSBAG V2.0\n" and a header record whose field index_pos is
+// where the index (written last, on close) begins. Returns "" for a bag that looks complete, else
+// why it is not: truncated (the index lies beyond the end of the file) or never closed.
+std::string describeIncompleteBag(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  std::string head(4096, '\0');
+  file.read(&head[0], static_cast<std::streamsize>(head.size()));
+  head.resize(static_cast<std::size_t>(file.gcount()));
+  if (head.rfind("#ROSBAG V2.0\n", 0) != 0) return "";
+  const std::string field = "index_pos=";
+  const std::size_t at = head.find(field);
+  if (at == std::string::npos || at + field.size() + 8 > head.size()) {
+    return "the bag is truncated (its header is incomplete)";
+  }
+  std::uint64_t index_pos = 0;
+  for (int byte = 7; byte >= 0; --byte) {
+    index_pos = (index_pos << 8) | static_cast<unsigned char>(head[at + field.size() + byte]);
+  }
+  std::error_code error;
+  const std::uintmax_t size = std::filesystem::file_size(path, error);
+  if (error) return "";
+  if (index_pos == 0) {
+    return "the bag was not closed (no index): was the recording interrupted? 'rosbag reindex' "
+           "may repair it";
+  }
+  if (index_pos > size) {
+    return "the bag is truncated: it has " + std::to_string(size) +
+           " bytes, its index starts at byte " + std::to_string(index_pos);
+  }
+  return describeCorruptRecords(path, size);
+}
 
 void BagReader::Impl::open() {
   std::error_code error;
   if (!std::filesystem::exists(path, error)) fail("bag file does not exist");
   if (std::filesystem::is_directory(path, error)) fail("is a directory, not a bag file");
+  const std::string incomplete = describeIncompleteBag(path);
+  if (!incomplete.empty()) fail(incomplete);
   try {
     bag.open(path, rosbag::bagmode::Read);
   } catch (const rosbag::BagException& exception) {
@@ -191,12 +309,23 @@ void BagReader::Impl::readCameraInfo() {
     }
   }
   std::vector<bool> have(ids.size(), false);
-  std::size_t missing = ids.size();
+  [[maybe_unused]] std::size_t missing = ids.size();
   for (const rosbag::MessageInstance& message : infos) {
     const int camera = info_to_camera.at(message.getTopic());
-    if (have[camera]) continue;
     const sensor_msgs::CameraInfo::ConstPtr info = message.instantiate<sensor_msgs::CameraInfo>();
     if (!info) fail(message.getTopic() + " does not hold sensor_msgs/CameraInfo");
+    if (have[camera]) {
+      // One calibration per camera: a driver that changes resolution mid-bag is refused.
+      const Camera& first = cameras[camera];
+      if (static_cast<int>(info->width) != first.width ||
+          static_cast<int>(info->height) != first.height) {
+        fail(message.getTopic() + " at " + formatStamp(info->header.stamp.toNSec()) +
+             ": the image size changes mid-bag from " + std::to_string(first.width) + "x" +
+             std::to_string(first.height) + " to " + std::to_string(info->width) + "x" +
+             std::to_string(info->height) + " (one calibration per camera is supported)");
+      }
+      continue;
+    }
     try {
       cameras[camera] = fromCameraInfo(*info, cameraName(ids[camera]));
     } catch (const InputError& error) {
@@ -205,7 +334,7 @@ void BagReader::Impl::readCameraInfo() {
     const std::string frame = stripSlash(info->header.frame_id);
     optical_frames[camera] = frame.empty() ? opticalFrame(cameraName(ids[camera])) : frame;
     have[camera] = true;
-    if (--missing == 0) break;
+    --missing;
   }
   for (std::size_t i = 0; i < ids.size(); ++i) {
     if (!have[i]) {
@@ -308,6 +437,27 @@ void BagReader::Impl::checkFirstImages() {
   }
 }
 
+void BagReader::Impl::noteNearStamps(const std::string& topic, int camera, std::int64_t stamp) {
+  // Sets are made of identical stamps: another camera's stamp a few microseconds away means the
+  // cameras are not stamped together, and every set would be missing cameras.
+  const auto near = [&](std::int64_t other) {
+    return other != stamp && std::llabs(other - stamp) < kNearStampNs;
+  };
+  auto neighbour = pending.lower_bound(stamp - kNearStampNs + 1);
+  for (; neighbour != pending.end() && neighbour->first < stamp + kNearStampNs; ++neighbour) {
+    if (!near(neighbour->first)) continue;
+    for (const CameraImage& image : neighbour->second.images) {
+      if (image.camera == camera) continue;
+      if (stats.near_stamp_mismatches++ == 0) {
+        stats.first_near_stamp_mismatch = topic + " at " + formatStamp(stamp) + " vs " +
+                                          cameraName(ids[image.camera]) + " at " +
+                                          formatStamp(neighbour->first);
+      }
+      return;
+    }
+  }
+}
+
 bool BagReader::Impl::frontIsFinal() const {
   const auto& [stamp, set] = *pending.begin();
   if (set.images.size() == ids.size()) return true;
@@ -352,6 +502,11 @@ bool BagReader::Impl::step(FrameSet* set) {
     if (stamp == 0) {
       fail(topic + ": image with a zero header stamp (sets are made by header stamps)");
     }
+    if (stamp < last_stamp[camera] && stats.backward_stamps++ == 0) {
+      stats.first_backward_stamp =
+          topic + " at " + formatStamp(stamp) + " after " + formatStamp(last_stamp[camera]);
+    }
+    noteNearStamps(topic, camera, stamp);
     if (yielded_any && stamp <= last_yielded) {
       ++stats.dropped_images;  // too late: its set is gone
       continue;

@@ -12,6 +12,7 @@
 
 #include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/util/types.h"
+#include "sag_hand_tracker/util/input_limits.h"
 
 namespace sag_hand_tracker {
 namespace {
@@ -69,6 +70,7 @@ Camera fromCameraInfo(const sensor_msgs::CameraInfo& info, const std::string& ca
     throw InputError(who + "has a zero image size (" + std::to_string(info.width) + "x" +
                      std::to_string(info.height) + ")");
   }
+  checkImageSize(info.width, info.height, who.substr(0, who.size() - 1));
   if (info.binning_x > 1 || info.binning_y > 1) {
     throw InputError(who + "uses binning, which is not supported");
   }
@@ -95,9 +97,31 @@ Camera fromCameraInfo(const sensor_msgs::CameraInfo& info, const std::string& ca
                      ", fy " + describe(info.K[4]) + "): is the camera calibrated?");
   }
 
+  if (info.K[0] > kMaxFocalLengthPixels || info.K[4] > kMaxFocalLengthPixels ||
+      info.K[0] < kMinFocalLengthPixels || info.K[4] < kMinFocalLengthPixels) {
+    throw InputError(who + "has a focal length outside [" + describe(kMinFocalLengthPixels) + ", " +
+                     describe(kMaxFocalLengthPixels) + "] pixels (fx " + describe(info.K[0]) +
+                     ", fy " + describe(info.K[4]) + ")");
+  }
+  // image_geometry divides by zero (SIGFPE) on an empty D (with or without a model), and OpenCV
+  // asserts on counts it does not know: an empty D is no distortion, 4 or 5 (8 rational) are
+  // padded with zeros, anything else is refused here with the camera's name.
+  const bool rational = model == sensor_msgs::distortion_models::RATIONAL_POLYNOMIAL;
+  const std::size_t count = info.D.size();
+  if (!(count == 0 || count == 4 || count == 5 || (rational && count == 8))) {
+    throw InputError(who + "has " + std::to_string(count) + " distortion coefficients for " +
+                     (model.empty() ? std::string("no distortion model") : model) +
+                     " (expected 0, 4 or 5" + (rational ? ", or 8" : "") + ")");
+  }
+  sensor_msgs::CameraInfo padded = info;
+  if (padded.distortion_model.empty()) {
+    padded.distortion_model = sensor_msgs::distortion_models::PLUMB_BOB;
+  }
+  padded.D.resize(rational ? 8 : 5, 0.0);
+
   image_geometry::PinholeCameraModel pinhole;
   try {
-    pinhole.fromCameraInfo(info);
+    pinhole.fromCameraInfo(padded);
   } catch (const std::exception& error) {
     throw InputError(who + "is not usable: " + error.what());
   }
@@ -110,6 +134,8 @@ Camera fromCameraInfo(const sensor_msgs::CameraInfo& info, const std::string& ca
   camera.height = size.height;
   const cv::Mat_<double>& D = pinhole.distortionCoeffs();
   camera.distortion.assign(D.begin(), D.end());
+  validateCamera(camera);
+  checkDistortionInvertible(camera, who.substr(0, who.size() - 1));
   return camera;
 }
 
@@ -147,6 +173,7 @@ cv::Mat toRgbMat(const sensor_msgs::Image& image) {
   }
   const std::size_t row_bytes = static_cast<std::size_t>(image.width) * 3;
   if (image.width == 0 || image.height == 0) throw InputError("empty image (0 pixels)");
+  checkImageSize(image.width, image.height, "image");
   if (image.step < row_bytes ||
       image.data.size() < static_cast<std::size_t>(image.step) * image.height) {
     throw InputError("malformed image: " + std::to_string(image.data.size()) + " bytes for " +

@@ -6,6 +6,16 @@
 namespace sag_hand_tracker {
 
 ImageSoG sogFromMsg(const sag_hand_tracker::SumOfGaussians& msg) {
+  if (msg.width > static_cast<uint32_t>(kMaxImageSide) ||
+      msg.height > static_cast<uint32_t>(kMaxImageSide)) {
+    throw InputError("image SoG size " + std::to_string(msg.width) + "x" +
+                     std::to_string(msg.height) + " exceeds the limit of " +
+                     std::to_string(kMaxImageSide) + " pixels a side");
+  }
+  if (msg.gaussians.size() > static_cast<size_t>(kMaxImageGaussians)) {
+    throw InputError("image SoG has " + std::to_string(msg.gaussians.size()) +
+                     " Gaussians, more than the limit of " + std::to_string(kMaxImageGaussians));
+  }
   ImageSoG sog;
   sog.width = static_cast<int>(msg.width);
   sog.height = static_cast<int>(msg.height);

@@ -12,6 +12,7 @@
 
 #include "sag_hand_tracker/studio/renderer.h"  // mixSeed
 #include "sag_hand_tracker/util/types.h"
+#include "sag_hand_tracker/util/yaml_reader.h"
 
 namespace sag_hand_tracker {
 namespace studio {
@@ -23,83 +24,47 @@ constexpr int kChannels = 6 + kNumJointDof;  // position, orientation, joints
 // Keyframe values may sit on a limit written in degrees with a few decimals.
 constexpr double kLimitTolerance = 1e-6;
 
-class Parser {
+// Ranges of keyframe values: a hand within 10 m of the origin, angles within two turns, keyframes
+// at least 1 ms apart (interpolation divides by their spacing).
+constexpr double kMaxPositionMetres = 10.0;
+constexpr double kMaxAngleDegrees = 720.0;
+constexpr double kMinKeyframeSpacing = 1e-3;
+
+Eigen::Vector3d boundedVector(const YamlValue& value, double bound) {
+  const Eigen::Vector3d v = value.vector3();
+  if (!(v.cwiseAbs().maxCoeff() <= bound)) {
+    value.fail("values must lie within +-" + std::to_string(bound));
+  }
+  return v;
+}
+
+// Joint maps ({joint name: degrees}) and limit checks against the model.
+class JointReader {
  public:
-  Parser(std::string source, const HandModel& model) : source_(std::move(source)), model_(model) {
+  explicit JointReader(const HandModel& model) : model_(model) {
     const std::vector<std::string> names = model.parameterNames();
-    for (int j = 0; j < kNumJointDof; ++j) {
-      joint_index_[names.at(kFirstJointDof + j)] = j;
-    }
-  }
-
-  [[noreturn]] void fail(const YAML::Node& node, const std::string& problem) const {
-    std::ostringstream msg;
-    msg << "motion " << source_;
-    if (node.IsDefined() && node.Mark().line >= 0) msg << ":" << node.Mark().line + 1;
-    msg << ": " << problem;
-    throw InputError(msg.str());
-  }
-  [[noreturn]] void fail(const std::string& problem) const {
-    throw InputError("motion " + source_ + ": " + problem);
-  }
-
-  void checkKeys(const YAML::Node& map, const std::set<std::string>& allowed,
-                 const std::string& where) const {
-    if (!map.IsMap()) fail(map, where + " must be a map");
-    for (const auto& item : map) {
-      const std::string key = item.first.as<std::string>();
-      if (!allowed.count(key)) {
-        std::string list;
-        for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-        fail(item.first,
-             "unknown key '" + key + "' in " + where + " (expected one of: " + list + ")");
-      }
-    }
-  }
-
-  double number(const YAML::Node& node, const std::string& what) const {
-    if (!node.IsDefined()) fail(what + " is missing");
-    if (!node.IsScalar()) fail(node, what + " must be a number");
-    double value;
-    try {
-      value = node.as<double>();
-    } catch (const YAML::Exception&) {
-      fail(node, what + " must be a number, not '" + node.as<std::string>() + "'");
-    }
-    if (!std::isfinite(value)) fail(node, what + " must be finite");
-    return value;
-  }
-
-  Eigen::Vector3d vector3(const YAML::Node& node, const std::string& what) const {
-    if (!node.IsSequence() || node.size() != 3) fail(node, what + " must be a list of 3 numbers");
-    return Eigen::Vector3d(number(node[0], what), number(node[1], what), number(node[2], what));
-  }
-
-  int jointIndex(const YAML::Node& key) const {
-    const std::string name = key.as<std::string>();
-    const auto it = joint_index_.find(name);
-    if (it == joint_index_.end()) {
-      std::string list;
-      for (int j = 0; j < kNumJointDof; ++j) {
-        list += (j ? ", " : "") + model_.parameterNames()[kFirstJointDof + j];
-      }
-      fail(key, "unknown joint '" + name + "' (the model's joints are: " + list + ")");
-    }
-    return it->second;
+    for (int j = 0; j < kNumJointDof; ++j) joint_index_[names.at(kFirstJointDof + j)] = j;
   }
 
   // Joint angles in degrees -> (index, radians).
-  std::map<int, double> joints(const YAML::Node& node, const std::string& what) const {
+  std::map<int, double> joints(const YamlValue& map) const {
     std::map<int, double> out;
-    if (!node.IsMap()) fail(node, what + " must be a map of joint names to degrees");
-    for (const auto& item : node) {
-      out[jointIndex(item.first)] =
-          number(item.second, what + " " + item.first.as<std::string>()) * kDeg;
+    if (!map.isMap()) map.fail("must be a map of joint names to degrees");
+    for (const auto& [name, value] : map.entries()) {
+      const auto it = joint_index_.find(name);
+      if (it == joint_index_.end()) {
+        std::string list;
+        for (int j = 0; j < kNumJointDof; ++j) {
+          list += (j ? ", " : "") + model_.parameterNames()[kFirstJointDof + j];
+        }
+        value.fail("unknown joint '" + name + "' (the model's joints are: " + list + ")");
+      }
+      out[it->second] = value.number() * kDeg;
     }
     return out;
   }
 
-  void checkLimits(const JointVector& q, const YAML::Node& node, const std::string& what) const {
+  void checkLimits(const JointVector& q, const YamlValue& where, const std::string& what) const {
     for (int j = 0; j < kNumJointDof; ++j) {
       const JointDof& dof = model_.joints[j];
       if (q[j] < dof.min - kLimitTolerance || q[j] > dof.max + kLimitTolerance) {
@@ -107,13 +72,12 @@ class Parser {
         msg << what << ": joint " << model_.parameterNames()[kFirstJointDof + j] << " = "
             << q[j] / kDeg << " deg is outside its limits [" << dof.min / kDeg << ", "
             << dof.max / kDeg << "] deg";
-        fail(node, msg.str());
+        where.fail(msg.str());
       }
     }
   }
 
  private:
-  std::string source_;
   const HandModel& model_;
   std::map<std::string, int> joint_index_;
 };
@@ -209,6 +173,191 @@ Pose Motion::poseAt(double time) const {
   return pose;
 }
 
+namespace {
+
+// Random keyframes (`random: keyframes:`), drawn around the explicit motion `base`.
+void drawRandomKeyframes(const YamlValue& blocks, const HandModel& model, Motion* motion,
+                         std::mt19937_64* rng) {
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  // One block (a map) or several (a list of maps), each over its own time span.
+  std::vector<YamlValue> gens;
+  if (blocks.isSequence()) {
+    const std::size_t count = blocks.size(kMaxMotionKeyframes);
+    for (std::size_t i = 0; i < count; ++i) gens.push_back(blocks[i]);
+  } else {
+    gens.push_back(blocks);
+  }
+  const std::vector<MotionKeyframe> base = motion->keyframes;
+  std::vector<MotionKeyframe> drawn;
+  for (const YamlValue& gen : gens) {
+    gen.allowOnly({"from", "to", "interval", "position", "orientation", "joints"});
+    const double from = gen["from"].number(0.0, kMaxMotionSeconds);
+    const double to = gen["to"].number(from, kMaxMotionSeconds);
+    const YamlValue interval_node = gen["interval"];
+    const double interval = interval_node.number();
+    if (!(interval > 0.0)) interval_node.fail("must be positive");
+    if (interval < kMinKeyframeSpacing) interval_node.fail("must be at least 1 ms");
+    // Counted before anything is drawn: an interval of 1e-9 must not try 1e10 keyframes.
+    const double wanted = std::floor((to - from) / interval + 1e-9) + 1.0;
+    if (wanted + base.size() + drawn.size() > kMaxMotionKeyframes) {
+      interval_node.fail("gives " + std::to_string(wanted) + " keyframes, more than the limit of " +
+                         std::to_string(kMaxMotionKeyframes) + " for a motion");
+    }
+    const int count = static_cast<int>(wanted);
+    const Eigen::Vector3d dp = gen.has("position")
+                                   ? boundedVector(gen["position"], kMaxPositionMetres)
+                                   : Eigen::Vector3d::Zero().eval();
+    const Eigen::Vector3d dr = gen.has("orientation")
+                                   ? boundedVector(gen["orientation"], kMaxAngleDegrees)
+                                   : Eigen::Vector3d::Zero().eval();
+    const double fraction = gen.has("joints") ? gen["joints"].number(0.0, 1.0) : 0.0;
+    for (int i = 0; i < count; ++i) {
+      const double t = from + i * interval;
+      bool near_other = false;
+      for (const auto& b : base) near_other |= std::abs(b.time - t) < 0.5 * interval;
+      for (const auto& d : drawn) near_other |= std::abs(d.time - t) < 0.5 * interval;
+      // Draw even when skipping, so that the draws do not depend on the skips.
+      MotionKeyframe key;
+      key.time = t;
+      key.random = true;
+      const Eigen::Matrix<double, kChannels, 1> centre = interpolate(base, motion->cubic, t);
+      for (int a = 0; a < 3; ++a) key.position[a] = centre[a] + dp[a] * unit(*rng);
+      for (int a = 0; a < 3; ++a) key.orientation[a] = centre[3 + a] + dr[a] * unit(*rng);
+      for (int j = 0; j < kNumJointDof; ++j) {
+        const double lo = model.joints[j].min, hi = model.joints[j].max;
+        const double mid = 0.5 * (lo + hi), half = 0.5 * (hi - lo) * fraction;
+        key.joints[j] = fraction > 0.0 ? mid + half * unit(*rng) : centre[6 + j];
+      }
+      if (!near_other) drawn.push_back(key);
+    }
+  }
+  motion->keyframes.insert(motion->keyframes.end(), drawn.begin(), drawn.end());
+  std::sort(motion->keyframes.begin(), motion->keyframes.end(),
+            [](const MotionKeyframe& a, const MotionKeyframe& b) { return a.time < b.time; });
+}
+
+void readJitter(const YamlValue& jitter, Motion* motion, std::mt19937_64* rng) {
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  jitter.allowOnly({"position", "orientation", "joints", "frequency"});
+  const double ap = jitter.has("position") ? jitter["position"].number(0.0, 1.0) : 0.0;
+  const double ao = jitter.has("orientation") ? jitter["orientation"].number(0.0, 360.0) : 0.0;
+  const double aj = jitter.has("joints") ? jitter["joints"].number(0.0, 360.0) * kDeg : 0.0;
+  const double f = jitter.has("frequency") ? jitter["frequency"].number() : 1.0;
+  if (!(f > 0.0) || f > 1000.0) jitter.get("frequency").fail("must be in (0, 1000] Hz");
+  motion->jitter.channels.resize(kChannels);
+  for (int c = 0; c < kChannels; ++c) {
+    const double amplitude = c < 3 ? ap : (c < 6 ? ao : aj);
+    for (int w = 0; w < 3; ++w) {
+      MotionJitter::Wave wave;
+      wave.amplitude = 0.5 * amplitude;
+      wave.frequency = f * (1.0 + 0.5 * unit(*rng));
+      wave.phase = M_PI * (1.0 + unit(*rng));
+      motion->jitter.channels[c].push_back(wave);
+    }
+  }
+}
+
+Motion readMotion(const YamlDocument& document, const HandModel& model, std::uint64_t seed) {
+  const YamlValue root = document.root();
+  root.allowOnly({"name", "description", "duration", "interpolation", "shapes", "keyframes",
+                  "random", "forearm"});
+  const JointReader reader(model);
+  Motion motion;
+  motion.source = document.source();
+  motion.name = root.textOr("name", baseName(document.source()));
+  motion.description = root.textOr("description", "");
+  for (int j = 0; j < kNumJointDof; ++j) {
+    motion.joint_min[j] = model.joints[j].min;
+    motion.joint_max[j] = model.joints[j].max;
+  }
+  if (root.has("interpolation")) {
+    const YamlValue mode = root["interpolation"];
+    if (mode.text() != "cubic" && mode.text() != "linear") {
+      mode.fail("must be 'cubic' or 'linear', not '" + mode.text() + "'");
+    }
+    motion.cubic = mode.text() == "cubic";
+  }
+  if (root.has("forearm")) {
+    const YamlValue forearm = root["forearm"];
+    forearm.allowOnly({"bare", "bend"});
+    if (forearm.has("bare")) {
+      const YamlValue bare = forearm["bare"];
+      if (bare.text() != "true" && bare.text() != "false") bare.fail("must be true or false");
+      motion.bare_forearm = bare.text() == "true";
+    }
+    if (forearm.has("bend")) motion.forearm_bend = forearm["bend"].number(0.0, 10.0);
+  }
+
+  std::map<std::string, std::map<int, double>> shapes;
+  if (root.has("shapes")) {
+    for (const auto& [name, joints] : root["shapes"].entries())
+      shapes[name] = reader.joints(joints);
+  }
+
+  const YamlValue keys = root["keyframes"];
+  const std::size_t key_count = keys.size(kMaxMotionKeyframes);
+  if (key_count == 0) keys.fail("must be a non-empty list");
+  JointVector current;
+  for (int j = 0; j < kNumJointDof; ++j) {
+    current[j] = std::clamp(0.0, model.joints[j].min, model.joints[j].max);
+  }
+  for (std::size_t k = 0; k < key_count; ++k) {
+    const YamlValue node = keys[k];
+    node.allowOnly({"time", "position", "orientation", "shape", "joints"});
+    MotionKeyframe key;
+    const YamlValue time = node["time"];
+    key.time = time.number(0.0, kMaxMotionSeconds);
+    if (k > 0 && key.time < motion.keyframes.back().time + kMinKeyframeSpacing) {
+      time.fail("times must increase strictly, by at least 1 ms (" + std::to_string(key.time) +
+                " s follows " + std::to_string(motion.keyframes.back().time) + " s)");
+    }
+    key.position = k == 0
+                       ? boundedVector(node["position"], kMaxPositionMetres)
+                       : (node.has("position") ? boundedVector(node["position"], kMaxPositionMetres)
+                                               : motion.keyframes.back().position);
+    key.orientation = node.has("orientation") ? boundedVector(node["orientation"], kMaxAngleDegrees)
+                                              : (k == 0 ? Eigen::Vector3d::Zero().eval()
+                                                        : motion.keyframes.back().orientation);
+    if (node.has("shape")) {
+      const YamlValue shape = node["shape"];
+      const auto it = shapes.find(shape.text());
+      if (it == shapes.end()) shape.fail("unknown shape '" + shape.text() + "'");
+      for (const auto& [j, value] : it->second) current[j] = value;
+    }
+    if (node.has("joints")) {
+      for (const auto& [j, value] : reader.joints(node["joints"])) current[j] = value;
+    }
+    reader.checkLimits(
+        current, node,
+        "keyframe " + std::to_string(k + 1) + " (t = " + std::to_string(key.time) + " s)");
+    key.joints = current;
+    motion.keyframes.push_back(key);
+  }
+  motion.duration = motion.keyframes.back().time;
+  if (root.has("duration")) {
+    const YamlValue duration = root["duration"];
+    motion.duration = duration.number();
+    if (!(motion.duration > 0.0)) duration.fail("must be positive");
+    if (motion.duration > kMaxMotionSeconds) {
+      duration.fail("exceeds the limit of " + std::to_string(kMaxMotionSeconds) + " s");
+    }
+  }
+  if (motion.duration <= 0.0) {
+    root.fail("duration is zero: give 'duration' or keyframes that span some time");
+  }
+
+  std::mt19937_64 rng(mixSeed(seed, nameHash(motion.name)));
+  if (root.has("random")) {
+    const YamlValue random = root["random"];
+    random.allowOnly({"keyframes", "jitter"});
+    if (random.has("keyframes")) drawRandomKeyframes(random["keyframes"], model, &motion, &rng);
+    if (random.has("jitter")) readJitter(random["jitter"], &motion, &rng);
+  }
+  return motion;
+}
+
+}  // namespace
+
 Motion parseMotion(const std::string& yaml_text, const std::string& source, const HandModel& model,
                    std::uint64_t seed) {
   if (static_cast<int>(model.joints.size()) != kNumJointDof) {
@@ -216,210 +365,11 @@ Motion parseMotion(const std::string& yaml_text, const std::string& source, cons
                      std::to_string(model.joints.size()) + " joints, expected " +
                      std::to_string(kNumJointDof));
   }
-  Parser parser(source, model);
-  YAML::Node root;
-  try {
-    root = YAML::Load(yaml_text);
-  } catch (const YAML::Exception& e) {
-    throw InputError("motion " + source + ":" + std::to_string(e.mark.line + 1) +
-                     ": not valid YAML: " + e.msg);
-  }
-  if (!root.IsMap()) parser.fail("the document must be a map with a 'keyframes' list");
-  parser.checkKeys(root,
-                   {"name", "description", "duration", "interpolation", "shapes", "keyframes",
-                    "random", "forearm"},
-                   "the motion");
-
-  Motion motion;
-  motion.source = source;
-  motion.name = root["name"] ? root["name"].as<std::string>() : baseName(source);
-  if (root["description"]) motion.description = root["description"].as<std::string>();
-  for (int j = 0; j < kNumJointDof; ++j) {
-    motion.joint_min[j] = model.joints[j].min;
-    motion.joint_max[j] = model.joints[j].max;
-  }
-  if (root["interpolation"]) {
-    const std::string mode = root["interpolation"].as<std::string>();
-    if (mode == "cubic") {
-      motion.cubic = true;
-    } else if (mode == "linear") {
-      motion.cubic = false;
-    } else {
-      parser.fail(root["interpolation"],
-                  "interpolation must be 'cubic' or 'linear', not '" + mode + "'");
-    }
-  }
-
-  if (const YAML::Node forearm = root["forearm"]) {
-    parser.checkKeys(forearm, {"bare", "bend"}, "forearm");
-    if (const YAML::Node bare = forearm["bare"]) {
-      try {
-        motion.bare_forearm = bare.as<bool>();
-      } catch (const YAML::Exception&) {
-        parser.fail(bare, "forearm bare must be true or false");
-      }
-    }
-    if (forearm["bend"]) {
-      motion.forearm_bend = parser.number(forearm["bend"], "forearm bend");
-      if (*motion.forearm_bend < 0.0 || *motion.forearm_bend > 10.0) {
-        parser.fail(forearm["bend"], "forearm bend must lie in [0, 10]");
-      }
-    }
-  }
-
-  std::map<std::string, std::map<int, double>> shapes;
-  if (const YAML::Node node = root["shapes"]) {
-    if (!node.IsMap()) parser.fail(node, "shapes must be a map of shape names to joint maps");
-    for (const auto& item : node) {
-      const std::string name = item.first.as<std::string>();
-      shapes[name] = parser.joints(item.second, "shape '" + name + "'");
-    }
-  }
-
-  const YAML::Node keys = root["keyframes"];
-  if (!keys) parser.fail("'keyframes' is missing");
-  if (!keys.IsSequence() || keys.size() == 0) {
-    parser.fail(keys, "keyframes must be a non-empty list");
-  }
-  JointVector current;
-  for (int j = 0; j < kNumJointDof; ++j) {
-    current[j] = std::clamp(0.0, model.joints[j].min, model.joints[j].max);
-  }
-  for (size_t k = 0; k < keys.size(); ++k) {
-    const YAML::Node node = keys[k];
-    const std::string what = "keyframe " + std::to_string(k + 1);
-    parser.checkKeys(node, {"time", "position", "orientation", "shape", "joints"}, what);
-    MotionKeyframe key;
-    key.time = parser.number(node["time"], what + " time");
-    if (key.time < 0.0) parser.fail(node["time"], what + ": time must not be negative");
-    if (k > 0 && key.time <= motion.keyframes.back().time) {
-      parser.fail(node["time"], what + ": times must increase strictly (" +
-                                    std::to_string(key.time) + " s follows " +
-                                    std::to_string(motion.keyframes.back().time) + " s)");
-    }
-    if (!node["position"] && k == 0) parser.fail(node, what + ": position is missing");
-    key.position = node["position"] ? parser.vector3(node["position"], what + " position")
-                                    : motion.keyframes.back().position;
-    key.orientation =
-        node["orientation"]
-            ? parser.vector3(node["orientation"], what + " orientation")
-            : (k == 0 ? Eigen::Vector3d::Zero().eval() : motion.keyframes.back().orientation);
-    if (const YAML::Node shape = node["shape"]) {
-      const std::string name = shape.as<std::string>();
-      const auto it = shapes.find(name);
-      if (it == shapes.end()) parser.fail(shape, what + ": unknown shape '" + name + "'");
-      for (const auto& [j, value] : it->second) current[j] = value;
-    }
-    if (const YAML::Node joints = node["joints"]) {
-      for (const auto& [j, value] : parser.joints(joints, what + " joints")) current[j] = value;
-    }
-    parser.checkLimits(current, node, what + " (t = " + std::to_string(key.time) + " s)");
-    key.joints = current;
-    motion.keyframes.push_back(key);
-  }
-  motion.duration = motion.keyframes.back().time;
-  if (root["duration"]) {
-    motion.duration = parser.number(root["duration"], "duration");
-    if (motion.duration <= 0.0) parser.fail(root["duration"], "duration must be positive");
-  }
-  if (motion.duration <= 0.0) {
-    parser.fail("duration is zero: give 'duration' or keyframes that span some time");
-  }
-
-  const std::uint64_t motion_seed = mixSeed(seed, nameHash(motion.name));
-  std::mt19937_64 rng(motion_seed);
-  std::uniform_real_distribution<double> unit(-1.0, 1.0);
-  if (const YAML::Node random = root["random"]) {
-    parser.checkKeys(random, {"keyframes", "jitter"}, "random");
-    if (const YAML::Node blocks = random["keyframes"]) {
-      // One block (a map) or several (a list of maps), each over its own time span.
-      std::vector<YAML::Node> gens;
-      if (blocks.IsSequence()) {
-        for (const YAML::Node& b : blocks) gens.push_back(b);
-      } else {
-        gens.push_back(blocks);
-      }
-      const std::vector<MotionKeyframe> base = motion.keyframes;
-      std::vector<MotionKeyframe> drawn;
-      for (const YAML::Node& gen : gens) {
-        parser.checkKeys(gen, {"from", "to", "interval", "position", "orientation", "joints"},
-                         "random keyframes");
-        const double from = parser.number(gen["from"], "random keyframes from");
-        const double to = parser.number(gen["to"], "random keyframes to");
-        const double interval = parser.number(gen["interval"], "random keyframes interval");
-        if (interval <= 0.0 || to < from || from < 0.0) {
-          parser.fail(gen, "random keyframes need 0 <= from <= to and a positive interval");
-        }
-        const Eigen::Vector3d dp = gen["position"]
-                                       ? parser.vector3(gen["position"], "random position")
-                                       : Eigen::Vector3d::Zero().eval();
-        const Eigen::Vector3d dr = gen["orientation"]
-                                       ? parser.vector3(gen["orientation"], "random orientation")
-                                       : Eigen::Vector3d::Zero().eval();
-        const double fraction = gen["joints"] ? parser.number(gen["joints"], "random joints") : 0.0;
-        if (fraction < 0.0 || fraction > 1.0) {
-          parser.fail(gen["joints"], "random joints must be a fraction in [0, 1]");
-        }
-        const int count = static_cast<int>(std::floor((to - from) / interval + 1e-9)) + 1;
-        for (int i = 0; i < count; ++i) {
-          const double t = from + i * interval;
-          bool near_other = false;
-          for (const auto& b : base) near_other |= std::abs(b.time - t) < 0.5 * interval;
-          for (const auto& d : drawn) near_other |= std::abs(d.time - t) < 0.5 * interval;
-          // Draw even when skipping, so that the draws do not depend on the skips.
-          MotionKeyframe key;
-          key.time = t;
-          key.random = true;
-          const Eigen::Matrix<double, kChannels, 1> centre = interpolate(base, motion.cubic, t);
-          for (int a = 0; a < 3; ++a) key.position[a] = centre[a] + dp[a] * unit(rng);
-          for (int a = 0; a < 3; ++a) key.orientation[a] = centre[3 + a] + dr[a] * unit(rng);
-          for (int j = 0; j < kNumJointDof; ++j) {
-            const double lo = model.joints[j].min, hi = model.joints[j].max;
-            const double mid = 0.5 * (lo + hi), half = 0.5 * (hi - lo) * fraction;
-            key.joints[j] = fraction > 0.0 ? mid + half * unit(rng) : centre[6 + j];
-          }
-          if (!near_other) drawn.push_back(key);
-        }
-      }
-      motion.keyframes.insert(motion.keyframes.end(), drawn.begin(), drawn.end());
-      std::sort(motion.keyframes.begin(), motion.keyframes.end(),
-                [](const MotionKeyframe& a, const MotionKeyframe& b) { return a.time < b.time; });
-    }
-    if (const YAML::Node jitter = random["jitter"]) {
-      parser.checkKeys(jitter, {"position", "orientation", "joints", "frequency"}, "random jitter");
-      const double ap =
-          jitter["position"] ? parser.number(jitter["position"], "jitter position") : 0.0;
-      const double ao =
-          jitter["orientation"] ? parser.number(jitter["orientation"], "jitter orientation") : 0.0;
-      const double aj =
-          jitter["joints"] ? parser.number(jitter["joints"], "jitter joints") * kDeg : 0.0;
-      const double f =
-          jitter["frequency"] ? parser.number(jitter["frequency"], "jitter frequency") : 1.0;
-      if (ap < 0 || ao < 0 || aj < 0 || f <= 0) {
-        parser.fail(jitter, "jitter amplitudes must be >= 0 and the frequency positive");
-      }
-      motion.jitter.channels.resize(kChannels);
-      for (int c = 0; c < kChannels; ++c) {
-        const double amplitude = c < 3 ? ap : (c < 6 ? ao : aj);
-        for (int w = 0; w < 3; ++w) {
-          MotionJitter::Wave wave;
-          wave.amplitude = 0.5 * amplitude;
-          wave.frequency = f * (1.0 + 0.5 * unit(rng));
-          wave.phase = M_PI * (1.0 + unit(rng));
-          motion.jitter.channels[c].push_back(wave);
-        }
-      }
-    }
-  }
-  return motion;
+  return readMotion(YamlDocument(yaml_text, source, "motion"), model, seed);
 }
 
 Motion loadMotion(const std::string& path, const HandModel& model, std::uint64_t seed) {
-  std::ifstream in(path);
-  if (!in) throw InputError("motion " + path + ": cannot open the file");
-  std::stringstream text;
-  text << in.rdbuf();
-  return parseMotion(text.str(), path, model, seed);
+  return parseMotion(readYamlFileText(path, "motion"), path, model, seed);
 }
 
 const std::vector<std::string>& builtinMotionNames() {

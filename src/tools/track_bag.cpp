@@ -4,8 +4,8 @@
 //   rosrun sag_hand_tracker track_bag --bag IN.bag --out OUT.csv [--model sag|sog|FILE]
 //       [--iterations N] [--cameras 0,2,4] [--background-frames N] [--hand left|right]
 //
-// Exit status: 0 done; 1 bad input (one-line message on stderr) or no frame tracked; 2 bad
-// command line; 130 interrupted (the rows so far are in the CSV).
+// Exit status: 0 done; 1 bad input (one-line message on stderr) or no frame tracked (then no
+// CSV); 2 bad command line; 130 interrupted (the rows so far are in the CSV).
 #include <atomic>
 #include <csignal>
 #include <iostream>
@@ -32,10 +32,22 @@ int run(const TrackBagOptions& options) {
 
   if (summary.interrupted) return 130;
   if (summary.tracked_frames == 0) {
-    std::cerr << "track_bag: error: no frame was tracked: the hand was not found in the "
-              << summary.frames - summary.background_frames << " frames after the "
-              << summary.background_frames << " background frames (" << options.out
-              << " holds only the header)\n";
+    std::cerr << "track_bag: error: no frame was tracked: ";
+    if (summary.near_stamp_mismatches > 0) {
+      // Not "the hand was not found": the cameras were never seen together.
+      std::cerr << "the cameras' stamps do not match (" << summary.near_stamp_mismatches
+                << " images differ from another camera's stamp by less than 1 ms, first: "
+                << summary.first_near_stamp_mismatch
+                << "); sets are made of identical header stamps";
+    } else {
+      std::cerr << "the hand was not found in the " << summary.frames - summary.background_frames
+                << " frames after the " << summary.background_frames << " background frames";
+      if (summary.lost_frames > 0) {
+        std::cerr << " (" << summary.lost_frames << " poses were rejected as lost)";
+      }
+    }
+    std::cerr << "; " << options.out
+              << (summary.csv_written ? " holds only lost rows" : " was not written") << "\n";
     return 1;
   }
   return 0;

@@ -472,6 +472,128 @@ TEST_F(BagFiles, BagErrorWrongMessageType) {
                                              "sensor_msgs/Image");
 }
 
+TEST_F(BagFiles, BagErrorCameraInfoChangesSizeMidBag) {
+  const std::string bag = writeEditedBag(
+      "resized.bag",
+      [](int frame, int id, sensor_msgs::Image*, sensor_msgs::CameraInfo* info, bool*, bool*) {
+        if (frame == 1 && id == 2) {
+          info->width = 64;
+          info->height = 48;
+        }
+      });
+  EXPECT_EQ(readError(bag), bag +
+                                ": /cam2/camera_info at 100.040000: the image size changes mid-bag "
+                                "from 32x24 to 64x48 (one calibration per camera is supported)");
+}
+
+TEST_F(BagFiles, BagErrorTruncatedBagSaysSo) {
+  const std::string bag = writeGoodBag("cut.bag");
+  fs::resize_file(bag, fs::file_size(bag) / 2);
+  const std::string message = readError(bag);
+  EXPECT_EQ(message.rfind(bag + ": the bag is truncated: it has ", 0), 0u) << message;
+}
+
+TEST_F(BagFiles, BagErrorCorruptRecordLengthIsCaughtBeforeRosbagAllocatesIt) {
+  // Found by fuzz_bag: rosbag allocated the 2 GB a corrupt header length asked for.
+  const std::string bag = writeGoodBag("corrupt.bag");
+  {
+    std::fstream file(bag, std::ios::binary | std::ios::in | std::ios::out);
+    file.seekp(4117);  // the first record: after the magic line (13) and the bag header (4104)
+    const std::uint32_t huge = 0x7ffffff0u;
+    file.write(reinterpret_cast<const char*>(&huge), 4);
+  }
+  EXPECT_EQ(readError(bag),
+            bag + ": the bag is corrupt: a record header longer than the file at byte 4117");
+}
+
+TEST_F(BagFiles, BagEmptyPlumbBobDistortionIsNoDistortion) {
+  // What a driver without a calibration file publishes; image_geometry divided by zero on it.
+  const std::string bag =
+      writeEditedBag("nodist.bag", [](int, int, sensor_msgs::Image*, sensor_msgs::CameraInfo* info,
+                                      bool*, bool*) { info->D.clear(); });
+  BagReader reader(bag);
+  for (const Camera& camera : reader.cameras()) EXPECT_FALSE(camera.hasDistortion());
+}
+
+TEST_F(BagFiles, BagErrorThreeDistortionCoefficientsNameTheCamera) {
+  const std::string bag = writeEditedBag(
+      "d3.bag", [](int, int id, sensor_msgs::Image*, sensor_msgs::CameraInfo* info, bool*, bool*) {
+        if (id == 1) info->D = {0.1, 0.01, 0.0};
+      });
+  EXPECT_EQ(readError(bag), bag +
+                                ": camera 'cam1': camera_info has 3 distortion coefficients for "
+                                "plumb_bob (expected 0, 4 or 5) (/cam1/camera_info)");
+}
+
+TEST_F(BagFiles, BagErrorHugeCameraInfoSizeIsALimitNotBadAlloc) {
+  const std::string bag = writeEditedBag(
+      "huge.bag",
+      [](int, int id, sensor_msgs::Image*, sensor_msgs::CameraInfo* info, bool*, bool*) {
+        if (id == 0) {
+          info->width = 4000000000u;
+          info->height = 3000000000u;
+        }
+      });
+  const std::string message = readError(bag);
+  EXPECT_NE(message.find("camera 'cam0': camera_info: image size 4000000000x3000000000 exceeds "
+                         "the limit"),
+            std::string::npos)
+      << message;
+}
+
+TEST_F(BagFiles, BagReportsStampsThatNearlyMatchAndStampsGoingBackwards) {
+  BagWriter writer(path("stamps.bag"));
+  writer.writeStaticTransforms("world", cameras_, frameTime(0));
+  for (int frame = 0; frame < 3; ++frame) {
+    for (int id = 0; id < 3; ++id) {
+      // cam1 is stamped 5 us after the others.
+      const ros::Time stamp = frameTime(frame) + ros::Duration(id == 1 ? 5e-6 : 0.0);
+      writer.writeCameraImage(cameras_[id], makeImage(id, frame), stamp);
+    }
+  }
+  // cam0 then goes back in time: recorded last, its header stamp is frame 1's.
+  std_msgs::Header header;
+  header.stamp = frameTime(1);
+  header.frame_id = opticalFrame(cameras_[0].name);
+  writer.write(imageTopicOf(cameras_[0]), frameTime(3), toImageMsg(makeImage(0, 9), header));
+  writer.close();
+  BagReader reader(path("stamps.bag"));
+  FrameSet set;
+  while (reader.next(&set)) {
+  }
+  const BagReaderStatistics& stats = reader.statistics();
+  EXPECT_GE(stats.near_stamp_mismatches, 3u);
+  EXPECT_EQ(stats.first_near_stamp_mismatch, "/cam1/image_raw at 100.000005 vs cam0 at 100.000000");
+  EXPECT_EQ(stats.backward_stamps, 1u);
+  EXPECT_EQ(stats.first_backward_stamp, "/cam0/image_raw at 100.040000 after 100.080000");
+}
+
+TEST(BagConversions, CameraInfoDistortionCounts) {
+  sensor_msgs::CameraInfo info = toCameraInfo(makeCamera(1));
+  info.D.clear();
+  EXPECT_FALSE(fromCameraInfo(info).hasDistortion());
+  info.distortion_model.clear();
+  EXPECT_FALSE(fromCameraInfo(info).hasDistortion());
+  info = toCameraInfo(makeCamera(1));
+  info.D.resize(4);
+  EXPECT_EQ(fromCameraInfo(info).distortion.size(), 5u);
+  info.D = {0.1, 0.2, 0.0};
+  const std::string message = sag_test::inputErrorOf([&] { fromCameraInfo(info); });
+  EXPECT_EQ(message.rfind("camera 'cam1': camera_info has 3 distortion coefficients", 0), 0u)
+      << message;
+  // Found by fuzz_messages: fx 4.6e-305 was accepted and undistortion gave NaN.
+  info = toCameraInfo(makeCamera(1));
+  info.K[0] = 4.557446688824057e-305;
+  EXPECT_NE(sag_test::inputErrorOf([&] { fromCameraInfo(info); }).find("focal length outside"),
+            std::string::npos);
+  info = toCameraInfo(makeCamera(1));
+  info.K[0] = 1e30;
+  EXPECT_NE(sag_test::inputErrorOf([&] {
+              fromCameraInfo(info);
+            }).find("focal length outside [1, 1e+06] pixels"),
+            std::string::npos);
+}
+
 TEST(BagConversions, BagCameraInfoRoundTrip) {
   Camera camera = makeCamera(1);
   camera.distortion = {0.1, -0.2, 0.001, 0.002, 0.03, 0.004, 0.005, 0.006};

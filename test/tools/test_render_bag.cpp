@@ -141,7 +141,11 @@ TEST_F(RenderBagTool, BadInputGetsAOneLineErrorAndNonZeroExit) {
   std::ofstream(path("bad_motion.yaml"))
       << "keyframes:\n  - {time: 0, position: [0, 0, 0.15], joints: {index_pip_flex: 130}}\n";
   const std::vector<Case> cases{
-      {"--sequence nosuch" + out, 1, "motion nosuch: cannot open the file"},
+      {"--sequence nosuch" + out, 1, "motion nosuch: does not exist"},
+      {"--sequence pinch --out '" + path("same") + "' --gt-csv '" + path("same") + "'", 1,
+       "--gt-csv " + path("same") + " is the input " + path("same")},
+      {"--sequence '" + path("bad_motion.yaml") + "' --out '" + path("bad_motion.yaml") + "'", 1,
+       "--out " + path("bad_motion.yaml") + " is the input"},
       {"--sequence pinch --rig nosuchrig" + out, 1, "no camera rig 'nosuchrig'"},
       {"--sequence '" + path("bad_motion.yaml") + "'" + out, 1, "outside its limits"},
       {"--sequence pinch --model '" + path("none.yaml") + "'" + out, 1, "none.yaml"},
@@ -188,4 +192,20 @@ TEST_F(RenderBagTool, RendersAnotherHandWithABareForearm) {
   const Eigen::Vector3d wrist = d.rows[1].parameters.head<3>();
   EXPECT_LT((s.rows[1].fingertips[2] - wrist).norm(),
             (d.rows[1].fingertips[2] - wrist).norm() - 0.01);
+}
+
+TEST_F(RenderBagTool, AFailureHalfWayLeavesNoOutputAndTheOldFilesUntouched) {
+  write("p.bag", "an older bag\n");
+  const auto files_before = std::distance(fs::directory_iterator(dir_), fs::directory_iterator());
+  // The preview (frame 6 of 8) cannot be written: no image format has the extension .xyz.
+  const ToolRun run = renderBag("--sequence pinch --frames 8 --out '" + path("p.bag") +
+                                "' --preview '" + path("p.xyz") + "' --preview-frame 6 --quiet");
+  EXPECT_EQ(run.status, 1);
+  EXPECT_NE(run.err.find("cannot write the contact sheet"), std::string::npos) << run.err;
+  EXPECT_EQ(readAll(path("p.bag")), "an older bag\n");
+  EXPECT_FALSE(fs::exists(path("p.gt.csv")));
+  EXPECT_FALSE(fs::exists(path("p.xyz")));
+  // Only stdout.txt and stderr.txt of the run are new.
+  EXPECT_LE(std::distance(fs::directory_iterator(dir_), fs::directory_iterator()),
+            files_before + 2);
 }

@@ -47,6 +47,26 @@ class TrackBagTool : public sag_test::TempDirTest {
            std::to_string(kBackgroundFrames);
   }
 
+  // The desk for kBackgroundFrames, then the hand for kHandFrames, on the rendered rig; camera i
+  // stamped i * `camera_skew` seconds after camera 0.
+  std::string writeSceneBag(const std::string& name, double camera_skew = 0.0) const {
+    const HandModel model = loadHandModel(sag_test::modelPath("sag"));
+    const std::vector<Camera> cameras = sag_test::renderedRig();
+    BagWriter writer(path(name));
+    writer.writeStaticTransforms("world", cameras, frameTime(0));
+    for (int frame = 0; frame < kBackgroundFrames + kHandFrames; ++frame) {
+      for (std::size_t i = 0; i < cameras.size(); ++i) {
+        const cv::Mat rgb = frame < kBackgroundFrames
+                                ? sag_test::desk(cameras[i])
+                                : sag_test::renderHand(
+                                      model, truthAt(model, frame - kBackgroundFrames), cameras[i]);
+        writer.writeCameraImage(cameras[i], rgb, frameTime(frame) + ros::Duration(camera_skew * i),
+                                i % 2 ? "bgr8" : "rgb8");
+      }
+    }
+    return path(name);
+  }
+
   // Runs track_bag on `bag` and expects exit 1 and exactly "track_bag: error: <bag>: <what>".
   void expectError(const std::string& bag, const std::string& what) const {
     const ToolRun run = trackBag("--bag '" + bag + "' --out '" + path("bad.csv") + "' " +
@@ -61,25 +81,12 @@ class TrackBagTool : public sag_test::TempDirTest {
 
 TEST_F(TrackBagTool, TrackBagTracksASyntheticBagFromItsFirstFrame) {
   const HandModel model = loadHandModel(sag_test::modelPath("sag"));
-  const std::vector<Camera> cameras = sag_test::renderedRig();
-  {
-    BagWriter writer(path("scene.bag"));
-    writer.writeStaticTransforms("world", cameras, frameTime(0));
-    for (int frame = 0; frame < kBackgroundFrames + kHandFrames; ++frame) {
-      for (std::size_t i = 0; i < cameras.size(); ++i) {
-        const cv::Mat rgb = frame < kBackgroundFrames
-                                ? sag_test::desk(cameras[i])
-                                : sag_test::renderHand(
-                                      model, truthAt(model, frame - kBackgroundFrames), cameras[i]);
-        writer.writeCameraImage(cameras[i], rgb, frameTime(frame), i % 2 ? "bgr8" : "rgb8");
-      }
-    }
-  }
+  writeSceneBag("scene.bag");
   const ToolRun run = trackBag("--bag '" + path("scene.bag") + "' --out '" + path("track.csv") +
                                "' " + modelArgument());
   ASSERT_EQ(run.status, 0) << run.err << run.out;
   EXPECT_NE(run.err.find("100% 11 frames"), std::string::npos) << run.err;  // progress bar
-  EXPECT_NE(run.out.find("frames:    11 (3 background, 8 tracked, 0 without a hand pose)"),
+  EXPECT_NE(run.out.find("frames:    11 (3 background, 8 tracked, 0 lost, 0 without a hand pose)"),
             std::string::npos)
       << run.out;
   EXPECT_NE(run.out.find("cameras:   4 (cam0 cam1 cam2 cam3)"), std::string::npos) << run.out;
@@ -89,6 +96,14 @@ TEST_F(TrackBagTool, TrackBagTracksASyntheticBagFromItsFirstFrame) {
   const TrackingCsv csv = readTrackingCsv(path("track.csv"));
   EXPECT_EQ(csv.parameter_names, model.parameterNames());
   ASSERT_EQ(csv.rows.size(), static_cast<std::size_t>(kHandFrames));
+  // The status column: the first row started the track, the others followed it.
+  ASSERT_TRUE(csv.has_status);
+  EXPECT_EQ(csv.rows.front().status, "started");
+  for (int k = 1; k < kHandFrames; ++k) EXPECT_EQ(csv.rows[k].status, "tracked") << k;
+  EXPECT_NE(
+      run.out.find("output:    8 rows (8 tracked or started, 0 lost) in " + path("track.csv")),
+      std::string::npos)
+      << run.out;
   double sum = 0.0;
   for (int k = 0; k < kHandFrames; ++k) {
     const TrackingCsvRow& row = csv.rows[k];
@@ -128,9 +143,83 @@ TEST_F(TrackBagTool, TrackBagReportsAnEmptyResult) {
   EXPECT_EQ(run.status, 1);
   EXPECT_EQ(run.err,
             "track_bag: error: no frame was tracked: the hand was not found in the 2 "
-            "frames after the 3 background frames (" +
-                path("desk.csv") + " holds only the header)\n");
-  EXPECT_TRUE(readTrackingCsv(path("desk.csv")).rows.empty());
+            "frames after the 3 background frames; " +
+                path("desk.csv") + " was not written\n");
+  EXPECT_NE(run.out.find("output:    none (no frame was tracked"), std::string::npos) << run.out;
+  // No header-only CSV that could pass for a result; an older file there is left alone.
+  EXPECT_FALSE(fs::exists(path("desk.csv")));
+  write("old.csv", "an earlier result\n");
+  EXPECT_EQ(trackBag("--bag '" + path("desk.bag") + "' --out '" + path("old.csv") + "' " +
+                     modelArgument() + " --quiet")
+                .status,
+            1);
+  EXPECT_EQ(readAll(path("old.csv")), "an earlier result\n");
+}
+
+TEST_F(TrackBagTool, TrackBagNamesAStampMismatchInsteadOfAMissingHand) {
+  const std::string bag = writeSceneBag("skewed.bag", 5e-6);
+  const ToolRun run = trackBag("--bag '" + bag + "' --out '" + path("skewed.csv") + "' " +
+                               modelArgument() + " --quiet");
+  EXPECT_EQ(run.status, 1);
+  EXPECT_EQ(run.err.rfind("track_bag: error: no frame was tracked: the cameras' stamps do not "
+                          "match (",
+                          0),
+            0u)
+      << run.err;
+  EXPECT_NE(run.err.find("first: /cam1/image_raw at 1000.000005 vs cam0 at 1000.000000"),
+            std::string::npos)
+      << run.err;
+  EXPECT_NE(run.out.find("warning:"), std::string::npos) << run.out;
+}
+
+TEST_F(TrackBagTool, TrackBagNeverOverwritesAnInputOrLosesAnOldOutput) {
+  const std::string bag = writeSceneBag("scene.bag");
+  const std::string bag_bytes = readAll(bag);
+  fs::create_symlink(bag, path("link.bag"));
+  fs::create_hard_link(bag, path("hard.bag"));
+  for (const std::string& out : {bag, path("link.bag"), path("hard.bag")}) {
+    const ToolRun run =
+        trackBag("--bag '" + bag + "' --out '" + out + "' " + modelArgument() + " --quiet");
+    EXPECT_EQ(run.status, 1);
+    EXPECT_EQ(run.err, "track_bag: error: --out " + out + " is the input " + bag +
+                           "; refusing to overwrite an input\n");
+  }
+  const ToolRun model_run = trackBag("--bag '" + bag + "' --out '" + sag_test::modelPath("sag") +
+                                     "' " + modelArgument() + " --quiet");
+  EXPECT_EQ(model_run.status, 1);
+  EXPECT_NE(model_run.err.find("is the input"), std::string::npos) << model_run.err;
+  EXPECT_EQ(readAll(bag), bag_bytes);
+
+  // A run that fails half way (an rgba8 image in frame 5) leaves the old output as it was and no
+  // temporary file.
+  const std::vector<Camera> cameras = sag_test::renderedRig();
+  {
+    BagWriter writer(path("broken.bag"));
+    writer.writeStaticTransforms("world", cameras, frameTime(0));
+    for (int frame = 0; frame < kBackgroundFrames + kHandFrames; ++frame) {
+      for (const Camera& camera : cameras) {
+        if (frame != 5 || camera.name != "cam0") {
+          writer.writeCameraImage(camera, sag_test::desk(camera), frameTime(frame));
+          continue;
+        }
+        std_msgs::Header header;
+        header.stamp = frameTime(frame);
+        header.frame_id = opticalFrame(camera.name);
+        sensor_msgs::Image image = toImageMsg(sag_test::desk(camera), header);
+        image.encoding = "rgba8";
+        writer.write(imageTopicOf(camera), header.stamp, image);
+      }
+    }
+  }
+  write("out.csv", "an earlier result\n");
+  const auto files_before = std::distance(fs::directory_iterator(dir_), fs::directory_iterator());
+  const ToolRun broken = trackBag("--bag '" + path("broken.bag") + "' --out '" + path("out.csv") +
+                                  "' " + modelArgument() + " --quiet");
+  EXPECT_EQ(broken.status, 1);
+  EXPECT_NE(broken.err.find("unsupported image encoding 'rgba8'"), std::string::npos) << broken.err;
+  EXPECT_EQ(readAll(path("out.csv")), "an earlier result\n");
+  // stdout.txt and stderr.txt of the run already existed.
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir_), fs::directory_iterator()), files_before);
 }
 
 TEST_F(TrackBagTool, TrackBagRejectsBadInputs) {

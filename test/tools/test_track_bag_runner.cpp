@@ -161,12 +161,12 @@ TEST_F(TrackBagRun, TrackBagWritesRowsAndCountsFrames) {
   ProgressBar progress(progress_text, false);
   TrackBagSummary summary;
   {
-    TrackingCsvWriter csv(path("out.csv"), names26());
+    TrackingCsvWriter csv(path("out.csv"), names26(), /*status_column=*/true);
     summary = runTrackBag(reader, standIn, csv, &progress);
   }
   EXPECT_EQ(summary.frames, 6);
   EXPECT_EQ(summary.background_frames, 2);
-  EXPECT_EQ(summary.tracked_frames, 3);
+  EXPECT_EQ(summary.tracked_frames, 2);  // the lost frame 3 is not tracked
   EXPECT_EQ(summary.waiting_frames, 1);
   EXPECT_EQ(summary.lost_frames, 1);
   EXPECT_EQ(summary.restarted_frames, 1);
@@ -184,6 +184,7 @@ TEST_F(TrackBagRun, TrackBagWritesRowsAndCountsFrames) {
   EXPECT_EQ(csv.parameter_names, names26());
   ASSERT_EQ(csv.rows.size(), 3u);
   const int frames[] = {2, 3, 5};
+  const std::string statuses[] = {"tracked", "lost", "tracked"};
   for (int k = 0; k < 3; ++k) {
     const TrackingCsvRow& row = csv.rows[k];
     EXPECT_NEAR(row.stamp, frameTime(frames[k]).toSec(), 1e-6);
@@ -192,14 +193,15 @@ TEST_F(TrackBagRun, TrackBagWritesRowsAndCountsFrames) {
     EXPECT_NEAR(row.fingertips[3].x(), 3.0, 1e-9);
     EXPECT_NEAR(row.fingertips[3].y(), 2.0, 1e-9);  // the image of cam2
     EXPECT_NEAR(row.energy, 0.5 + frames[k], 1e-9);
+    EXPECT_EQ(row.status, statuses[k]);
   }
   const std::string text = progress_text.str();
   EXPECT_NE(text.find("frame 1, 3 cameras, background"), std::string::npos) << text;
   EXPECT_NE(text.find("100% 6 frames"), std::string::npos) << text;
 
   const std::string report = formatSummary(summary);
-  EXPECT_NE(report.find("frames:    6 (2 background, 3 tracked, 1 without a hand pose), 1 with a "
-                        "camera missing"),
+  EXPECT_NE(report.find("frames:    6 (2 background, 2 tracked, 1 lost, 1 without a hand pose), 1 "
+                        "with a camera missing"),
             std::string::npos)
       << report;
   EXPECT_NE(report.find("cameras:   3 (cam0 cam1 cam2)"), std::string::npos) << report;
@@ -208,7 +210,9 @@ TEST_F(TrackBagRun, TrackBagWritesRowsAndCountsFrames) {
             std::string::npos)
       << report;
   EXPECT_NE(report.find("lost in 1 frames, restarted in 1 frames"), std::string::npos) << report;
-  EXPECT_NE(report.find("3 rows in " + path("out.csv")), std::string::npos) << report;
+  EXPECT_NE(report.find("output:    3 rows (2 tracked or started, 1 lost) in " + path("out.csv")),
+            std::string::npos)
+      << report;
 }
 
 TEST_F(TrackBagRun, TrackBagStopsWhenInterrupted) {

@@ -168,7 +168,9 @@ TEST_F(CalibrationFiles, CalibrationErrorMissingFile) {
   const std::string message = sag_test::inputErrorOf([&] { loadCameraCalibration(path); });
   EXPECT_NE(message.find(path), std::string::npos) << message;
   EXPECT_NE(message.find("does not exist"), std::string::npos) << message;
-  EXPECT_NE(sag_test::inputErrorOf([&] { loadCameraRig(path); }).find("rig file does not exist"),
+  EXPECT_NE(sag_test::inputErrorOf([&] {
+              loadCameraRig(path);
+            }).find("rig file " + path + ": does not exist"),
             std::string::npos);
 }
 
@@ -177,10 +179,11 @@ TEST_F(CalibrationFiles, CalibrationErrorMalformedYamlNamesTheLine) {
       write("bad.yaml",
             replaced(kValidCalibration, "camera_name: narrow_stereo", "camera_name: [unclosed"));
   const std::string message = sag_test::inputErrorOf([&] { loadCameraCalibration(path); });
-  EXPECT_EQ(message.rfind(path + ":", 0), 0u) << message;
+  EXPECT_EQ(message.rfind("calibration file " + path + ":", 0), 0u) << message;
   EXPECT_NE(message.find("malformed YAML"), std::string::npos) << message;
   // The parser reports where it gave up: on or after line 3, where the list opens.
-  const int line = std::stoi(message.substr(path.size() + 1));
+  const int line =
+      std::stoi(message.substr(std::string("calibration file ").size() + path.size() + 1));
   EXPECT_GE(line, 3) << message;
 }
 
@@ -189,14 +192,14 @@ TEST_F(CalibrationFiles, CalibrationErrorMissingKey) {
       write("a.yaml", replaced(kValidCalibration, "image_width: 320\n", ""));
   EXPECT_NE(sag_test::inputErrorOf([&] {
               loadCameraCalibration(no_width);
-            }).find(no_width + ":1: missing key 'image_width'"),
+            }).find(no_width + ":1: key 'image_width': missing"),
             std::string::npos);
   const std::string no_data = write(
       "b.yaml",
       replaced(kValidCalibration, "  data: [300.5, 0, 160.25, 0, 301, 119.75, 0, 0, 1]\n", ""));
   const std::string message = sag_test::inputErrorOf([&] { loadCameraCalibration(no_data); });
-  EXPECT_NE(message.find("missing key 'camera_matrix.data'"), std::string::npos) << message;
-  EXPECT_EQ(message.rfind(no_data + ":5:", 0), 0u) << message;
+  EXPECT_NE(message.find("key 'camera_matrix.data': missing"), std::string::npos) << message;
+  EXPECT_EQ(message.rfind("calibration file " + no_data + ":5:", 0), 0u) << message;
 }
 
 TEST_F(CalibrationFiles, CalibrationErrorZeroFocalLength) {
@@ -220,7 +223,7 @@ TEST_F(CalibrationFiles, CalibrationErrorBadValues) {
       write("n.yaml", replaced(kValidCalibration, "image_height: 240", "image_height: tall"));
   EXPECT_NE(sag_test::inputErrorOf([&] {
               loadCameraCalibration(not_number);
-            }).find(":2: 'image_height' must be an integer"),
+            }).find(":2: key 'image_height': must be an integer"),
             std::string::npos);
   const std::string fisheye = write(
       "e.yaml",
@@ -231,7 +234,7 @@ TEST_F(CalibrationFiles, CalibrationErrorBadValues) {
             std::string::npos);
   const std::string empty = write("empty.yaml", "");
   EXPECT_NE(
-      sag_test::inputErrorOf([&] { loadCameraCalibration(empty); }).find("expected a YAML map"),
+      sag_test::inputErrorOf([&] { loadCameraCalibration(empty); }).find("must be a YAML map"),
       std::string::npos);
 }
 
@@ -245,7 +248,9 @@ cameras:
     rotation: [0, 0, 0.5, 0.5]
 )");
   const std::string message = sag_test::inputErrorOf([&] { loadCameraRig(rig); });
-  EXPECT_EQ(message.rfind(rig + ":6: 'cameras[0].rotation' is not a unit quaternion", 0), 0u)
+  EXPECT_EQ(message.rfind(
+                "rig file " + rig + ":6: key 'cameras[0].rotation': is not a unit quaternion", 0),
+            0u)
       << message;
 }
 
@@ -259,10 +264,11 @@ cameras:
     rotation: [0, 0, 0, 1]
 )");
   std::string message = sag_test::inputErrorOf([&] { loadCameraRig(missing_calibration); });
-  EXPECT_NE(message.find(missing_calibration + ":4: calibration file"), std::string::npos)
+  EXPECT_NE(message.find(missing_calibration +
+                         ":4: key 'cameras[0].calibration': camera 'cam0': calibration file"),
+            std::string::npos)
       << message;
-  EXPECT_NE(message.find("nowhere.yaml' of camera 'cam0' does not exist"), std::string::npos)
-      << message;
+  EXPECT_NE(message.find("nowhere.yaml: does not exist"), std::string::npos) << message;
 
   const std::string no_translation = write("r2.yaml", R"(root_frame: world
 cameras:
@@ -271,25 +277,26 @@ cameras:
     rotation: [0, 0, 0, 1]
 )");
   message = sag_test::inputErrorOf([&] { loadCameraRig(no_translation); });
-  EXPECT_NE(message.find("missing key 'cameras[0].translation'"), std::string::npos) << message;
+  EXPECT_NE(message.find("key 'cameras[0].translation': missing"), std::string::npos) << message;
 
   const std::string no_root = write("r3.yaml", "cameras: []\n");
   EXPECT_NE(
-      sag_test::inputErrorOf([&] { loadCameraRig(no_root); }).find("missing key 'root_frame'"),
+      sag_test::inputErrorOf([&] { loadCameraRig(no_root); }).find("key 'root_frame': missing"),
       std::string::npos);
   const std::string no_cameras = write("r4.yaml", "root_frame: world\ncameras: []\n");
   EXPECT_NE(sag_test::inputErrorOf([&] {
               loadCameraRig(no_cameras);
-            }).find("'cameras' must be a non-empty list"),
+            }).find("key 'cameras': must be a non-empty list"),
             std::string::npos);
   const std::string twice = write("r5.yaml", R"(root_frame: world
 cameras:
   - {name: cam0, calibration: c.yaml, translation: [0, 0, 0], rotation: [0, 0, 0, 1]}
   - {name: cam0, calibration: c.yaml, translation: [0, 0, 1], rotation: [0, 0, 0, 1]}
 )");
-  EXPECT_NE(
-      sag_test::inputErrorOf([&] { loadCameraRig(twice); }).find(":4: camera 'cam0' appears twice"),
-      std::string::npos);
+  EXPECT_NE(sag_test::inputErrorOf([&] {
+              loadCameraRig(twice);
+            }).find(":4: key 'cameras[1].name': camera 'cam0' appears twice"),
+            std::string::npos);
   // An error inside a camera's calibration file names that file.
   const std::string bad = write("bad.yaml", "image_width: 320\n");
   const std::string bad_calibration = write("r6.yaml", R"(root_frame: world
@@ -297,7 +304,7 @@ cameras:
   - {name: cam0, calibration: bad.yaml, translation: [0, 0, 0], rotation: [0, 0, 0, 1]}
 )");
   message = sag_test::inputErrorOf([&] { loadCameraRig(bad_calibration); });
-  EXPECT_NE(message.find((dir_ / "bad.yaml").string() + ":1: missing key 'image_height'"),
+  EXPECT_NE(message.find((dir_ / "bad.yaml").string() + ":1: key 'image_height': missing"),
             std::string::npos)
       << message;
 }

@@ -699,24 +699,26 @@ TEST(StudioMotion, BadFilesAreRejectedNamingTheProblem) {
     std::vector<std::string> expected;
   };
   const std::vector<Case> cases{
-      {"keyframes: [\n", {"bad.yaml", "not valid YAML"}},
-      {"duration: 3\n", {"'keyframes' is missing"}},
+      {"keyframes: [\n", {"motion bad.yaml:", "malformed YAML"}},
+      {"duration: 3\n", {"key 'keyframes': missing"}},
       {key0 + ", joints: {index_pip_flexion: 10}}\n",
-       {"bad.yaml:2", "unknown joint 'index_pip_flexion'", "index_pip_flex"}},
+       {"bad.yaml:2: key 'keyframes[0].joints.index_pip_flexion'",
+        "unknown joint 'index_pip_flexion'", "index_pip_flex"}},
       {key0 + ", joints: {index_pip_flex: 150}}\n",
        {"keyframe 1", "index_pip_flex = 150 deg", "outside its limits [-5, 110]"}},
       {key0 + "}\n  - {time: 0, position: [0, 0, 0.1]}\n",
-       {"keyframe 2", "times must increase strictly"}},
-      {key0 + ", orientation: [1, 2]}\n", {"orientation must be a list of 3 numbers"}},
+       {"key 'keyframes[1].time'", "times must increase strictly"}},
+      {key0 + ", orientation: [1, 2]}\n",
+       {"key 'keyframes[0].orientation': must be a list of 3 numbers"}},
       {key0 + ", shape: fist}\n", {"unknown shape 'fist'"}},
-      {key0 + ", speed: 3}\n", {"unknown key 'speed'"}},
-      {key0 + "}\nduration: -1\n", {"duration must be positive"}},
-      {key0 + "}\ninterpolation: spline\n", {"interpolation must be 'cubic' or 'linear'"}},
-      {"keyframes:\n  - {time: 0}\n", {"keyframe 1: position is missing"}},
+      {key0 + ", speed: 3}\n", {"key 'keyframes[0].speed': unknown key"}},
+      {key0 + "}\nduration: -1\n", {"key 'duration': must be positive"}},
+      {key0 + "}\ninterpolation: spline\n", {"key 'interpolation': must be 'cubic' or 'linear'"}},
+      {"keyframes:\n  - {time: 0}\n", {"key 'keyframes[0].position': missing"}},
       {key0 + "}\nduration: 2\nrandom: {keyframes: {from: 1, to: 2, interval: 0, joints: 0.5}}\n",
-       {"positive interval"}},
+       {"key 'random.keyframes.interval': must be positive"}},
       {key0 + "}\nduration: 2\nrandom: {jitter: {joints: abc}}\n",
-       {"jitter joints must be a number"}},
+       {"key 'random.jitter.joints': must be a number"}},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.yaml);

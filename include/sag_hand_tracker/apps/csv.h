@@ -2,8 +2,9 @@
 // 26 pose parameters and the energy. track_bag writes it; render_bag writes the ground truth in
 // the same columns; the benchmark reads both. No ROS.
 //
-//   stamp,thumb_x,thumb_y,thumb_z,index_x,...,pinky_z,<parameter names...>,energy
+//   stamp,thumb_x,thumb_y,thumb_z,index_x,...,pinky_z,<parameter names...>,energy[,status]
 //
+// track_bag adds the column `status` (started, tracked or lost); the ground truth has none.
 // stamp in seconds (6 decimals), fingertips in metres, parameters in metres and radians (the
 // order of HandModel::parameterNames()), numbers with 9 significant digits; "nan" where a value
 // does not exist (for example the energy of a ground-truth row).
@@ -28,12 +29,15 @@ struct TrackingCsvRow {
   Fingertips fingertips;       // thumb..pinky, root frame (metres)
   Eigen::VectorXd parameters;  // one per parameter name
   double energy = 0.0;
+  std::string status;  // "" when the file has no status column
 };
 
 class TrackingCsvWriter {
  public:
-  // Creates (truncates) `path` and writes the header row. Throws InputError if it cannot.
-  TrackingCsvWriter(const std::string& path, std::vector<std::string> parameter_names);
+  // Creates (truncates) `path` and writes the header row, with the status column if asked.
+  // Throws InputError if it cannot.
+  TrackingCsvWriter(const std::string& path, std::vector<std::string> parameter_names,
+                    bool status_column = false);
   ~TrackingCsvWriter();
   TrackingCsvWriter(const TrackingCsvWriter&) = delete;
   TrackingCsvWriter& operator=(const TrackingCsvWriter&) = delete;
@@ -52,12 +56,14 @@ class TrackingCsvWriter {
  private:
   std::string path_;
   std::vector<std::string> parameter_names_;
+  bool status_column_ = false;
   std::ofstream file_;
   int rows_ = 0;
 };
 
 struct TrackingCsv {
   std::vector<std::string> parameter_names;
+  bool has_status = false;
   std::vector<TrackingCsvRow> rows;
 };
 

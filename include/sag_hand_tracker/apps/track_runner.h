@@ -50,9 +50,9 @@ struct TrackBagSummary {
   std::vector<std::string> cameras;   // names of the cameras read
   int frames = 0;                     // sets processed
   int background_frames = 0;          // sets learned as background
-  int tracked_frames = 0;             // sets with a pose (= CSV rows)
+  int tracked_frames = 0;             // sets with an accepted pose (status started or tracked)
   int waiting_frames = 0;             // sets after the background without a pose
-  int lost_frames = 0;                // status lost
+  int lost_frames = 0;                // status lost (a CSV row with status "lost", not tracked)
   int restarted_frames = 0;           // the track was started again after being lost
   int incomplete_sets = 0;            // sets where a camera was missing
   int dropped_images = 0;             // late or duplicate images (see BagReaderStatistics)
@@ -63,6 +63,11 @@ struct TrackBagSummary {
   double tracking_seconds = 0.0;      // HandTracker::update of the tracked sets
   double pipeline_seconds = 0.0;      // the whole tracking call over the sets after the background
   bool interrupted = false;
+  bool csv_written = false;  // trackBag: the CSV was renamed into place
+  int backward_stamps = 0;   // see BagReaderStatistics
+  std::string first_backward_stamp;
+  int near_stamp_mismatches = 0;  // see BagReaderStatistics
+  std::string first_near_stamp_mismatch;
 
   // Frames per second of the pipeline (segmentation + optimisation, decode excluded) over the
   // sets after the background phase; 0 when there were none.
@@ -82,8 +87,10 @@ TrackBagSummary runTrackBag(BagReader& reader, const TrackFrameFunction& track,
                             TrackingCsvWriter& csv, ProgressBar* progress,
                             const std::atomic<bool>* stop = nullptr);
 
-// The CSV row of a result with a pose.
+// The CSV row of a result with a pose, with its status column.
 TrackingCsvRow toCsvRow(const FrameResult& result);
+// The status column's word: "started", "tracked", "lost" ("waiting" has no row).
+std::string csvStatus(TrackStatus status);
 
 // The file of a model given as "sag", "sog" (built-in, in `config_dir`, or the package's config/
 // when empty) or a path. Throws InputError if the package is needed and cannot be found.
@@ -94,8 +101,10 @@ PipelineParams trackBagPipelineParams(const TrackBagOptions& options);
 
 // The whole of track_bag: loads the model, opens the bag (options.cameras, options.root_frame),
 // builds the TrackingPipeline and runs runTrackBag into the CSV options.out. `progress` and
-// `stop` may be null. A run that fails half way removes the CSV and rethrows (InputError for bad
-// input). The caller decides what no tracked frame or an interruption means.
+// `stop` may be null. --out equal to an input is refused before anything is opened; the CSV is
+// written to a temporary file and renamed to options.out only when a frame was tracked
+// (summary.csv_written), so a failure (rethrown) or a run without a tracked frame leaves
+// whatever was at options.out untouched. The caller decides what no tracked frame means.
 TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
                          const std::atomic<bool>* stop = nullptr);
 

@@ -31,6 +31,7 @@
 // (within 1e-3; it is then normalised). The rig's `name` wins over the file's camera_name.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -61,6 +62,12 @@ void saveCameraCalibration(const std::string& path, const Camera& camera);
 // Reads a rig file and every calibration file it names. Throws InputError naming the file (the
 // rig or a camera's calibration file), the line where there is one, and the problem.
 CameraRig loadCameraRig(const std::string& path);
+// Parses a rig document; `load_calibration` reads the calibration file a camera names (as
+// written in the rig). loadCameraRig resolves it relative to the rig file. Camera names must be
+// safe as topic and frame names, camera centres at least kMinCameraSeparation apart.
+using CalibrationLoader = std::function<Camera(const std::string& file)>;
+CameraRig parseCameraRig(const std::string& yaml_text, const std::string& source,
+                         const CalibrationLoader& load_calibration);
 
 // Writes a rig file at `path` and one calibration file per camera, "<name>.yaml", in the same
 // directory. Throws InputError if a file cannot be written or two cameras share a name.

@@ -28,11 +28,21 @@ struct Camera {
   Eigen::Vector2d undistortPixel(const Eigen::Vector2d& pixel) const;
 };
 
-// Throws InputError naming the camera and the problem (zero or negative focal length, non-finite
-// values, bad image size, extrinsics not a rigid transform).
+// Throws InputError naming the camera and the problem (zero, negative or huge focal length,
+// non-finite values, bad or too large image size, a distortion count OpenCV does not take,
+// extrinsics not a rigid transform). The limits are in input_limits.h.
 void validateCamera(const Camera& camera);
+// Throws InputError "<who>: N distortion coefficients; expected ..." unless `count` is one OpenCV
+// takes (0, 4, 5, 8, 12, 14).
+void checkDistortionCount(std::size_t count, const std::string& who);
 
-// Moves every image Gaussian of `sog` to ideal pinhole coordinates (no-op without distortion).
+// Throws InputError "<who>: the distortion coefficients cannot be inverted ..." when undistorting
+// a grid over the image gives non-finite pixels. Checked where cameras enter (calibration files,
+// camera_info), not per frame.
+void checkDistortionInvertible(const Camera& camera, const std::string& who);
+
+// Moves every image Gaussian of `sog` to ideal pinhole coordinates (no-op without distortion);
+// one the distortion cannot place (non-finite) is dropped.
 void undistortImageSoG(const Camera& camera, ImageSoG* sog);
 
 }  // namespace sag_hand_tracker

@@ -64,8 +64,11 @@ struct HandModel {
   std::vector<std::vector<int>> ancestorJointDofs() const;
 };
 
-// Loads a model from YAML. Throws InputError naming the file, the key and the line.
+// Loads a model from YAML. Throws InputError naming the file, the key and the line. The file is
+// at most kMaxYamlFileBytes, with at most kMaxModelGaussians Gaussians (input_limits.h).
 HandModel loadHandModel(const std::string& path);
+// Parses a model document; `source` names it in errors.
+HandModel parseHandModel(const std::string& yaml_text, const std::string& source);
 // As loadHandModel, and mirrors it if `handedness` differs from the file's.
 HandModel loadHandModel(const std::string& path, Handedness handedness);
 

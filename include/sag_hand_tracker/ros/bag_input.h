@@ -41,6 +41,14 @@ struct BagReaderStatistics {
   std::uint64_t incomplete_sets = 0;  // yielded sets without every selected camera
   std::uint64_t dropped_images = 0;   // duplicates, or stamps older than a set already yielded
   double decode_seconds = 0.0;        // time spent in next(): reading, deserialising, converting
+  // Images whose stamp is older than the previous image of the same camera (reported, and
+  // dropped when their set is gone); the first one as "topic at stamp after stamp".
+  std::uint64_t backward_stamps = 0;
+  std::string first_backward_stamp;
+  // Images whose stamp differs from another camera's pending set by less than 1 ms without being
+  // equal: the cameras are not stamped together, so sets lack cameras. The first one described.
+  std::uint64_t near_stamp_mismatches = 0;
+  std::string first_near_stamp_mismatch;
 };
 
 class BagReader {
@@ -49,8 +57,8 @@ class BagReader {
   // image of every camera. Throws InputError with a one-line message naming the bag and the
   // problem: missing or unreadable bag, empty bag (no frames), no /cam<i>/image_raw topic, an
   // unknown camera in options.cameras, a camera without camera_info, missing extrinsics, a wrong
-  // message type, an unsupported (for example mono) encoding, or an image whose size differs from
-  // its camera_info.
+  // message type, an unsupported (for example mono) encoding, an image whose size differs from
+  // its camera_info, a camera_info whose size changes mid-bag, or a truncated or unclosed bag.
   explicit BagReader(const std::string& path, const BagReaderOptions& options = {});
   ~BagReader();
   BagReader(BagReader&&) noexcept;

@@ -1,0 +1,46 @@
+// The one validation policy for data entering the core: explicit size limits, checked before
+// anything is allocated, and the checks every reader shares (finite numbers, names that are safe
+// as ROS topic and frame names, image sizes). README "Input limits" lists the same numbers.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+namespace sag_hand_tracker {
+
+// Any YAML input (model, rig, camera calibration, motion). Ours are a few kB.
+constexpr std::size_t kMaxYamlFileBytes = 1u << 20;  // 1 MiB
+// Gaussians of a hand model: the energy costs model x image Gaussians per camera and frame
+// (SAG 17, SoG 30).
+constexpr int kMaxModelGaussians = 1000;
+// Bones of a hand model (ours 16).
+constexpr int kMaxModelBones = 100;
+// An image side and the pixels of one image (camera_info, calibration files, image messages).
+constexpr int kMaxImageSide = 8192;
+constexpr std::int64_t kMaxImagePixels = 4096LL * 4096LL;
+// Gaussians of one image SoG (a 4096x4096 image in 4-pixel leaves is about a million; ours ~300).
+constexpr int kMaxImageGaussians = 1 << 20;
+// Focal lengths in pixels (fx, fy): anything larger is not a camera lens.
+constexpr double kMaxFocalLengthPixels = 1e6;
+// ... and anything below a pixel is not one either (4.6e-305 gave NaN undistortion: a fuzz find).
+constexpr double kMinFocalLengthPixels = 1.0;
+// Cameras of a rig or a bag.
+constexpr int kMaxCameras = 64;
+// Two camera centres closer than this are one point (a rig with all cameras at the origin).
+constexpr double kMinCameraSeparation = 1e-3;  // metres
+// Keyframes of a motion, random ones included (a motion `interval` of 1e-9 would draw 1e10).
+// Counted before any is drawn; the random-keyframe spacing check is quadratic in it.
+constexpr int kMaxMotionKeyframes = 10000;
+// Keyframe times, `from`/`to` and `duration` of a motion (an hour of synthetic video).
+constexpr double kMaxMotionSeconds = 3600.0;
+
+// True for a name that is safe as one ROS graph/topic name component and a tf frame: a letter,
+// then letters, digits and underscores (so "../../etc", "a/b", "" and "cam 0" are not).
+bool isSafeName(const std::string& name);
+
+// Throws InputError "<who>: image size WxH ..." when a side is not positive or the image exceeds
+// kMaxImageSide / kMaxImagePixels.
+void checkImageSize(std::int64_t width, std::int64_t height, const std::string& who);
+
+}  // namespace sag_hand_tracker

@@ -1,0 +1,81 @@
+#include "sag_hand_tracker/util/atomic_output.h"
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+
+#include "sag_hand_tracker/util/types.h"
+
+namespace sag_hand_tracker {
+namespace {
+
+namespace fs = std::filesystem;
+
+}  // namespace
+
+void checkOutputPath(const std::string& out, const std::vector<std::string>& inputs,
+                     const std::string& option) {
+  std::error_code error;
+  const fs::file_status status = fs::status(out, error);
+  if (fs::exists(status) && !fs::is_regular_file(status)) {
+    throw InputError(option + " " + out +
+                     " exists and is not a regular file; refusing to replace it");
+  }
+  for (const std::string& input : inputs) {
+    if (input.empty()) continue;
+    const bool same_path = fs::weakly_canonical(out, error) == fs::weakly_canonical(input, error);
+    // equivalent() compares device and inode: symlinks and hard links to the input too.
+    const bool same_file =
+        fs::exists(status) && fs::exists(input, error) && fs::equivalent(out, input, error);
+    if (same_path || same_file) {
+      throw InputError(option + " " + out + " is the input " + input +
+                       "; refusing to overwrite an input");
+    }
+  }
+}
+
+AtomicOutputFile::AtomicOutputFile(const std::string& path) : path_(path), target_(path) {
+  std::error_code error;
+  if (fs::is_symlink(fs::symlink_status(path, error))) {
+    target_ = fs::weakly_canonical(path, error).string();
+    if (error) throw InputError(path + ": cannot resolve the symlink: " + error.message());
+  }
+  const fs::path target(target_);
+  const fs::path folder = target.has_parent_path() ? target.parent_path() : fs::path(".");
+  if (!fs::is_directory(folder, error)) {
+    throw InputError(path + ": the folder " + folder.string() + " does not exist");
+  }
+  const std::string extension = target.extension().string();
+  std::string pattern =
+      (folder / ("." + target.filename().string() + ".tmp-XXXXXX")).string() + extension;
+  const int fd = ::mkstemps(&pattern[0], static_cast<int>(extension.size()));
+  if (fd < 0) {
+    throw InputError(path + ": cannot create a file in " + folder.string() + ": " +
+                     std::strerror(errno));
+  }
+  // mkstemp makes the file 0600; an output gets the usual 0666 minus the umask.
+  const mode_t mask = ::umask(0);
+  ::umask(mask);
+  ::fchmod(fd, 0666 & ~mask);
+  ::close(fd);
+  temp_path_ = pattern;
+}
+
+AtomicOutputFile::~AtomicOutputFile() {
+  if (!temp_path_.empty()) std::remove(temp_path_.c_str());
+}
+
+void AtomicOutputFile::commit() {
+  if (temp_path_.empty()) return;
+  if (std::rename(temp_path_.c_str(), target_.c_str()) != 0) {
+    throw InputError(path_ + ": cannot replace it with the new output: " + std::strerror(errno));
+  }
+  temp_path_.clear();
+}
+
+}  // namespace sag_hand_tracker

@@ -1,0 +1,7 @@
+// libFuzzer target bag (make fuzz); the work is sag_fuzz::fuzzBag (fuzz_entries.h).
+#include "fuzz_entries.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  sag_fuzz::fuzzBag(data, size);
+  return 0;
+}

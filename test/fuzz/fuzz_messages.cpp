@@ -1,0 +1,7 @@
+// libFuzzer target messages (make fuzz); the work is sag_fuzz::fuzzMessages (fuzz_entries.h).
+#include "fuzz_entries.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  sag_fuzz::fuzzMessages(data, size);
+  return 0;
+}

@@ -1,0 +1,98 @@
+// Output files are never lost: written next to their path, renamed on success, and an output
+// that is an input (same path, symlink, hard link) or not a regular file is refused.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "sag_hand_tracker/util/atomic_output.h"
+#include "test_support/temp_files.h"
+
+using namespace sag_hand_tracker;
+namespace fs = std::filesystem;
+
+namespace {
+
+class AtomicOutput : public sag_test::TempDirTest {
+ protected:
+  int filesInDir() const {
+    int count = 0;
+    for (const auto& entry : fs::directory_iterator(dir_)) {
+      (void)entry;
+      ++count;
+    }
+    return count;
+  }
+};
+
+}  // namespace
+
+TEST_F(AtomicOutput, AFailedWriteLeavesTheOldFileAndNoTemporary) {
+  const std::string out = write("out.csv", "precious\n");
+  {
+    AtomicOutputFile file(out);
+    EXPECT_NE(file.tempPath(), out);
+    EXPECT_EQ(fs::path(file.tempPath()).parent_path(), fs::path(out).parent_path());
+    EXPECT_EQ(fs::path(file.tempPath()).extension(), ".csv");  // imwrite goes by the extension
+    std::ofstream(file.tempPath()) << "half";
+    // No commit: the run failed.
+  }
+  EXPECT_EQ(readAll(out), "precious\n");
+  EXPECT_EQ(filesInDir(), 1);
+}
+
+TEST_F(AtomicOutput, CommitReplacesTheFile) {
+  const std::string out = write("out.csv", "old\n");
+  {
+    AtomicOutputFile file(out);
+    std::ofstream(file.tempPath()) << "new\n";
+    file.commit();
+  }
+  EXPECT_EQ(readAll(out), "new\n");
+  EXPECT_EQ(filesInDir(), 1);
+}
+
+TEST_F(AtomicOutput, ASymlinkedOutputReplacesItsTargetAndKeepsTheLink) {
+  const std::string target = write("target.csv", "old\n");
+  fs::create_symlink(target, path("link.csv"));
+  {
+    AtomicOutputFile file(path("link.csv"));
+    std::ofstream(file.tempPath()) << "new\n";
+    file.commit();
+  }
+  EXPECT_TRUE(fs::is_symlink(path("link.csv")));
+  EXPECT_EQ(readAll(target), "new\n");
+}
+
+TEST_F(AtomicOutput, AnOutputThatIsAnInputIsRefused) {
+  const std::string input = write("in.bag", "data");
+  fs::create_symlink(input, path("link.bag"));
+  fs::create_hard_link(input, path("hard.bag"));
+  for (const std::string& out :
+       {input, path("link.bag"), path("hard.bag"), dir_.string() + "/./in.bag"}) {
+    const std::string message = sag_test::inputErrorOf([&] {
+      checkOutputPath(out, {"other.yaml", input});
+    });
+    EXPECT_EQ(message,
+              "--out " + out + " is the input " + input + "; refusing to overwrite an input");
+  }
+  EXPECT_EQ(readAll(input), "data");
+  EXPECT_NO_THROW(checkOutputPath(path("new.csv"), {input}));
+}
+
+TEST_F(AtomicOutput, AnOutputThatIsNotARegularFileIsRefused) {
+  EXPECT_NE(sag_test::inputErrorOf([&] {
+              checkOutputPath(dir_.string(), {});
+            }).find("exists and is not a regular file"),
+            std::string::npos);
+  EXPECT_NE(sag_test::inputErrorOf([&] {
+              checkOutputPath("/dev/null", {}, "--gt-csv");
+            }).find("--gt-csv /dev/null exists and is not a regular file"),
+            std::string::npos);
+}
+
+TEST_F(AtomicOutput, AMissingFolderIsNamed) {
+  const std::string message =
+      sag_test::inputErrorOf([&] { AtomicOutputFile file(path("no/such/out.csv")); });
+  EXPECT_NE(message.find("does not exist"), std::string::npos) << message;
+}

@@ -1,0 +1,200 @@
+// The validation policy where data enters the core (input_limits.h, yaml_reader.h): the hostile
+// inputs of issue 12 are refused with an error naming the file, line and key, before anything
+// large is allocated.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <sstream>
+
+#include "sag_hand_tracker/camera/calibration.h"
+#include "sag_hand_tracker/model/hand_model.h"
+#include "sag_hand_tracker/util/input_limits.h"
+#include "sag_hand_tracker/studio/motion.h"
+#include "sag_hand_tracker/util/yaml_reader.h"
+#include "test_support/synthetic_scene.h"
+#include "test_support/temp_files.h"
+
+using namespace sag_hand_tracker;
+
+namespace {
+
+std::string builtinModelText() {
+  std::ifstream in(sag_test::modelPath("sag"));
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// The message of parsing the built-in SAG model with `from` replaced by `to` (first match).
+std::string modelError(const std::string& from, const std::string& to) {
+  const std::string text = std::regex_replace(builtinModelText(), std::regex(from), to,
+                                              std::regex_constants::format_first_only);
+  EXPECT_NE(text, builtinModelText()) << "pattern not found: " << from;
+  return sag_test::inputErrorOf([&] { parseHandModel(text, "hand.yaml"); });
+}
+
+const char* kCalibration = R"(image_width: 320
+image_height: 240
+camera_matrix: {rows: 3, cols: 3, data: [300, 0, 160, 0, 300, 120, 0, 0, 1]}
+distortion_model: plumb_bob
+distortion_coefficients: {rows: 1, cols: 5, data: [0, 0, 0, 0, 0]}
+)";
+
+std::string calibrationError(const std::string& from, const std::string& to) {
+  const std::string text = std::regex_replace(std::string(kCalibration), std::regex(from), to);
+  return sag_test::inputErrorOf([&] { parseCameraCalibration(text, "cam.yaml"); });
+}
+
+std::string rigError(const std::string& text) {
+  return sag_test::inputErrorOf([&] {
+    parseCameraRig(text, "rig.yaml",
+                   [](const std::string&) { return parseCameraCalibration(kCalibration, "c"); });
+  });
+}
+
+bool contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
+}  // namespace
+
+TEST(InputValidation, ModelBoneLengthMustBeFiniteAndNotNegative) {
+  std::string message = modelError("length: 0.045", "length: .nan");
+  EXPECT_TRUE(contains(message, "hand model hand.yaml:")) << message;
+  EXPECT_TRUE(contains(message, "key 'bones[1].length': must be finite")) << message;
+  message = modelError("length: 0.045", "length: -0.045");
+  EXPECT_TRUE(contains(message, "key 'bones[1].length': -0.045 is outside [0, 1]")) << message;
+}
+
+TEST(InputValidation, ModelBoneWithoutOffsetIsRefused) {
+  const std::string message = modelError("    offset: \\[0.022, 0.022, -0.008\\]\n", "");
+  EXPECT_TRUE(contains(message, "key 'bones[1].offset': missing")) << message;
+}
+
+TEST(InputValidation, ModelDuplicateDofNameIsRefused) {
+  const std::string message = modelError("name: thumb_cmc_abd", "name: thumb_cmc_flex");
+  EXPECT_TRUE(contains(message, "key 'bones[1].dofs[1].name': DOF 'thumb_cmc_flex' defined twice"))
+      << message;
+}
+
+TEST(InputValidation, ModelHsvOutOfRangeIsRefused) {
+  std::string message =
+      modelError("hsv: \\[([0-9.]+), ([0-9.]+), ([0-9.]+)\\]", "hsv: [$1, 1.5, $3]");
+  EXPECT_TRUE(std::regex_search(message, std::regex("key 'gaussians\\[0\\]\\.hsv': must be")))
+      << message;
+  message = modelError("hsv: \\[([0-9.]+),", "hsv: [400,");
+  EXPECT_TRUE(contains(message, "h in [0, 360]")) << message;
+}
+
+TEST(InputValidation, ModelNamesMustBeSafeFrameNames) {
+  const std::string message = modelError("name: thumb_metacarpal", "name: ../../etc");
+  EXPECT_TRUE(contains(message, "not a safe frame name")) << message;
+}
+
+TEST(InputValidation, ModelGaussianCountIsLimitedBeforeParsingThem) {
+  std::string text = builtinModelText();
+  const std::size_t at = text.find("gaussians:\n") + std::string("gaussians:\n").size();
+  std::string many;
+  for (int i = 0; i <= kMaxModelGaussians; ++i) {
+    many += "  - {bone: palm, mean: [0, 0, 0], sigma: [0.01, 0.01, 0.01], hsv: [20, 0.4, 0.8]}\n";
+  }
+  text.insert(at, many);
+  ASSERT_LT(text.size(), kMaxYamlFileBytes);
+  const std::string message = sag_test::inputErrorOf([&] { parseHandModel(text, "hand.yaml"); });
+  EXPECT_TRUE(contains(message, "key 'gaussians': has 1018 entries, more than the limit of 1000"))
+      << message;
+}
+
+class InputFiles : public sag_test::TempDirTest {};
+
+TEST_F(InputFiles, ADirectoryAsModelIsNamed) {
+  const std::string message = sag_test::inputErrorOf([&] { loadHandModel(dir_.string()); });
+  EXPECT_EQ(message, "hand model " + dir_.string() + ": is a directory, not a file");
+}
+
+TEST_F(InputFiles, AnOversizedYamlFileIsRefusedBeforeReading) {
+  const std::string path = this->path("big.yaml");
+  {
+    std::ofstream out(path);
+    out << "name: x\n";
+    std::filesystem::resize_file(path, kMaxYamlFileBytes + 1);
+  }
+  const std::string message = sag_test::inputErrorOf([&] { loadHandModel(path); });
+  EXPECT_TRUE(contains(message, "larger than the limit of 1048576 bytes")) << message;
+}
+
+TEST(InputValidation, CalibrationHugeFocalLengthIsRefused) {
+  const std::string message =
+      calibrationError("data: \\[300, 0, 160, 0, 300,", "data: [1e30, 0, 160, 0, 300,");
+  EXPECT_TRUE(contains(message, "calibration file cam.yaml:3: key 'camera_matrix'")) << message;
+  EXPECT_TRUE(contains(message, "focal length outside [1, 1e+06] pixels")) << message;
+}
+
+TEST(InputValidation, CalibrationHugeImageIsRefused) {
+  const std::string message = calibrationError("image_width: 320", "image_width: 2000000000");
+  EXPECT_TRUE(contains(message, "key 'image_width'")) << message;
+  EXPECT_TRUE(contains(message, "exceeds the limit")) << message;
+}
+
+TEST(InputValidation, CalibrationThreeCoefficientsAreRefused) {
+  const std::string message =
+      calibrationError("cols: 5, data: \\[0, 0, 0, 0, 0\\]", "cols: 3, data: [0.1, 0, 0]");
+  EXPECT_TRUE(contains(message, "key 'distortion_coefficients'")) << message;
+  EXPECT_TRUE(contains(message, "3 distortion coefficients")) << message;
+}
+
+TEST(InputValidation, ValidateCameraNamesTheCameraForABadDistortionCount) {
+  Camera camera = sag_test::fiveCameraRig()[0];
+  camera.name = "left";
+  camera.distortion = {0.1, 0.0, 0.0};
+  const std::string message = sag_test::inputErrorOf([&] { validateCamera(camera); });
+  EXPECT_TRUE(contains(message, "camera 'left': 3 distortion coefficients")) << message;
+}
+
+TEST(InputValidation, RigCamerasAtOnePointAreRefused) {
+  const std::string message = rigError(R"(root_frame: world
+cameras:
+  - {name: cam0, calibration: c.yaml, translation: [0, 0, 0], rotation: [0, 0, 0, 1]}
+  - {name: cam1, calibration: c.yaml, translation: [0, 0, 0], rotation: [1, 0, 0, 0]}
+)");
+  EXPECT_TRUE(contains(message, "rig file rig.yaml:4: key 'cameras[1].translation'")) << message;
+  EXPECT_TRUE(contains(message, "camera 'cam1' is at the same point as camera 'cam0'")) << message;
+}
+
+TEST(InputValidation, RigCameraNameMustBeSafeAsTopicName) {
+  const std::string message = rigError(R"(root_frame: world
+cameras:
+  - {name: ../../etc, calibration: c.yaml, translation: [0, 0, 0], rotation: [0, 0, 0, 1]}
+)");
+  EXPECT_TRUE(
+      contains(message, "rig.yaml:3: key 'cameras[0].name': '../../etc' is not a safe camera name"))
+      << message;
+  EXPECT_TRUE(contains(rigError("root_frame: /world\ncameras: []\n"), "not a safe frame name"));
+}
+
+TEST(InputValidation, MotionTinyIntervalIsRefusedWithoutSampling) {
+  const HandModel model = loadHandModel(sag_test::modelPath("sag"));
+  const auto motionError = [&](const std::string& random) {
+    return sag_test::inputErrorOf([&] {
+      studio::parseMotion(
+          "keyframes:\n  - {time: 0, position: [0, 0, 0.15]}\nduration: 3600\n" + random, "m.yaml",
+          model, 1);
+    });
+  };
+  std::string message = motionError("random: {keyframes: {from: 0, to: 10, interval: 1e-9}}\n");
+  EXPECT_TRUE(contains(message, "motion m.yaml:4: key 'random.keyframes.interval'")) << message;
+  EXPECT_TRUE(contains(message, "must be at least 1 ms")) << message;
+  // 3.6 million keyframes are counted, not drawn.
+  message = motionError("random: {keyframes: {from: 0, to: 3600, interval: 0.001}}\n");
+  EXPECT_TRUE(contains(message, "more than the limit of 10000")) << message;
+}
+
+TEST(InputValidation, SafeNames) {
+  EXPECT_TRUE(isSafeName("cam0"));
+  EXPECT_TRUE(isSafeName("left_camera_2"));
+  for (const char* bad : {"", "../../etc", "a/b", "0cam", "cam 0", "cam-0", "_x"}) {
+    EXPECT_FALSE(isSafeName(bad)) << bad;
+  }
+}
