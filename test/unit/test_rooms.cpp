@@ -15,7 +15,7 @@
 #include "sag_hand_tracker/studio/motion.h"
 #include "sag_hand_tracker/studio/renderer.h"
 #include "sag_hand_tracker/studio/room.h"
-#include "sag_hand_tracker/studio/room_evaluation.h"
+#include "sag_hand_tracker/apps/room_evaluation.h"
 #include "sag_hand_tracker/tracking/tracking_pipeline.h"
 
 using namespace sag_hand_tracker;

@@ -1,5 +1,5 @@
 // evaluateRoomSequence: see room_evaluation.h.
-#include "sag_hand_tracker/studio/room_evaluation.h"
+#include "sag_hand_tracker/apps/room_evaluation.h"
 
 #include <memory>
 #include <opencv2/imgcodecs.hpp>
