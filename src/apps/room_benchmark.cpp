@@ -12,6 +12,7 @@
 #include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/apps/render_runner.h"
 #include "sag_hand_tracker/apps/room_evaluation.h"
+#include "sag_hand_tracker/ros/package_config.h"
 #include "sag_hand_tracker/studio/sequence.h"
 #include "sag_hand_tracker/util/types.h"
 
