@@ -37,13 +37,15 @@ double centralDifference(const PoseEnergy& energy, const Pose& pose, int i, doub
 }
 
 void checkGradient(const std::string& model_name,
-                   double coupling = EnergyParams().dip_pip_coupling_weight) {
+                   double coupling = EnergyParams().dip_pip_coupling_weight,
+                   double model_area_weight = EnergyParams().model_area_weight) {
   const HandModel model = loadHandModel(modelPath(model_name));
   const std::vector<Camera> cameras = fiveCameraRig();
   std::mt19937 rng(42);
   EnergyParams params;
   params.max_mahalanobis_sq = 1e9;  // no cut-off: the energy is then smooth everywhere
   params.dip_pip_coupling_weight = coupling;
+  params.model_area_weight = model_area_weight;
   PoseEnergy energy(model, params);
   // Image from one pose, gradient at others: many pairs unsaturated, many partially overlapping.
   energy.setFrame(modelObservations(model, typicalPose(model), cameras, 6.0));
@@ -76,6 +78,13 @@ TEST(EnergyGradient, SogMatchesCentralDifferences) { checkGradient("sog"); }
 // The same with a strong PIP-DIP coupling prior, so that its gradient matters.
 TEST(EnergyGradient, SagWithStrongPipDipCouplingMatchesCentralDifferences) {
   checkGradient("sag", 1.0);
+}
+// The same with the model's area in the normalisation (model_area_weight 1, opt-in).
+TEST(EnergyGradient, SagWithModelAreaNormalisationMatchesCentralDifferences) {
+  checkGradient("sag", EnergyParams().dip_pip_coupling_weight, 1.0);
+}
+TEST(EnergyGradient, SogWithModelAreaNormalisationMatchesCentralDifferences) {
+  checkGradient("sog", EnergyParams().dip_pip_coupling_weight, 1.0);
 }
 
 // The coupling prior: zero when every DIP is k times its PIP, quadratic in the residual.
@@ -203,7 +212,7 @@ TowardCamera moveTowardCamera0(const PoseEnergy& energy, const Pose& truth,
 
 // The paper's normalisation (model_area_weight 0) rewards a hand that comes closer to one camera:
 // its projection grows and saturates more image Gaussians. With the model's area in the
-// denominator (the default), coming closer only costs.
+// denominator (model_area_weight 1), coming closer only costs.
 TEST(EnergyCannotCheat, MovingTowardACameraDoesNotBuySimilarity) {
   const HandModel model = loadHandModel(modelPath("sag"));
   const std::vector<Camera> cameras = fiveCameraRig();
@@ -213,7 +222,9 @@ TEST(EnergyCannotCheat, MovingTowardACameraDoesNotBuySimilarity) {
   paper.model_area_weight = 0.0;
   PoseEnergy paper_energy(model, paper);
   paper_energy.setFrame(observations);
-  PoseEnergy energy(model, EnergyParams());
+  EnergyParams dice;
+  dice.model_area_weight = 1.0;
+  PoseEnergy energy(model, dice);
   energy.setFrame(observations);
 
   const TowardCamera paper_at_truth = moveTowardCamera0(paper_energy, truth, cameras, 0.0);
@@ -230,12 +241,15 @@ TEST(EnergyCannotCheat, MovingTowardACameraDoesNotBuySimilarity) {
 }
 
 // Model Gaussians that cannot be projected into a camera that sees foreground (behind it, or
-// containing its centre) count against the pose, and a hand behind a camera scores nothing there.
+// containing its centre) count against the pose (model_area_weight 1), and a hand behind a camera
+// scores nothing there.
 TEST(EnergyCannotCheat, GaussiansBehindACameraCountAgainstThePose) {
   const HandModel model = loadHandModel(modelPath("sag"));
   const std::vector<Camera> cameras = fiveCameraRig();
   const Pose truth = typicalPose(model);
-  PoseEnergy energy(model, EnergyParams());
+  EnergyParams dice;
+  dice.model_area_weight = 1.0;
+  PoseEnergy energy(model, dice);
   energy.setFrame(modelObservations(model, truth, cameras));
   EnergyTerms terms;
   energy.evaluate(truth, nullptr, &terms);
