@@ -56,6 +56,8 @@ build: deps workspace
 	  $(if $(CCACHE),-DCMAKE_CXX_COMPILER_LAUNCHER=$(CCACHE)) -j$(JOBS)
 
 test: build
+	@# The rostests' working folders of an earlier run (a stale 'ready' file starts a replay early).
+	rm -rf $(ROS_HOME)/replay_*_test
 	cd $(WS) && rm -rf build/test_results && catkin_make run_tests -j$(JOBS)
 	@# catkin_test_results' summary, then the plain closing line CI counts ("N passed, N failed").
 	@cd $(WS) && status=0 && { catkin_test_results build/test_results > test_summary.txt || status=$$?; } \
