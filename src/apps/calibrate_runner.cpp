@@ -11,9 +11,9 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
+#include "sag_hand_tracker/apps/track_runner.h"
 #include "sag_hand_tracker/model/hand_model.h"
 #include "sag_hand_tracker/ros/bag_input.h"
-#include "sag_hand_tracker/apps/track_runner.h"
 #include "sag_hand_tracker/studio/hand_surface.h"
 #include "sag_hand_tracker/tracking/tracking_pipeline.h"
 #include "sag_hand_tracker/util/types.h"
@@ -135,14 +135,7 @@ CalibrateHandOptions parseCalibrateHandArguments(const std::vector<std::string>&
     } else if (arg == "--model") {
       options.model = value();
     } else if (arg == "--hand") {
-      const std::string hand = value();
-      if (hand == "left") {
-        options.hand = Handedness::kLeft;
-      } else if (hand == "right") {
-        options.hand = Handedness::kRight;
-      } else {
-        throw UsageError("--hand expects left or right, got '" + hand + "'");
-      }
+      options.hand = parseHandOption(value());
     } else if (arg == "--background-frames") {
       options.background_frames = parseIntOption(arg, value(), 0);
     } else if (arg == "--contact-sheet") {

@@ -39,4 +39,10 @@ std::vector<std::string> parseListOption(const std::string& option, const std::s
   return items;
 }
 
+Handedness parseHandOption(const std::string& text) {
+  if (text == "left") return Handedness::kLeft;
+  if (text == "right") return Handedness::kRight;
+  throw UsageError("--hand expects left or right, got '" + text + "'");
+}
+
 }  // namespace sag_hand_tracker

@@ -13,9 +13,9 @@
 #include "sag_hand_tracker/model/pose.h"
 #include "sag_hand_tracker/optimization/optimizer.h"
 #include "sag_hand_tracker/ros/package_config.h"
+#include "sag_hand_tracker/util/atomic_output.h"
 #include "sag_hand_tracker/util/timing.h"
 #include "sag_hand_tracker/util/types.h"
-#include "sag_hand_tracker/util/atomic_output.h"
 
 namespace sag_hand_tracker {
 namespace {
@@ -99,14 +99,7 @@ TrackBagOptions parseTrackBagArguments(const std::vector<std::string>& args) {
     } else if (arg == "--background-frames") {
       options.background_frames = parseIntOption(arg, value(), 0);
     } else if (arg == "--hand") {
-      const std::string hand = value();
-      if (hand == "left") {
-        options.hand = Handedness::kLeft;
-      } else if (hand == "right") {
-        options.hand = Handedness::kRight;
-      } else {
-        throw UsageError("--hand expects left or right, got '" + hand + "'");
-      }
+      options.hand = parseHandOption(value());
     } else if (arg == "--root-frame") {
       options.root_frame = value();
     } else if (arg == "--quiet") {

@@ -167,7 +167,7 @@ class SegmentationNodelet : public nodelet::Nodelet {
         }
         return;
       }
-      const ImageSoG sog = segmenter_.segment(rgb);
+      const ImageSoG sog = segmenter_.segmentFrame(rgb);
       SumOfGaussians msg = sogToMsg(sog);
       msg.header = image->header;
       sog_pub_.publish(msg);

@@ -86,7 +86,7 @@ class TrackerNodelet : public nodelet::Nodelet {
       NODELET_FATAL("cannot load hand model '%s': %s", model_name.c_str(), e.what());
       throw;
     }
-    tracker_ = std::make_unique<HandTracker>(model_, TrackerParams());
+    tracker_ = std::make_unique<HandTracker>(model_, liveTrackerParams());
     joint_names_ = model_.parameterNames();
 
     tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
@@ -134,8 +134,15 @@ class TrackerNodelet : public nodelet::Nodelet {
                  root_frame_.c_str(), model_.name.c_str(), model_.gaussians.size());
   }
 
-  void reconfigure(TrackerConfig& config) {
+  // The live graph runs the start and re-detection searches off the frame path.
+  static TrackerParams liveTrackerParams() {
     TrackerParams params;
+    params.asynchronous_search = true;
+    return params;
+  }
+
+  void reconfigure(TrackerConfig& config) {
+    TrackerParams params = liveTrackerParams();
     params.optimizer.iterations = config.iterations;
     try {
       params.optimizer.step_control = parseStepControl(config.step_control);

@@ -28,6 +28,15 @@ ImageSoG sogFromMsg(const sag_hand_tracker::SumOfGaussians& msg) {
     }
     sog.gaussians.push_back({Eigen::Vector2d(g.x, g.y), g.sigma, Hsv(g.h, g.s, g.v)});
   }
+  if (msg.arm_cells > 0) {
+    if (!std::isfinite(msg.arm_x) || !std::isfinite(msg.arm_y) ||
+        msg.arm_cells > static_cast<uint32_t>(kMaxImageSide) * kMaxImageSide) {
+      throw InputError("image SoG's forearm evidence (arm_cells " + std::to_string(msg.arm_cells) +
+                       ") has a centroid that is not finite or too many cells");
+    }
+    sog.arm_cells = static_cast<int>(msg.arm_cells);
+    sog.arm_centroid = Eigen::Vector2d(msg.arm_x, msg.arm_y);
+  }
   return sog;
 }
 
@@ -45,6 +54,11 @@ sag_hand_tracker::SumOfGaussians sogToMsg(const ImageSoG& sog) {
     m.h = static_cast<float>(g.hsv[0]);
     m.s = static_cast<float>(g.hsv[1]);
     m.v = static_cast<float>(g.hsv[2]);
+  }
+  if (sog.arm_cells > 0) {
+    msg.arm_cells = static_cast<uint32_t>(sog.arm_cells);
+    msg.arm_x = static_cast<float>(sog.arm_centroid.x());
+    msg.arm_y = static_cast<float>(sog.arm_centroid.y());
   }
   return msg;
 }

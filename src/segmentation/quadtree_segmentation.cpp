@@ -479,6 +479,13 @@ void finishMask(Workspace& ws, int cells_x, int cells_y, int cell_size, CellMask
   mask.cell_size = cell_size;
 }
 
+// The sleeve cells that prepare() counted, as the forearm evidence of the image SoG.
+void addArmEvidence(const Workspace& ws, bool masked, ImageSoG* sog) {
+  if (!masked || ws.arm_cells <= 0) return;
+  sog->arm_cells = ws.arm_cells;
+  sog->arm_centroid = ws.arm_sum / ws.arm_cells;
+}
+
 }  // namespace
 
 ImageSoG ImageSegmenter::segment(const cv::Mat& rgb, std::vector<QuadtreeLeaf>* leaves) const {
@@ -487,10 +494,7 @@ ImageSoG ImageSegmenter::segment(const cv::Mat& rgb, std::vector<QuadtreeLeaf>* 
   ws.arm_cells = 0;
   const bool masked = prepare(rgb, params_, effectiveMode(), plate_, "segment", ws, mask);
   ImageSoG sog = runQuadtree(ws.integral, params_.quadtree, masked ? &mask : nullptr, leaves);
-  if (masked && ws.arm_cells > 0) {
-    sog.arm_cells = ws.arm_cells;
-    sog.arm_centroid = ws.arm_sum / ws.arm_cells;
-  }
+  addArmEvidence(ws, masked, &sog);
   return sog;
 }
 
@@ -576,7 +580,9 @@ ImageSoG ImageSegmenter::segmentFrame(const cv::Mat& rgb, std::vector<QuadtreeLe
   room_.cell_size = params_.cell_size;
   room_.width = rgb.cols;
   room_.height = rgb.rows;
-  return runQuadtree(ws.integral, params_.quadtree, masked ? &mask : nullptr, leaves);
+  ImageSoG sog = runQuadtree(ws.integral, params_.quadtree, masked ? &mask : nullptr, leaves);
+  addArmEvidence(ws, masked, &sog);
+  return sog;
 }
 
 }  // namespace sag_hand_tracker

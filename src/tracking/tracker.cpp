@@ -2,6 +2,7 @@
 
 #include <Eigen/LU>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <optional>
 
@@ -105,6 +106,38 @@ bool isFlip(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
   return knuckleAxisAngle(a, b) > M_PI / 2 || palmNormalAngle(a, b) > M_PI / 2;
 }
 
+void preferBackFacingCameras(const std::vector<CameraObservation>& observations, double margin,
+                             std::vector<OptimizationResult>* candidates) {
+  if (!(margin > 0.0) || candidates->size() < 2) return;
+  auto facing = [&observations](const Pose& pose) {
+    const Eigen::Vector3d centre = pose.translation + pose.rotation * kHandCentreInPalm;
+    double sum = 0.0;
+    for (const CameraObservation& observation : observations) {
+      const Eigen::Vector3d camera_centre =
+          observation.camera.world_to_camera.inverse().translation();
+      sum += pose.rotation.col(2).dot((camera_centre - centre).normalized());
+    }
+    return sum;
+  };
+  const double best_energy = candidates->front().energy;
+  size_t chosen = 0;
+  double chosen_facing = facing(candidates->front().pose);
+  for (size_t i = 1; i < candidates->size(); ++i) {
+    const OptimizationResult& candidate = (*candidates)[i];
+    if (candidate.energy < best_energy - margin) break;  // sorted best first
+    // Only the roll is in question: candidates of about the best one's palm side add nothing.
+    if (palmNormalAngle(candidate.pose.rotation, candidates->front().pose.rotation) <= M_PI / 2) {
+      continue;
+    }
+    const double f = facing(candidate.pose);
+    if (f > chosen_facing) {
+      chosen = i;
+      chosen_facing = f;
+    }
+  }
+  std::rotate(candidates->begin(), candidates->begin() + chosen, candidates->begin() + chosen + 1);
+}
+
 std::optional<double> forearmVote(const Pose& pose,
                                   const std::vector<CameraObservation>& observations,
                                   int min_arm_cells) {
@@ -193,6 +226,7 @@ HandTracker::HandTracker(const HandModel& model, const TrackerParams& params)
     : model_(model), params_(params), energy_(model, params.energy) {}
 
 void HandTracker::reset() {
+  search_.reset();
   previous_.reset();
   current_.reset();
   lost_ = false;
@@ -212,35 +246,107 @@ void HandTracker::setParams(const TrackerParams& params) {
   energy_ = PoseEnergy(model_, params_.energy);
 }
 
+namespace {
+
+bool armCallsReversed(const TrackerParams& params, const Pose& pose,
+                      const std::vector<CameraObservation>& observations) {
+  const std::optional<double> vote = forearmVote(pose, observations, params.min_arm_cells);
+  return vote && *vote < -params.arm_vote_threshold;
+}
+
+bool plausibleFor(const TrackerParams& params, const Pose& pose,
+                  const std::vector<CameraObservation>& observations) {
+  return isPlausiblePose(pose, observations, params.min_camera_depth, params.min_cameras_for_start);
+}
+
+// Best first.
+void sortByEnergy(std::vector<OptimizationResult>* candidates) {
+  std::stable_sort(
+      candidates->begin(), candidates->end(),
+      [](const OptimizationResult& a, const OptimizationResult& b) { return a.energy > b.energy; });
+}
+
+// Drops the candidates the honesty rules and the forearm refuse.
+void removeRefused(const TrackerParams& params, const std::vector<CameraObservation>& observations,
+                   std::vector<OptimizationResult>* candidates) {
+  candidates->erase(std::remove_if(candidates->begin(), candidates->end(),
+                                   [&](const OptimizationResult& candidate) {
+                                     return !plausibleFor(params, candidate.pose, observations) ||
+                                            armCallsReversed(params, candidate.pose, observations);
+                                   }),
+                    candidates->end());
+}
+
+}  // namespace
+
 bool HandTracker::armSaysReversed(const Pose& pose,
                                   const std::vector<CameraObservation>& observations) const {
-  const std::optional<double> vote = forearmVote(pose, observations, params_.min_arm_cells);
-  return vote && *vote < -params_.arm_vote_threshold;
+  return armCallsReversed(params_, pose, observations);
 }
 
 bool HandTracker::plausible(const Pose& pose,
                             const std::vector<CameraObservation>& observations) const {
-  return isPlausiblePose(pose, observations, params_.min_camera_depth,
-                         params_.min_cameras_for_start);
+  return plausibleFor(params_, pose, observations);
 }
 
-void HandTracker::boundRotation(const PoseEnergy& energy, const Pose& reference,
-                                OptimizationResult* result) const {
-  const Eigen::Matrix3d bounded =
-      boundedRotation(reference.rotation, result->pose.rotation, params_.max_rotation_per_frame);
+std::optional<std::vector<OptimizationResult>> HandTracker::hypothesisSearch(
+    const PoseEnergy& energy, const std::vector<CameraObservation>& observations) {
+  if (!params_.asynchronous_search) {
+    search_.reset();
+    return startFromHypotheses(model_, params_, energy, observations, current_);
+  }
+  if (!search_) {
+    // Everything the worker reads is copied: the tracker goes on with the next frames.
+    search_ = std::make_shared<std::future<std::vector<OptimizationResult>>>(std::async(
+        std::launch::async, [model = model_, params = params_, observations, current = current_]() {
+          PoseEnergy search_energy(model, params.energy);
+          search_energy.setFrame(observations);
+          return startFromHypotheses(model, params, search_energy, observations, current);
+        }));
+    return std::nullopt;
+  }
+  if (search_->wait_for(std::chrono::seconds(0)) != std::future_status::ready) return std::nullopt;
+  std::vector<OptimizationResult> candidates = search_->get();
+  search_.reset();
+  // Found on an earlier frame: the best ones are refined on this one and judged again.
+  candidates.resize(std::min(candidates.size(),
+                             static_cast<size_t>(std::max(params_.async_refined_candidates, 1))));
+  for (OptimizationResult& candidate : candidates) {
+    candidate = optimizePose(energy, candidate.pose, params_.optimizer);
+  }
+  removeRefused(params_, observations, &candidates);
+  sortByEnergy(&candidates);
+  preferBackFacingCameras(observations, params_.start_facing_margin, &candidates);
+  return candidates;
+}
+
+Pose HandTracker::predictedPose(const std::optional<Pose>& previous, const Pose& current) const {
+  if (!previous) return current;
+  Pose predicted = extrapolatePose(*previous, current);
+  predicted.rotation =
+      boundedRotation(current.rotation, predicted.rotation, params_.max_rotation_per_frame);
+  return predicted;
+}
+
+void HandTracker::boundRotation(const PoseEnergy& energy, const Pose& current,
+                                const Pose& predicted, OptimizationResult* result) const {
+  Eigen::Matrix3d bounded = boundedRotation(predicted.rotation, result->pose.rotation,
+                                            params_.max_rotation_change_per_frame);
+  bounded = boundedRotation(current.rotation, bounded, params_.max_rotation_per_frame);
   if (bounded == result->pose.rotation) return;
   result->pose.rotation = bounded;
   result->energy = energy.evaluate(result->pose);
 }
 
 std::vector<OptimizationResult> HandTracker::startFromHypotheses(
-    const PoseEnergy& energy, const std::vector<CameraObservation>& observations) const {
+    const HandModel& model, const TrackerParams& params, const PoseEnergy& energy,
+    const std::vector<CameraObservation>& observations, const std::optional<Pose>& current) {
   // Where is the hand? Triangulate the foreground centroids of the cameras that see it.
   std::vector<Ray> rays;
   std::vector<const Camera*> ray_cameras;
   for (const CameraObservation& observation : observations) {
     const std::optional<Eigen::Vector2d> centroid =
-        foregroundCentroid(observation.sog, params_.min_foreground_gaussians);
+        foregroundCentroid(observation.sog, params.min_foreground_gaussians);
     if (!centroid) continue;
     const Eigen::Isometry3d camera_to_world = observation.camera.world_to_camera.inverse();
     const Eigen::Vector3d direction_camera =
@@ -250,13 +356,12 @@ std::vector<OptimizationResult> HandTracker::startFromHypotheses(
     ray_cameras.push_back(&observation.camera);
   }
   Eigen::Vector3d centre;
-  if (static_cast<int>(rays.size()) < params_.min_cameras_for_start ||
-      !triangulate(rays, &centre)) {
+  if (static_cast<int>(rays.size()) < params.min_cameras_for_start || !triangulate(rays, &centre)) {
     return {};
   }
   // Honesty: never propose a hand behind a camera that sees it.
   for (const Camera* camera : ray_cameras) {
-    if ((camera->world_to_camera * centre).z() < params_.min_camera_depth) return {};
+    if ((camera->world_to_camera * centre).z() < params.min_camera_depth) return {};
   }
 
   // Score every orientation hypothesis of an open hand there, then refine in two stages: a few
@@ -266,12 +371,12 @@ std::vector<OptimizationResult> HandTracker::startFromHypotheses(
   std::vector<OptimizationResult> candidates;
   for (const Eigen::Matrix3d& rotation : orientationHypotheses()) {
     OptimizationResult candidate;
-    candidate.pose = neutralPose(model_, centre - rotation * kHandCentreInPalm, rotation);
-    if (armSaysReversed(candidate.pose, observations)) continue;
+    candidate.pose = neutralPose(model, centre - rotation * kHandCentreInPalm, rotation);
+    if (armCallsReversed(params, candidate.pose, observations)) continue;
     candidate.energy = energy.evaluate(candidate.pose);
     candidates.push_back(candidate);
   }
-  if (current_) candidates.push_back({*current_, energy.evaluate(*current_), 1});
+  if (current) candidates.push_back({*current, energy.evaluate(*current), 1});
   auto keep_best = [&candidates](size_t count) {
     count = std::min(count, candidates.size());
     std::partial_sort(candidates.begin(), candidates.begin() + count, candidates.end(),
@@ -280,24 +385,20 @@ std::vector<OptimizationResult> HandTracker::startFromHypotheses(
                       });
     candidates.resize(count);
   };
-  OptimizerParams stage_params = params_.optimizer;
+  OptimizerParams stage_params = params.optimizer;
   keep_best(kCoarseKept);
   stage_params.iterations = kCoarseIterations;
   for (OptimizationResult& candidate : candidates) {
     candidate = optimizePose(energy, candidate.pose, stage_params);
   }
   keep_best(kHypothesesKept);
-  stage_params.iterations = params_.start_iterations;
+  stage_params.iterations = params.start_iterations;
   for (OptimizationResult& candidate : candidates) {
     candidate = optimizePose(energy, candidate.pose, stage_params);
   }
-  candidates.erase(std::remove_if(candidates.begin(), candidates.end(),
-                                  [&](const OptimizationResult& candidate) {
-                                    return !plausible(candidate.pose, observations) ||
-                                           armSaysReversed(candidate.pose, observations);
-                                  }),
-                   candidates.end());
-  keep_best(candidates.size());
+  removeRefused(params, observations, &candidates);
+  sortByEnergy(&candidates);
+  preferBackFacingCameras(observations, params.start_facing_margin, &candidates);
   return candidates;
 }
 
@@ -313,9 +414,9 @@ FrameResult HandTracker::update(const std::vector<CameraObservation>& observatio
   bool started = false;
   bool flipped = false;
   if (current_ && !lost_) {
-    const Pose start = previous_ ? extrapolatePose(*previous_, *current_) : *current_;
+    const Pose start = predictedPose(previous_, *current_);
     optimized = optimizePose(energy, start, params_.optimizer);
-    boundRotation(energy, *current_, &*optimized);
+    boundRotation(energy, *current_, start, &*optimized);
     EnergyTerms terms;
     energy.evaluate(optimized->pose, nullptr, &terms);
 
@@ -323,11 +424,9 @@ FrameResult HandTracker::update(const std::vector<CameraObservation>& observatio
     // `flip_confirm_frames` consecutive frames with an energy clearly above the track's.
     if (alternative_) {
       Alternative& alternative = *alternative_;
-      const Pose alternative_start =
-          alternative.previous ? extrapolatePose(*alternative.previous, alternative.current)
-                               : alternative.current;
+      const Pose alternative_start = predictedPose(alternative.previous, alternative.current);
       OptimizationResult challenger = optimizePose(energy, alternative_start, params_.optimizer);
-      boundRotation(energy, alternative.current, &challenger);
+      boundRotation(energy, alternative.current, alternative_start, &challenger);
       if (challenger.energy > optimized->energy + params_.flip_margin &&
           plausible(challenger.pose, observations) &&
           !armSaysReversed(challenger.pose, observations)) {
@@ -352,13 +451,19 @@ FrameResult HandTracker::update(const std::vector<CameraObservation>& observatio
         !plausible(optimized->pose, observations) ||
         (params_.arm_reversed_frames > 0 && arm_reversed_streak_ >= params_.arm_reversed_frames);
     const bool lost = !flipped && (looksLost(terms.similarity) || implausible);
-    if (lost || redetect) {
-      // Try the start routine on this frame. When the track is lost its best result replaces the
-      // track. A periodic re-detection replaces it only with a clearly better pose of about the
-      // same orientation (so that the track does not jitter between near-equal poses); a better
-      // flipped pose only becomes the carried alternative, which must then prove itself.
-      const std::vector<OptimizationResult> restart = startFromHypotheses(energy, observations);
-      if (lost) {
+    if (lost || redetect || search_) {
+      // Try the start routine on this frame (or, asynchronously, collect the one that an earlier
+      // frame launched). When the track is lost its best result replaces the track. A periodic
+      // re-detection replaces it only with a clearly better pose of about the same orientation
+      // (so that the track does not jitter between near-equal poses); a better flipped pose only
+      // becomes the carried alternative, which must then prove itself.
+      const std::optional<std::vector<OptimizationResult>> search =
+          hypothesisSearch(energy, observations);
+      const std::vector<OptimizationResult> restart =
+          search ? *search : std::vector<OptimizationResult>();
+      if (!search) {
+        // Still searching: this frame keeps the warm-started pose (reported lost when lost).
+      } else if (lost) {
         if (!restart.empty() && (implausible || restart.front().energy > optimized->energy)) {
           optimized = restart.front();
           started = true;
@@ -379,8 +484,9 @@ FrameResult HandTracker::update(const std::vector<CameraObservation>& observatio
       if (redetect) frames_since_start_ = 0;
     }
   } else {
-    const std::vector<OptimizationResult> start = startFromHypotheses(energy, observations);
-    if (!start.empty()) optimized = start.front();
+    const std::optional<std::vector<OptimizationResult>> start =
+        hypothesisSearch(energy, observations);
+    if (start && !start->empty()) optimized = start->front();
     started = optimized.has_value();
     alternative_.reset();
     arm_reversed_streak_ = 0;

@@ -10,12 +10,14 @@
 
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <random>
 
 #include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/ros/bag_input.h"
 #include "sag_hand_tracker/ros/bag_output.h"
 #include "sag_hand_tracker/ros/conversions.h"
+#include "sag_hand_tracker/ros/sog_conversions.h"
 #include "sag_hand_tracker/util/types.h"
 
 using namespace sag_hand_tracker;
@@ -653,4 +655,32 @@ TEST(BagConversions, BagImageAndTransformConversions) {
   EXPECT_THROW(toIsometry(bad), InputError);
   EXPECT_EQ(cameraNameFromFrame("/cam4_optical_frame"), "cam4");
   EXPECT_EQ(cameraNameFromFrame("left_camera"), "left_camera");
+}
+
+// The image SoG message carries the segmentation's forearm evidence to the tracker nodelet.
+TEST(SogConversions, ForearmEvidenceRoundTripsAndIsValidated) {
+  ImageSoG sog;
+  sog.width = 640;
+  sog.height = 480;
+  sog.gaussians.push_back({Eigen::Vector2d(10.0, 20.0), 4.0, Hsv(20.0, 0.4, 0.8)});
+  sog.arm_cells = 57;
+  sog.arm_centroid = Eigen::Vector2d(312.5, 401.0);
+  sag_hand_tracker::SumOfGaussians msg = sogToMsg(sog);
+  const ImageSoG back = sogFromMsg(msg);
+  EXPECT_EQ(back.arm_cells, 57);
+  EXPECT_NEAR(back.arm_centroid.x(), 312.5, 1e-3);
+  EXPECT_NEAR(back.arm_centroid.y(), 401.0, 1e-3);
+  ASSERT_EQ(back.gaussians.size(), 1u);
+
+  msg.arm_x = std::numeric_limits<float>::quiet_NaN();
+  try {
+    sogFromMsg(msg);
+    FAIL() << "a NaN forearm centroid was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("forearm"), std::string::npos) << e.what();
+  }
+  sog.arm_cells = 0;  // no evidence: the centroid is not looked at
+  msg = sogToMsg(sog);
+  msg.arm_x = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_EQ(sogFromMsg(msg).arm_cells, 0);
 }

@@ -562,6 +562,29 @@ TEST(Background, RemovesBlackSleeve) {
   EXPECT_GT(overlapWith(sag_test::sleeveMask(o), leaves).recall, 0.8);
 }
 
+// The sleeve is the tracker's forearm cue (ImageSoG::arm_cells): the stateful per-frame call that
+// the pipeline and the segmentation nodelet use must report it like segment() does.
+TEST(Background, ReportsTheSleeveAsForearmEvidenceInEverySegmentCall) {
+  sag_test::SceneOptions o;
+  o.hand = o.sleeve = true;
+  const cv::Mat frame = sag_test::scene(o);
+  cv::Mat sleeve_points;
+  cv::findNonZero(sag_test::sleeveMask(o), sleeve_points);
+  const cv::Scalar sleeve_centre = cv::mean(sleeve_points);
+  ImageSegmenter segmenter = learnedSegmenter(SegmentationMode::kPlate);
+  const ImageSoG once = segmenter.segment(frame);
+  const ImageSoG per_frame = segmenter.segmentFrame(frame);
+  for (const ImageSoG* sog : {&once, &per_frame}) {
+    EXPECT_GT(sog->arm_cells, 20);
+    EXPECT_NEAR(sog->arm_centroid.x(), sleeve_centre[0], 12.0);
+    EXPECT_NEAR(sog->arm_centroid.y(), sleeve_centre[1], 12.0);
+  }
+  EXPECT_EQ(per_frame.arm_cells, once.arm_cells);
+  // Without the sleeve there is no evidence.
+  o.sleeve = false;
+  EXPECT_EQ(segmenter.segmentFrame(sag_test::scene(o)).arm_cells, 0);
+}
+
 TEST(Background, FullSceneKeepsOnlyTheHand) {
   sag_test::SceneOptions o;
   o.hand = o.sleeve = o.shadow = true;

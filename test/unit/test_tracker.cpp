@@ -1,5 +1,10 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <chrono>
+#include <optional>
+#include <thread>
+
 #include "sag_hand_tracker/apps/metrics.h"
 
 #include "sag_hand_tracker/tracking/tracker.h"
@@ -169,6 +174,117 @@ TEST(TrackerOrientation, PerFrameRotationIsBounded) {
       r * Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   EXPECT_TRUE(boundedRotation(r, near, 0.8).isApprox(near, 1e-12));
   EXPECT_TRUE(boundedRotation(r, far, 0.0).isApprox(far, 1e-12));  // 0: no bound
+}
+
+// The start prior: of two start candidates that the energy nearly ties and that are rolled over
+// relative to each other, the one showing its back to the cameras comes first; a clear energy
+// difference, or a candidate of the same palm side, leaves the order as it is.
+TEST(TrackerOrientation, StartPriorPrefersTheBackOfTheHandTowardsTheCameras) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();  // all above the hand
+  const Pose back_up = typicalPose(model);              // back-of-hand normal +z
+  const Pose palm_up = reorientedAboutCentre(back_up, rolledOver(back_up.rotation));
+  const Pose turned = reorientedAboutCentre(
+      back_up,
+      back_up.rotation * Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitZ()).toRotationMatrix());
+  std::vector<CameraObservation> observations;
+  for (const Camera& camera : cameras) observations.push_back({camera, ImageSoG()});
+  auto candidates = [&](const Pose& first, double first_energy, const Pose& second,
+                        double second_energy) {
+    std::vector<OptimizationResult> list(2);
+    list[0].pose = first;
+    list[0].energy = first_energy;
+    list[1].pose = second;
+    list[1].energy = second_energy;
+    return list;
+  };
+
+  std::vector<OptimizationResult> tie = candidates(palm_up, 0.50, back_up, 0.48);
+  preferBackFacingCameras(observations, 0.03, &tie);
+  EXPECT_TRUE(tie[0].pose.rotation.isApprox(back_up.rotation)) << "a near tie goes to the back";
+  EXPECT_TRUE(tie[1].pose.rotation.isApprox(palm_up.rotation));
+
+  std::vector<OptimizationResult> clear = candidates(palm_up, 0.50, back_up, 0.46);
+  preferBackFacingCameras(observations, 0.03, &clear);
+  EXPECT_TRUE(clear[0].pose.rotation.isApprox(palm_up.rotation)) << "a clear win stays first";
+
+  std::vector<OptimizationResult> disabled = candidates(palm_up, 0.50, back_up, 0.49);
+  preferBackFacingCameras(observations, 0.0, &disabled);
+  EXPECT_TRUE(disabled[0].pose.rotation.isApprox(palm_up.rotation)) << "margin 0: no prior";
+
+  // Not a roll of the best candidate: nothing to decide.
+  std::vector<OptimizationResult> same_side = candidates(turned, 0.50, back_up, 0.49);
+  preferBackFacingCameras(observations, 0.03, &same_side);
+  EXPECT_TRUE(same_side[0].pose.rotation.isApprox(turned.rotation));
+}
+
+// A real hand speeds up its turn over a few frames: a roll from palm down to palm up in half a
+// second (peak 0.4 rad per frame at 25 fps, 570 deg/s) is followed frame by frame, never rolled
+// over, while no tracked frame turns more than max_rotation_per_frame from the one before.
+TEST(TrackerOrientation, FollowsAFastRollWithoutRollingOver) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  TrackerParams params;
+  HandTracker tracker(model, params);
+  const Pose rest = typicalPose(model);
+  constexpr int kStill = 3, kTurn = 12, kHold = 4;
+  std::optional<Pose> last;
+  double worst = 0.0;
+  for (int frame = 0; frame < kStill + kTurn + kHold; ++frame) {
+    // Eased roll about the wrist->knuckle axis: 0 .. pi, speed peaking at pi / 2 * pi / kTurn.
+    const double t = std::clamp((frame - kStill) / static_cast<double>(kTurn), 0.0, 1.0);
+    const double angle = 0.5 * M_PI * (1.0 - std::cos(M_PI * t));
+    const Pose truth = reorientedAboutCentre(
+        rest,
+        rest.rotation * Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitX()).toRotationMatrix());
+    const FrameResult result =
+        tracker.update(modelObservations(model, truth, cameras, 3.0), frame * 0.04);
+    ASSERT_TRUE(result.has_pose) << "frame " << frame;
+    EXPECT_LT(palmNormalAngle(result.pose.rotation, truth.rotation), M_PI / 2) << "frame " << frame;
+    if (last && result.status == TrackStatus::kTracking && !result.flipped) {
+      EXPECT_LE(rotationAngle(last->rotation, result.pose.rotation),
+                params.max_rotation_per_frame + 1e-9)
+          << "frame " << frame;
+    }
+    last = result.pose;
+    worst = std::max(worst, meanFingertipError(result.fingertips, fingertips(model, truth)));
+  }
+  EXPECT_LT(worst, 0.02) << "worst fingertip error " << worst * 1000 << " mm";
+}
+
+// Live graphs run the start search on a worker thread: the frame that launches it returns at once
+// without a pose, later frames collect it and start the track on themselves.
+TEST(Tracker, AsynchronousStartReturnsAtOnceAndStartsOnALaterFrame) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  TrackerParams params;
+  params.asynchronous_search = true;
+  HandTracker tracker(model, params);
+  Pose truth = typicalPose(model);
+  const FrameResult first = tracker.update(modelObservations(model, truth, cameras, 3.0), 0.0);
+  EXPECT_FALSE(first.has_pose);
+  EXPECT_EQ(first.status, TrackStatus::kWaiting);
+  EXPECT_TRUE(tracker.searching());
+  std::optional<FrameResult> started;
+  for (int frame = 1; frame < 500 && !started; ++frame) {
+    truth.translation.x() += 0.0005;  // the hand moves on while the search runs
+    const FrameResult result =
+        tracker.update(modelObservations(model, truth, cameras, 3.0), frame * 0.04);
+    if (result.has_pose) {
+      started = result;
+      EXPECT_EQ(result.status, TrackStatus::kStarted);
+      EXPECT_LT(meanFingertipError(result.fingertips, fingertips(model, truth)), 0.02);
+    } else {
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+  }
+  ASSERT_TRUE(started.has_value()) << "the search never finished";
+  EXPECT_FALSE(tracker.searching());
+  // Tracking goes on as usual, and a reset drops whatever runs.
+  const FrameResult next = tracker.update(modelObservations(model, truth, cameras, 3.0), 30.0);
+  EXPECT_EQ(next.status, TrackStatus::kTracking);
+  tracker.reset();
+  EXPECT_FALSE(tracker.searching());
 }
 
 TEST(TrackerHonesty, PoseBehindACameraOrOutsideTheViewsIsImplausible) {

@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "sag_hand_tracker/model/hand_model.h"
+
 namespace sag_hand_tracker {
 
 // A bad command line; the message says what is wrong (without the usage text).
@@ -26,5 +28,9 @@ int parseIntOption(const std::string& option, const std::string& text, int min_v
 // "<option> expects <what>, got '<text>'".
 std::vector<std::string> parseListOption(const std::string& option, const std::string& text,
                                          const std::string& what = "a list like a,b,c");
+
+// `text` ("left" or "right") as the hand of option --hand; else UsageError
+// "--hand expects left or right, got '<text>'".
+Handedness parseHandOption(const std::string& text);
 
 }  // namespace sag_hand_tracker

@@ -3,6 +3,8 @@
 #pragma once
 
 #include <array>
+#include <future>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -48,12 +50,17 @@ struct TrackerParams {
   // not.
   double flip_margin = 0.02;
   int flip_confirm_frames = 5;
-  // The largest turn of the hand between two consecutive tracked frames (radians): a larger turn
-  // of the optimiser is pulled back. 0.1 rad at 25 fps is 143 deg/s: below what a hand can do in
-  // a flick, but measured on the benchmark it is what keeps the track from rolling over during
-  // fast turns (0.15 and 0.8 do not); a turn the bound cannot follow ends in the lost test and a
-  // restart instead. 0 disables the bound.
-  double max_rotation_per_frame = 0.1;
+  // How fast the hand may turn (radians per frame). The optimiser starts each frame from the pose
+  // predicted at constant velocity (its turn capped at `max_rotation_per_frame`); its result may
+  // differ from that prediction's orientation by at most `max_rotation_change_per_frame`, and from
+  // the previous frame's by at most `max_rotation_per_frame`; a larger turn is pulled back. A real
+  // hand speeds up its turn over several frames and never flips in one: 0.45 rad per frame at
+  // 25 fps is 640 deg/s, above the fastest turns of a forearm and wrist, and the change bound lets
+  // a turn reach that in 5 frames. A bound on the turn itself, not its change, kept fast turns from
+  // being followed (at 0.1 rad, 143 deg/s, a 500 deg/s turn rolled the track over). A turn the
+  // bounds cannot follow ends in the lost test and a restart instead. 0 disables a bound.
+  double max_rotation_per_frame = 0.45;
+  double max_rotation_change_per_frame = 0.1;
   // Forearm cue: a camera whose segmentation found at least `min_arm_cells` sleeve cells
   // (ImageSoG::arm_cells) votes on which end of the hand is the wrist. Start hypotheses and
   // re-detections that point the wrist away from the arm (mean vote below `-arm_vote_threshold`)
@@ -62,10 +69,27 @@ struct TrackerParams {
   int min_arm_cells = 6;
   double arm_vote_threshold = 0.3;
   int arm_reversed_frames = 3;
+  // Start prior for hands the silhouettes cannot resolve (issue 9): an open hand and the same hand
+  // rolled over (turned 180 degrees about its wrist->knuckle axis) differ only in the thumb's
+  // side, and on hands with other proportions than the model the energy often ties them. Among
+  // the refined start candidates whose energy is within `start_facing_margin` of the best, the
+  // start takes the one whose back of the hand faces the cameras most (cameras look at the
+  // back of a hand held over a table far more often than at its palm). A clearly better
+  // candidate still wins; 0 disables the prior.
+  double start_facing_margin = 0.03;
   // Plausibility: the hand centre must lie at least `min_camera_depth` (m) in front of every
   // camera and inside the image of at least `min_cameras_for_start` cameras; a pose that is not is
   // never reported (the frame is lost).
   double min_camera_depth = 0.05;
+  // Live graphs (issue 12): the start and re-detection searches (the hypotheses above) take tens of
+  // milliseconds, which on the frame path is a latency spike. With asynchronous_search they run
+  // on a worker thread with a copy of the frame that asked for them, and the frames meanwhile are
+  // tracked as usual (or, without a track, reported without a pose); a later frame collects the
+  // result, refines its best `async_refined_candidates` candidates on itself and decides as the
+  // synchronous search would have. Offline tools keep it off: their results then do not depend
+  // on thread timing.
+  bool asynchronous_search = false;
+  int async_refined_candidates = 2;
 };
 
 // The angle (radians) between two orientations' wrist->middle-knuckle axes (x) and between their
@@ -73,6 +97,14 @@ struct TrackerParams {
 double knuckleAxisAngle(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b);
 double palmNormalAngle(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b);
 bool isFlip(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b);
+
+// The start prior (TrackerParams::start_facing_margin) on start candidates sorted best first:
+// moves to the front the candidate that is rolled over relative to the best one, has an energy
+// within `margin` of it, and turns the back of the hand more towards the cameras of
+// `observations` (the sum over cameras of the cosine between the back-of-hand normal and the
+// direction to the camera); the order is otherwise kept. margin <= 0: unchanged.
+void preferBackFacingCameras(const std::vector<CameraObservation>& observations, double margin,
+                             std::vector<OptimizationResult>* candidates);
 
 // The forearm cue (TrackerParams::min_arm_cells): per camera with sleeve evidence, the cosine
 // between the projected wrist->middle-knuckle direction and the direction from the sleeve's
@@ -126,6 +158,8 @@ class HandTracker {
   FrameResult update(const std::vector<CameraObservation>& observations, double stamp);
 
   void reset();
+  // A search launched on a worker thread (TrackerParams::asynchronous_search) is still pending.
+  bool searching() const { return search_ != nullptr; }
   const HandModel& model() const { return model_; }
   const TrackerParams& params() const { return params_; }
   void setParams(const TrackerParams& params);
@@ -135,12 +169,24 @@ class HandTracker {
   // refine the best few. Returns the refined candidates, best first (plausible ones only, and
   // none that the forearm cue calls reversed); empty when too few cameras see the hand or the
   // foreground cannot be triangulated in front of them.
-  std::vector<OptimizationResult> startFromHypotheses(
-      const PoseEnergy& energy, const std::vector<CameraObservation>& observations) const;
+  // `current`: the tracked pose, also refined as a candidate. Reads only its arguments, so that
+  // it can run on a worker thread.
+  static std::vector<OptimizationResult> startFromHypotheses(
+      const HandModel& model, const TrackerParams& params, const PoseEnergy& energy,
+      const std::vector<CameraObservation>& observations, const std::optional<Pose>& current);
+  // The search for this frame: the candidates, best first; or, with asynchronous_search, empty
+  // while it runs (a search is launched when none is pending) and the candidates of a finished
+  // one refined on this frame.
+  std::optional<std::vector<OptimizationResult>> hypothesisSearch(
+      const PoseEnergy& energy, const std::vector<CameraObservation>& observations);
   bool armSaysReversed(const Pose& pose, const std::vector<CameraObservation>& observations) const;
   bool plausible(const Pose& pose, const std::vector<CameraObservation>& observations) const;
-  // Pulls `result` back to at most max_rotation_per_frame from `reference` (re-scored).
-  void boundRotation(const PoseEnergy& energy, const Pose& reference,
+  // The pose the optimiser starts from: `current` moved on at the velocity from `previous`
+  // (absent: `current`), its turn capped at max_rotation_per_frame.
+  Pose predictedPose(const std::optional<Pose>& previous, const Pose& current) const;
+  // Pulls `result` back to at most max_rotation_change_per_frame from the prediction's orientation
+  // and max_rotation_per_frame from the current one (re-scored when it moved).
+  void boundRotation(const PoseEnergy& energy, const Pose& current, const Pose& predicted,
                      OptimizationResult* result) const;
 
   HandModel model_;
@@ -159,6 +205,9 @@ class HandTracker {
   };
   std::optional<Alternative> alternative_;
   int arm_reversed_streak_ = 0;
+  // The search running on a worker thread (asynchronous_search); shared so that the tracker stays
+  // copyable.
+  std::shared_ptr<std::future<std::vector<OptimizationResult>>> search_;
   bool looksLost(double similarity) const;
 };
 
