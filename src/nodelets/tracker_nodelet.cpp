@@ -46,6 +46,9 @@
 #include "sag_hand_tracker/ros/package_config.h"
 
 #include <ros/callback_queue.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <chrono>
@@ -91,6 +94,8 @@ class TrackerNodelet : public nodelet::Nodelet {
   // The longest collection ~calibrate accepts (seconds): the frames are kept in memory and the
   // call blocks its caller for as long.
   static constexpr double kMaxCalibrationSeconds = 30.0;
+  // The nice value of the fit's thread (the tracking threads keep the process's).
+  static constexpr int kFitNiceness = 10;
 
   // The sets collected for a running ~calibrate call. Guarded by mutex_.
   struct CalibrationRecording {
@@ -505,6 +510,9 @@ class TrackerNodelet : public nodelet::Nodelet {
     // The fit on a thread of its own; this service thread only waits for it.
     std::future<HandFitResult> fitting =
         std::async(std::launch::async, [this, &start_model, &recording] {
+          // Below the tracking threads: on a busy machine the fit waits, not the sets (Linux
+          // gives each thread its own nice value).
+          ::setpriority(PRIO_PROCESS, static_cast<id_t>(::syscall(SYS_gettid)), kFitNiceness);
           return fitHandModel(
               start_model, recording.frames, fit_params_,
               [this](double fraction, const std::string& status) {
