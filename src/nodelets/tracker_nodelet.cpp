@@ -82,12 +82,12 @@ namespace sag_hand_tracker {
 class TrackerNodelet : public nodelet::Nodelet {
  public:
   ~TrackerNodelet() override {
-    // A running calibration ends at once (its wait and its fit watch stopping_); the service's
-    // threads are joined before the members they use go away.
+    // A running calibration ends at once (its wait and its fit watch stopping_) and answers
+    // "shutting down"; the service's threads are joined before the members they use go away.
     stopping_ = true;
     recording_done_.notify_all();
-    calibrate_srv_.shutdown();
     if (calibration_spinner_) calibration_spinner_->stop();
+    calibrate_srv_.shutdown();
   }
 
  private:
