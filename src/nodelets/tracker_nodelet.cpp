@@ -6,9 +6,21 @@
 //   in:  cam<i>/sog (sag_hand_tracker/SumOfGaussians), cam<i>/camera_info,
 //        cam<i>/image_raw (only while cam<i>/overlay has subscribers)
 //   out: joint_states, markers, fingertips, status, cam<i>/overlay, /tf, /diagnostics
+//   service: ~calibrate (sag_hand_tracker/Calibrate, below)
 // Private parameters: num_cameras (5), root_frame (world), model ("sag", "sog" or a path),
-//   handedness (right|left), camera_timeout (0.5 s), time_jump_threshold (1.0 s), plus the
-//   dynamic_reconfigure parameters of cfg/Tracker.cfg.
+//   handedness (right|left), camera_timeout (0.5 s), time_jump_threshold (1.0 s),
+//   calibration_max_frames (16) and calibration_rounds (2): the live fit's HandFitParams
+//   max_frames and rounds, plus the dynamic_reconfigure parameters of cfg/Tracker.cfg.
+//
+// Live calibration (~calibrate, srv/Calibrate.srv, doc/calibration.md "Live"): the call collects
+// the sets of the next `duration` seconds (image stamps) as CalibrationFrames (the observations
+// the tracker gets and its pose, for sets with a tracked hand) while tracking goes on, checks the
+// routine (checkCalibrationRoutine), fits (fitHandModel: the same fit as calibrate_hand, colours
+// sampled from the image SoGs, which carry them) on a thread of its own, optionally writes the
+// model file (atomic; never replaces a file), then rebuilds the HandTracker with the fitted model
+// under mutex_. The service has its own callback queue and two threads: a call waiting for its
+// frames or its fit takes none of the manager's worker threads, and a second call is answered
+// (refused) at once.
 //
 // Synchronization: CameraSetSynchronizer (tracking/camera_set_synchronizer.h; message_filters'
 // synchronizers take at most 9 inputs): a set is processed as soon as every camera that is not
@@ -33,13 +45,27 @@
 #include <pluginlib/class_list_macros.hpp>
 #include "sag_hand_tracker/ros/package_config.h"
 
+#include <ros/callback_queue.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <deque>
+#include <filesystem>
+#include <fstream>
+#include <future>
 #include <memory>
 #include <mutex>
+#include <optional>
+#include <sstream>
 
+#include "sag_hand_tracker/Calibrate.h"
 #include "sag_hand_tracker/TrackerConfig.h"
 #include "sag_hand_tracker/TrackingStatus.h"
+#include "sag_hand_tracker/fitting/hand_fit.h"
 #include "sag_hand_tracker/model/kinematics.h"
 #include "sag_hand_tracker/ros/conversions.h"
 #include "sag_hand_tracker/ros/sog_conversions.h"
@@ -47,12 +73,40 @@
 #include "sag_hand_tracker/ros/visualization.h"
 #include "sag_hand_tracker/tracking/camera_set_synchronizer.h"
 #include "sag_hand_tracker/tracking/tracker.h"
+#include "sag_hand_tracker/util/atomic_output.h"
 #include "sag_hand_tracker/util/timing.h"
+#include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
 
 class TrackerNodelet : public nodelet::Nodelet {
+ public:
+  ~TrackerNodelet() override {
+    // A running calibration ends at once (its wait and its fit watch stopping_) and answers
+    // "shutting down"; the service's threads are joined before the members they use go away.
+    stopping_ = true;
+    recording_done_.notify_all();
+    if (calibration_spinner_) calibration_spinner_->stop();
+    calibrate_srv_.shutdown();
+  }
+
  private:
+  // The longest collection ~calibrate accepts (seconds): the frames are kept in memory and the
+  // call blocks its caller for as long.
+  static constexpr double kMaxCalibrationSeconds = 30.0;
+  // The nice value of the fit's thread (the tracking threads keep the process's).
+  static constexpr int kFitNiceness = 10;
+
+  // The sets collected for a running ~calibrate call. Guarded by mutex_.
+  struct CalibrationRecording {
+    double duration = 0.0;
+    std::optional<double> first_stamp;  // the first set after the call
+    int sets = 0;
+    std::vector<CalibrationFrame> frames;  // sets with a tracked hand
+    bool complete = false;
+    std::string interrupted;  // why the collection ended early ("" = it did not)
+  };
+
   using Synchronizer = CameraSetSynchronizer<SumOfGaussians::ConstPtr>;
   struct CameraInput {
     ros::Subscriber sog_sub;
@@ -86,7 +140,17 @@ class TrackerNodelet : public nodelet::Nodelet {
       NODELET_FATAL("cannot load hand model '%s': %s", model_name.c_str(), e.what());
       throw;
     }
+    model_label_ = model_name;
     tracker_ = std::make_unique<HandTracker>(model_, liveTrackerParams());
+    fit_params_.max_frames = pnh.param("calibration_max_frames", fit_params_.max_frames);
+    fit_params_.rounds = pnh.param("calibration_rounds", fit_params_.rounds);
+    if (fit_params_.max_frames < 1 || fit_params_.rounds < 1) {
+      NODELET_ERROR(
+          "calibration_max_frames and calibration_rounds must be >= 1 (got %d, %d); using 16, 2",
+          fit_params_.max_frames, fit_params_.rounds);
+      fit_params_.max_frames = 16;
+      fit_params_.rounds = 2;
+    }
     joint_names_ = model_.parameterNames();
 
     tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
@@ -119,6 +183,14 @@ class TrackerNodelet : public nodelet::Nodelet {
     reconfigure_ =
         std::make_unique<dynamic_reconfigure::Server<TrackerConfig>>(reconfigure_mutex_, pnh);
     reconfigure_->setCallback([this](TrackerConfig& config, uint32_t) { reconfigure(config); });
+
+    // ~calibrate on a queue and threads of its own (see the header comment).
+    ros::NodeHandle calibration_nh(pnh);
+    calibration_nh.setCallbackQueue(&calibration_queue_);
+    calibrate_srv_ =
+        calibration_nh.advertiseService("calibrate", &TrackerNodelet::onCalibrate, this);
+    calibration_spinner_ = std::make_unique<ros::AsyncSpinner>(2, &calibration_queue_);
+    calibration_spinner_->start();
 
     // Processes sets whose cameras timed out, watches for ROS time jumping back, and follows the
     // overlay subscribers. (Polled rather than connect/disconnect callbacks: with those, the
@@ -220,6 +292,11 @@ class TrackerNodelet : public nodelet::Nodelet {
           tracker_->reset();
           for (CameraInput& input : cameras_) input.images.clear();
           tf_buffer_->clear();
+          if (recording_ && !recording_->complete) {
+            recording_->interrupted = "time jumped back during the collection (bag loop?)";
+            recording_->complete = true;
+            recording_done_.notify_all();
+          }
           break;
       }
     }
@@ -269,6 +346,7 @@ class TrackerNodelet : public nodelet::Nodelet {
       NODELET_ERROR_THROTTLE(2.0, "tracker returned a non-finite pose: not published; reset");
       tracker_->reset();
     }
+    if (recording_) record(stamp.toSec(), result, pose_ok, observations);
     PosedHand hand;
     if (pose_ok) {
       hand = forwardKinematics(model_, result.pose);
@@ -286,7 +364,257 @@ class TrackerNodelet : public nodelet::Nodelet {
     status.expected_cameras = num_cameras_;
     status.seconds_per_frame = seconds;
     status.restarted = result.restarted;
+    status.model = model_label_;
+    status.calibration = calibrationState();
     status_pub_.publish(status);
+  }
+
+  // Adds a processed set to the running calibration's recording. Caller holds mutex_.
+  void record(double stamp, const FrameResult& result, bool pose_ok,
+              const std::vector<CameraObservation>& observations) {
+    CalibrationRecording& recording = *recording_;
+    if (recording.complete) return;
+    if (!recording.first_stamp) recording.first_stamp = stamp;
+    if (stamp - *recording.first_stamp > recording.duration) {
+      recording.complete = true;
+      recording_done_.notify_all();
+      return;
+    }
+    ++recording.sets;
+    // The frames calibrate_hand keeps: a pose, and the track not lost.
+    if (pose_ok && result.status != TrackStatus::kLost) {
+      CalibrationFrame frame;
+      frame.stamp = stamp;
+      frame.observations = observations;
+      frame.pose = result.pose;
+      recording.frames.push_back(std::move(frame));
+    }
+  }
+
+  // ~calibrate: see the header comment and srv/Calibrate.srv. Runs on the service's own threads.
+  bool onCalibrate(Calibrate::Request& request, Calibrate::Response& response) {
+    const auto start = std::chrono::steady_clock::now();
+    auto finish = [&](bool success, const std::string& message) {
+      response.success = success;
+      response.message = message;
+      response.seconds = secondsSince(start);
+      if (success) {
+        NODELET_INFO("calibrate: %s", message.c_str());
+      } else {
+        NODELET_WARN("calibrate: refused or failed: %s", message.c_str());
+      }
+      return true;
+    };
+    // Checks that need no frames first, so that a bad request is answered at once.
+    if (!(request.duration > 0.0 && request.duration <= kMaxCalibrationSeconds)) {
+      std::ostringstream text;
+      text << "duration must be in (0, " << kMaxCalibrationSeconds << "] seconds, got "
+           << request.duration;
+      return finish(false, text.str());
+    }
+    std::string problem;
+    if (!request.save_path.empty() && !checkSavePath(request.save_path, &problem)) {
+      return finish(false, problem);
+    }
+    bool idle = false;
+    if (!calibrating_.compare_exchange_strong(idle, true)) {
+      return finish(false,
+                    "a calibration is already running; wait for its response before calling "
+                    "~calibrate again");
+    }
+    struct Release {
+      std::atomic<bool>* flag;
+      ~Release() { *flag = false; }
+    } release{&calibrating_};
+
+    std::string message;
+    const bool success = calibrate(request, &response, &message);
+    setCalibrationState((success ? "fitted: " : "failed: ") + message);
+    return finish(success, message);
+  }
+
+  // save_path must be absolute (the manager's working directory is nobody's business), name no
+  // existing file, and lie in an existing folder. Fills `problem` when it does not.
+  static bool checkSavePath(const std::string& path, std::string* problem) {
+    namespace fs = std::filesystem;
+    std::error_code error;
+    const fs::path target(path);
+    if (!target.is_absolute()) {
+      *problem = "save_path '" + path + "' is not an absolute path";
+    } else if (fs::exists(fs::symlink_status(target, error))) {
+      *problem = "save_path " + path +
+                 ": the file exists; ~calibrate does not replace files (remove it or choose "
+                 "another name)";
+    } else if (!fs::is_directory(target.parent_path(), error)) {
+      *problem =
+          "save_path " + path + ": the folder " + target.parent_path().string() + " does not exist";
+    } else {
+      return true;
+    }
+    return false;
+  }
+
+  // The body of ~calibrate once the request is accepted: collect, check, fit, save, switch.
+  // Returns success; `message` says what was done or what went wrong.
+  bool calibrate(const Calibrate::Request& request, Calibrate::Response* response,
+                 std::string* message) {
+    HandModel start_model;
+    CalibrationRecording recording;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      start_model = model_;
+      recording_.emplace();
+      recording_->duration = request.duration;
+      setCalibrationState("collecting");
+      NODELET_INFO("calibrate: collecting %.1f s of camera sets", request.duration);
+      // Sets come at the camera rate; a replay may run slower than real time, so the wall-clock
+      // limit is generous. It only matters when the sets stop coming.
+      const auto deadline = std::chrono::steady_clock::now() +
+                            std::chrono::duration<double>(2.0 * request.duration + 10.0);
+      recording_done_.wait_until(
+          lock, deadline, [this] { return stopping_ || recording_->complete || !ros::ok(); });
+      recording = std::move(*recording_);
+      recording_.reset();
+    }
+    response->sets = recording.sets;
+    response->tracked_frames = static_cast<int>(recording.frames.size());
+    if (stopping_ || !ros::ok()) {
+      *message = "the tracker is shutting down";
+      return false;
+    }
+    if (!recording.interrupted.empty()) {
+      *message = recording.interrupted + "; nothing changed";
+      return false;
+    }
+    if (recording.sets == 0) {
+      *message = "no synchronized camera set arrived in " +
+                 fixed(2.0 * request.duration + 10.0, 0) +
+                 " s: are the cameras, the segmentation and tf running?";
+      return false;
+    }
+    if (!recording.complete) {
+      *message = "the camera sets stopped coming after " + std::to_string(recording.sets) +
+                 " sets, before " + fixed(request.duration, 1) + " s were collected";
+      return false;
+    }
+
+    const RoutineCheck routine =
+        checkCalibrationRoutine(start_model, recording.frames, num_cameras_);
+    if (!routine.ok) {
+      *message = std::to_string(recording.sets) + " sets collected, " +
+                 std::to_string(routine.frames) +
+                 " with the hand; they do not show the calibration routine (open hand, palm and "
+                 "back turned to the cameras, a fist; doc/calibration.md):";
+      for (const std::string& item : routine.missing) *message += "\n  - " + item;
+      return false;
+    }
+
+    setCalibrationState("fitting");
+    NODELET_INFO(
+        "calibrate: %zu frames with the hand; fitting (tracking goes on with the "
+        "current model)",
+        recording.frames.size());
+    // The fit on a thread of its own; this service thread only waits for it.
+    std::future<HandFitResult> fitting =
+        std::async(std::launch::async, [this, &start_model, &recording] {
+          // Below the tracking threads: on a busy machine the fit waits, not the sets (Linux
+          // gives each thread its own nice value).
+          ::setpriority(PRIO_PROCESS, static_cast<id_t>(::syscall(SYS_gettid)), kFitNiceness);
+          return fitHandModel(
+              start_model, recording.frames, fit_params_,
+              [this](double fraction, const std::string& status) {
+                if (stopping_) throw InputError("the tracker is shutting down");
+                setCalibrationState("fitting " + fixed(100.0 * fraction, 0) + " %: " + status);
+              });
+        });
+    HandFitResult fit;
+    try {
+      fit = fitting.get();
+    } catch (const std::exception& e) {
+      *message = std::string("the fit failed: ") + e.what() + "; nothing changed";
+      return false;
+    }
+
+    response->frames_used = static_cast<int>(fit.frame_indices.size());
+    response->energy_before = fit.energy_before;
+    response->energy_after = fit.energy_after;
+    response->score_before = fit.score_before;
+    response->score_after = fit.score_after;
+    response->scale = fit.shape.scale;
+    response->palm_width = fit.shape.palm_width;
+    response->finger_length = fit.shape.finger_length;
+    response->thickness = fit.shape.thickness;
+    for (const Bone& bone : fit.model.bones) {
+      response->bone_names.push_back(bone.name);
+      response->bone_lengths.push_back(bone.length);
+    }
+    std::ostringstream summary;
+    summary << "fitted on " << fit.frame_indices.size() << " of " << recording.frames.size()
+            << " frames with the hand (" << recording.sets << " sets, " << routine.views
+            << " views): size x" << fixed(fit.shape.scale, 3) << ", palm width x"
+            << fixed(fit.shape.palm_width, 3) << ", finger length x"
+            << fixed(fit.shape.finger_length, 3) << ", thickness x" << fixed(fit.shape.thickness, 3)
+            << "; energy E " << fixed(fit.energy_before, 4) << " -> " << fixed(fit.energy_after, 4)
+            << ", shape score " << fixed(fit.score_before, 4) << " -> "
+            << fixed(fit.score_after, 4);
+
+    // Saved before the switch: when the file cannot be written, nothing changes.
+    if (!request.save_path.empty()) {
+      try {
+        saveModel(fit.model, request.save_path);
+      } catch (const std::exception& e) {
+        *message = summary.str() + "; but the model was not saved: " + e.what() +
+                   "; the tracker keeps its model";
+        return false;
+      }
+      response->saved_path = request.save_path;
+      summary << "; saved to " << request.save_path;
+    }
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      const TrackerParams params = tracker_->params();
+      model_ = fit.model;
+      tracker_ = std::make_unique<HandTracker>(model_, params);
+      model_label_ = request.save_path.empty() ? "fitted (not saved)" : request.save_path;
+    }
+    summary << "; the tracker now uses the fitted model (it starts again on the next open hand)";
+    *message = summary.str();
+    return true;
+  }
+
+  // Writes `model` to `path` through a temporary file that is loaded back before it is renamed;
+  // refuses to replace a file that appeared meanwhile. Throws InputError.
+  static void saveModel(const HandModel& model, const std::string& path) {
+    AtomicOutputFile output(path);
+    {
+      std::ofstream file(output.tempPath());
+      file << formatHandModel(model,
+                              "Fitted live by the tracker's ~calibrate service.\n"
+                              "Format: README.md, 'Hand models'.");
+      file.flush();
+      if (!file) throw InputError(path + ": cannot write the file");
+    }
+    loadHandModel(output.tempPath());
+    std::string problem;
+    if (!checkSavePath(path, &problem)) throw InputError(problem);
+    output.commit();
+  }
+
+  // calibration_state_ has a mutex of its own: the fit reports its progress often and should not
+  // wait for the tracker's sets.
+  void setCalibrationState(const std::string& state) {
+    std::lock_guard<std::mutex> lock(state_mutex_);
+    calibration_state_ = state;
+  }
+  std::string calibrationState() {
+    std::lock_guard<std::mutex> lock(state_mutex_);
+    return calibration_state_;
+  }
+
+  static std::string fixed(double value, int digits) {
+    char buffer[64];
+    std::snprintf(buffer, sizeof(buffer), "%.*f", digits, value);
+    return buffer;
   }
 
   // Caller holds mutex_.
@@ -419,15 +747,22 @@ class TrackerNodelet : public nodelet::Nodelet {
     stat.add("late messages", sync.late_messages);
     stat.add("skipped camera inputs", skipped_inputs_);
     stat.add("resets (time jumped back)", sync.resets);
+    stat.add("model", model_label_);
+    stat.add("calibration", calibrationState());
   }
 
   int num_cameras_ = 5;
   std::string root_frame_;
-  HandModel model_;
   std::vector<std::string> joint_names_;
-  std::unique_ptr<HandTracker> tracker_;
+  HandFitParams fit_params_;
 
   std::mutex mutex_;  // guards everything below (callbacks may run on several threads)
+  // The model and the tracker; replaced together by a live calibration.
+  HandModel model_;
+  std::unique_ptr<HandTracker> tracker_;
+  std::string model_label_;  // for the status: the model parameter, or the saved file
+  std::optional<CalibrationRecording> recording_;  // while a ~calibrate call collects
+  std::condition_variable recording_done_;
   std::vector<CameraInput> cameras_;
   std::unique_ptr<Synchronizer> synchronizer_;
   ThrottledWarnings warnings_;
@@ -444,6 +779,15 @@ class TrackerNodelet : public nodelet::Nodelet {
   boost::recursive_mutex reconfigure_mutex_;
   std::unique_ptr<dynamic_reconfigure::Server<TrackerConfig>> reconfigure_;
   ros::WallTimer timer_;
+
+  // ~calibrate (its own queue and threads; see the header comment).
+  std::mutex state_mutex_;
+  std::string calibration_state_;         // for the status (TrackingStatus.calibration)
+  std::atomic<bool> calibrating_{false};  // a call has been accepted and has not answered yet
+  std::atomic<bool> stopping_{false};     // the nodelet is being destroyed
+  ros::CallbackQueue calibration_queue_;
+  ros::ServiceServer calibrate_srv_;
+  std::unique_ptr<ros::AsyncSpinner> calibration_spinner_;
 };
 
 }  // namespace sag_hand_tracker
