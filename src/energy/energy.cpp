@@ -261,13 +261,28 @@ double PoseEnergy::evaluate(const Pose& pose, PoseVector* gradient, EnergyTerms*
       coupling_gradient[kFirstJointDof + pip] -= 2.0 * params_.dip_pip_ratio * residual;
     }
   }
+  // Joint-range prior (EnergyParams::joint_range_weight).
+  double range = 0.0;
+  PoseVector range_gradient = PoseVector::Zero();
+  if (params_.joint_range_weight > 0.0) {
+    for (int j = 0; j < kNumJointDof; ++j) {
+      const JointDof& limits = model_.joints[j];
+      const double half_width = 0.5 * (limits.max - limits.min);
+      if (!(half_width > 0.0)) continue;
+      const double residual = (pose.joints[j] - 0.5 * (limits.max + limits.min)) / half_width;
+      range += residual * residual;
+      range_gradient[kFirstJointDof + j] = 2.0 * residual / half_width;
+    }
+  }
   const double total = similarity - params_.limit_weight * penalty -
-                       params_.dip_pip_coupling_weight * coupling;  // paper eq. 9 + coupling
+                       params_.dip_pip_coupling_weight * coupling -
+                       params_.joint_range_weight * range;  // paper eq. 9 + priors
 
   if (terms) {
     terms->similarity = similarity;
     terms->limit_penalty = penalty;
     terms->coupling_penalty = coupling;
+    terms->range_penalty = range;
     terms->total = total;
     for (double& value : terms->per_camera) value /= camera_count;
   }
@@ -293,6 +308,7 @@ double PoseEnergy::evaluate(const Pose& pose, PoseVector* gradient, EnergyTerms*
   }
   *gradient -= params_.limit_weight * limit_gradient;
   *gradient -= params_.dip_pip_coupling_weight * coupling_gradient;
+  *gradient -= params_.joint_range_weight * range_gradient;
   return total;
 }
 

@@ -259,9 +259,10 @@ bool plausibleFor(const TrackerParams& params, const Pose& pose,
   return isPlausiblePose(pose, observations, params.min_camera_depth, params.min_cameras_for_start);
 }
 
-// Best first.
+// Best first. (Not std::stable_sort: its temporary buffer ignores the alignment that the Eigen
+// members of OptimizationResult need with -march=native, and crashes.)
 void sortByEnergy(std::vector<OptimizationResult>* candidates) {
-  std::stable_sort(
+  std::sort(
       candidates->begin(), candidates->end(),
       [](const OptimizationResult& a, const OptimizationResult& b) { return a.energy > b.energy; });
 }
@@ -392,6 +393,19 @@ std::vector<OptimizationResult> HandTracker::startFromHypotheses(
     candidate = optimizePose(energy, candidate.pose, stage_params);
   }
   keep_best(kHypothesesKept);
+  // The rolled-over twin of the best candidate goes into the last stage as well: on hands unlike
+  // the model the coarse stage often keeps only one palm side, and the start prior
+  // (start_facing_margin) can only choose between sides that were both refined.
+  if (!candidates.empty() && params.start_facing_margin > 0.0) {
+    const Pose& best = candidates.front().pose;
+    const Eigen::Vector3d hand_centre = best.translation + best.rotation * kHandCentreInPalm;
+    const Eigen::Matrix3d rolled =
+        best.rotation * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
+    OptimizationResult twin;
+    twin.pose = neutralPose(model, hand_centre - rolled * kHandCentreInPalm, rolled);
+    twin.energy = energy.evaluate(twin.pose);
+    candidates.push_back(twin);
+  }
   stage_params.iterations = params.start_iterations;
   for (OptimizationResult& candidate : candidates) {
     candidate = optimizePose(energy, candidate.pose, stage_params);

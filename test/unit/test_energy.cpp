@@ -38,7 +38,8 @@ double centralDifference(const PoseEnergy& energy, const Pose& pose, int i, doub
 
 void checkGradient(const std::string& model_name,
                    double coupling = EnergyParams().dip_pip_coupling_weight,
-                   double model_area_weight = EnergyParams().model_area_weight) {
+                   double model_area_weight = EnergyParams().model_area_weight,
+                   double joint_range_weight = EnergyParams().joint_range_weight) {
   const HandModel model = loadHandModel(modelPath(model_name));
   const std::vector<Camera> cameras = fiveCameraRig();
   std::mt19937 rng(42);
@@ -46,6 +47,7 @@ void checkGradient(const std::string& model_name,
   params.max_mahalanobis_sq = 1e9;  // no cut-off: the energy is then smooth everywhere
   params.dip_pip_coupling_weight = coupling;
   params.model_area_weight = model_area_weight;
+  params.joint_range_weight = joint_range_weight;
   PoseEnergy energy(model, params);
   // Image from one pose, gradient at others: many pairs unsaturated, many partially overlapping.
   energy.setFrame(modelObservations(model, typicalPose(model), cameras, 6.0));
@@ -85,6 +87,38 @@ TEST(EnergyGradient, SagWithModelAreaNormalisationMatchesCentralDifferences) {
 }
 TEST(EnergyGradient, SogWithModelAreaNormalisationMatchesCentralDifferences) {
   checkGradient("sog", EnergyParams().dip_pip_coupling_weight, 1.0);
+}
+
+// The same with a strong joint-range prior.
+TEST(EnergyGradient, SagWithStrongJointRangePriorMatchesCentralDifferences) {
+  checkGradient("sag", EnergyParams().dip_pip_coupling_weight, EnergyParams().model_area_weight,
+                1.0);
+}
+
+// The joint-range prior: zero with every joint in the middle of its limits, one per joint at a
+// limit, and it lowers the energy by its weight times that.
+TEST(Energy, JointRangePriorIsZeroMidRangeAndOnePerJointAtALimit) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  EnergyParams params;
+  params.joint_range_weight = 0.25;
+  PoseEnergy energy(model, params);
+  energy.setFrame(modelObservations(model, typicalPose(model), fiveCameraRig(), 6.0));
+  Pose pose = typicalPose(model);
+  for (int j = 0; j < kNumJointDof; ++j) {
+    pose.joints[j] = 0.5 * (model.joints[j].min + model.joints[j].max);
+  }
+  EnergyTerms mid;
+  energy.evaluate(pose, nullptr, &mid);
+  EXPECT_NEAR(mid.range_penalty, 0.0, 1e-12);
+  pose.joints[3] = model.joints[3].max;  // one joint at its upper limit, one at its lower
+  pose.joints[9] = model.joints[9].min;
+  EnergyTerms two;
+  energy.evaluate(pose, nullptr, &two);
+  EXPECT_NEAR(two.range_penalty, 2.0, 1e-9);
+  EXPECT_NEAR(two.total,
+              two.similarity - params.limit_weight * two.limit_penalty -
+                  params.dip_pip_coupling_weight * two.coupling_penalty - 0.25 * 2.0,
+              1e-9);
 }
 
 // The coupling prior: zero when every DIP is k times its PIP, quadratic in the residual.

@@ -28,6 +28,13 @@ struct EnergyParams {
   // of the ambiguity of curled fingers (benchmark: fingercount, flexex1).
   double dip_pip_coupling_weight = 0.05;
   double dip_pip_ratio = 2.0 / 3.0;
+  // Joint-range prior (issue 9): -w_r sum_j ((theta_j - m_j) / h_j)^2 with m_j the middle and h_j
+  // half the width of joint j's limits. Where the images say little about a finger (a model
+  // larger than the hand, a finger hidden behind the palm) the capped overlap of eq. 8 has no
+  // gradient, and such fingers drifted to their limits: the thumb folded across the palm, a
+  // finger curled into a fist over the palm's saturated foreground. The prior pulls them gently
+  // to the middle of their range. 0 disables it.
+  double joint_range_weight = 0.003;
   // lambda of the per-camera normalisation E_c = (1 + lambda) O_c / (I_c + lambda M_c), with O_c
   // the capped overlap of eq. 8, I_c = sum_q E_qq the image's foreground area and M_c the projected
   // model's area (sum_p w_p 2 pi sqrt|Sigma_p|, the mass a model Gaussian would cover on a
@@ -52,7 +59,8 @@ struct EnergyTerms {
   double similarity = 0.0;     // E_sim, normalised: mean over cameras of E_c (model_area_weight)
   double limit_penalty = 0.0;  // E_lim
   double coupling_penalty = 0.0;  // sum_f (theta_dip - k theta_pip)^2 (EnergyParams)
-  double total = 0.0;             // E_sim - w_l E_lim
+  double range_penalty = 0.0;     // sum_j ((theta_j - m_j) / h_j)^2 (EnergyParams)
+  double total = 0.0;             // E_sim - w_l E_lim - w_c coupling - w_r range
   std::vector<double> per_camera;
   // Model Gaussians that could not be projected into a camera that sees foreground (behind it,
   // containing its centre, closer than 1 cm to its plane), summed over those cameras. Each counts

@@ -60,7 +60,7 @@ struct TrackerParams {
   // being followed (at 0.1 rad, 143 deg/s, a 500 deg/s turn rolled the track over). A turn the
   // bounds cannot follow ends in the lost test and a restart instead. 0 disables a bound.
   double max_rotation_per_frame = 0.45;
-  double max_rotation_change_per_frame = 0.1;
+  double max_rotation_change_per_frame = 0.2;
   // Forearm cue: a camera whose segmentation found at least `min_arm_cells` sleeve cells
   // (ImageSoG::arm_cells) votes on which end of the hand is the wrist. Start hypotheses and
   // re-detections that point the wrist away from the arm (mean vote below `-arm_vote_threshold`)
