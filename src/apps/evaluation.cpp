@@ -977,7 +977,7 @@ Options:
                        on that hand (calibrate_hand's code; DIR/models/<shape>.yaml) and track
                        every sequence of the hand with it: the tracker "fitted" beside SAG with
                        the default model (needs sag among --models); DIR/fitted.csv
-  --routine-frames N   frames of the rendered calibration routine (its full length, 135)
+  --routine-frames N   frames of the rendered calibration routine (its full length, 125)
   --rooms a,b|all      the studio rooms (office, kitchen, daylight) against the clean studio:
                        skin gate and plate, without and with the room cues; foreground precision
                        and recall, fingertip error; DIR/rooms.md, rooms.csv, rooms/*.png
