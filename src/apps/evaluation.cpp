@@ -332,6 +332,20 @@ std::vector<std::vector<int>> combinations(int n, int k) {
   return result;
 }
 
+// The trackers of the Figure 6 runs: the --models (the fitted models are not run there).
+std::vector<std::string> cameraTrackers(const BenchmarkResults& results) {
+  std::vector<std::string> trackers;
+  for (const std::string& t : results.trackers) {
+    for (const BenchmarkRun& run : results.camera_runs) {
+      if (run.tracker == t) {
+        trackers.push_back(t);
+        break;
+      }
+    }
+  }
+  return trackers;
+}
+
 // ---- report -------------------------------------------------------------------------------------
 
 std::string markdownRow(const std::vector<std::string>& cells) {
@@ -667,7 +681,7 @@ std::string report(const BenchmarkOptions& options, const BenchmarkResults& resu
     md << "Every combination of the cameras, on " << seq_list
        << "; mean and sd over every frame of every combination and sequence.\n\n";
     std::vector<std::string> ch{"cameras", "combinations"};
-    for (const std::string& t : trackers) {
+    for (const std::string& t : cameraTrackers(results)) {
       ch.push_back(displayName(t) + " mean");
       ch.push_back(displayName(t) + " sd");
       ch.push_back(displayName(t) + " failed %");
@@ -675,7 +689,7 @@ std::string report(const BenchmarkOptions& options, const BenchmarkResults& resu
     md << markdownRow(ch) << markdownRule(ch.size());
     for (const auto& [count, combos] : combinations_per_count) {
       std::vector<std::string> cells{std::to_string(count), std::to_string(combos)};
-      for (const std::string& t : trackers) {
+      for (const std::string& t : cameraTrackers(results)) {
         const Pooled p = pool(select(results.camera_runs, [&](const BenchmarkRun& r) {
           return r.tracker == t && static_cast<int>(r.cameras.size()) == count;
         }));
@@ -771,7 +785,7 @@ void writeCameraCsvs(const std::string& dir, const BenchmarkResults& results,
   const std::string counts_path = dir + "/camera_counts.csv";
   std::ostringstream counts;
   counts << "tracker,cameras,combinations,runs,frames,failed,mean_mm,sd_mm\n";
-  for (const std::string& t : results.trackers) {
+  for (const std::string& t : cameraTrackers(results)) {
     for (const auto& [count, combos] : combinations_per_count) {
       const Pooled p = pool(select(results.camera_runs, [&](const BenchmarkRun& r) {
         return r.tracker == t && static_cast<int>(r.cameras.size()) == count;
@@ -903,13 +917,14 @@ void writePlots(const std::string& dir, const BenchmarkResults& results,
 
   if (!results.camera_runs.empty()) {
     std::vector<PlotSeries> series;
-    for (size_t i = 0; i < results.trackers.size(); ++i) {
-      const std::string& t = results.trackers[i];
+    const std::vector<std::string> trackers = cameraTrackers(results);
+    for (size_t i = 0; i < trackers.size(); ++i) {
+      const std::string& t = trackers[i];
       PlotSeries line;
       line.label = displayName(t);
       line.colour = trackerColour(t, i);
       // Side by side, so that the error bars do not hide each other.
-      const double offset = 0.06 * (static_cast<double>(i) - 0.5 * (results.trackers.size() - 1));
+      const double offset = 0.06 * (static_cast<double>(i) - 0.5 * (trackers.size() - 1));
       for (const auto& entry : combinations_per_count) {
         const int count = entry.first;
         const Pooled p = pool(select(results.camera_runs, [&](const BenchmarkRun& r) {
