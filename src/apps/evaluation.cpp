@@ -14,21 +14,24 @@
 #include <sstream>
 
 #include "sag_hand_tracker/apps/csv.h"
-#include "sag_hand_tracker/model/hand_model.h"
 #include "sag_hand_tracker/apps/metrics.h"
 #include "sag_hand_tracker/apps/plot.h"
-#include "sag_hand_tracker/model/pose.h"
-#include "sag_hand_tracker/util/atomic_output.h"
-#include "sag_hand_tracker/ros/bag_input.h"
 #include "sag_hand_tracker/apps/render_runner.h"
+#include "sag_hand_tracker/apps/room_benchmark.h"
+#include "sag_hand_tracker/model/hand_model.h"
+#include "sag_hand_tracker/model/pose.h"
+#include "sag_hand_tracker/ros/bag_input.h"
+#include "sag_hand_tracker/ros/package_config.h"
 #include "sag_hand_tracker/studio/hand_shapes.h"
 #include "sag_hand_tracker/studio/motion.h"
-#include "sag_hand_tracker/util/types.h"
+#include "sag_hand_tracker/util/atomic_output.h"
 #include "sag_hand_tracker/util/timing.h"
-#include "sag_hand_tracker/apps/room_benchmark.h"
-#include "sag_hand_tracker/ros/package_config.h"
+#include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
+
+const char* const kFittedTracker = "fitted";
+
 namespace {
 
 // A whole text output, written next to `path` and renamed there (atomic_output.h).
@@ -64,6 +67,7 @@ std::string trackerLabel(const std::string& model) {
 std::string displayName(const std::string& tracker) {
   if (tracker == "sag") return "SAG";
   if (tracker == "sog") return "SoG";
+  if (tracker == kFittedTracker) return "SAG fitted";
   return tracker;
 }
 
@@ -122,8 +126,9 @@ std::string readFile(const std::string& path) {
   return text.str();
 }
 
+// `frames` rendered (0: the motion's full length).
 SequenceBag prepareBag(const BenchmarkOptions& options, const std::string& sequence,
-                       const studio::StudioHand& hand, std::ostream& log) {
+                       const studio::StudioHand& hand, int frames, std::ostream& log) {
   const fs::path dir = fs::path(options.out_dir) / "bags";
   fs::create_directories(dir);
   const std::string seq = fs::path(sequence).stem().string();
@@ -138,7 +143,7 @@ SequenceBag prepareBag(const BenchmarkOptions& options, const std::string& seque
   render.out = bag.bag;
   render.gt_csv = bag.gt_csv;
   render.config_dir = options.config_dir;
-  render.frames = options.frames;
+  render.frames = frames;
   render.quiet = true;
   // The benchmark's shapes come from the config's list; a shape file would do as well.
   render.shape = hand.name;
@@ -161,9 +166,10 @@ SequenceBag prepareBag(const BenchmarkOptions& options, const std::string& seque
 
 // ---- one run ------------------------------------------------------------------------------------
 
+// `label` names the tracker in the tables (trackerLabel(model) unless the model is a fitted one).
 BenchmarkRun trackRun(const BenchmarkOptions& options, const SequenceBag& bag,
-                      const std::string& model, const std::vector<int>& cameras,
-                      const std::string& out_csv) {
+                      const std::string& model, const std::string& label,
+                      const std::vector<int>& cameras, const std::string& out_csv) {
   TrackBagOptions track;
   track.bag = bag.bag;
   track.out = out_csv;
@@ -181,7 +187,7 @@ BenchmarkRun trackRun(const BenchmarkOptions& options, const SequenceBag& bag,
   BenchmarkRun run;
   run.sequence = bag.name;
   run.shape = bag.shape;
-  run.tracker = trackerLabel(model);
+  run.tracker = label;
   run.cameras = cameras;
   // No CSV when nothing was tracked (and an old one at out_csv is not this run's).
   run.errors = matchToGroundTruth(bag.gt_csv, summary.csv_written ? out_csv : "", forward);
@@ -203,6 +209,68 @@ std::string runLine(const BenchmarkRun& run) {
       << " %, wrist " << fixed(run.stats.wrist_mean_mm, 1) << " mm, " << fixed(run.fps, 0)
       << " fps";
   return out.str();
+}
+
+// ---- fitted models (--fitted) -------------------------------------------------------------------
+
+// The model fitted to `hand`: renders the calibration routine on it (reused like the sequences'
+// bags), runs calibrate_hand's code on that bag from the default model and moves the result to
+// DIR/models/<shape>.yaml. calibrateHand writes nothing on failure and refuses an existing output,
+// so it writes a staging file that replaces the model of an earlier run only once the fit is done.
+// A failed fit (InputError: the routine too short or not followed) is returned, not thrown.
+ShapeFit fitShape(const BenchmarkOptions& options, const studio::StudioHand& hand,
+                  std::ostream& log) {
+  ShapeFit fit;
+  fit.shape = hand.name;
+  const fs::path models = fs::path(options.out_dir) / "models";
+  fs::create_directories(models);
+  const fs::path model = models / (hand.name + ".yaml");
+  const fs::path staging = models / ("." + hand.name + ".yaml.fitting.yaml");
+  try {
+    const SequenceBag routine =
+        prepareBag(options, "calibration_routine", hand, options.routine_frames, log);
+    fit.routine_bag = routine.bag;
+    std::error_code ignored;
+    fs::remove(staging, ignored);  // a leftover of an interrupted run
+    CalibrateHandOptions calibrate;
+    calibrate.bag = routine.bag;
+    calibrate.out = staging.string();
+    calibrate.model = "sag";
+    calibrate.config_dir = options.config_dir;
+    calibrate.quiet = true;
+    try {
+      fit.calibration = calibrateHand(calibrate, nullptr);
+    } catch (const InputError&) {
+      if (options.discard_bags && routine.rendered) fs::remove(routine.bag, ignored);
+      throw;
+    }
+    if (options.discard_bags && routine.rendered) fs::remove(routine.bag, ignored);
+    fs::rename(staging, model);
+    fit.calibration.out = model.string();
+    fit.model = model.string();
+    fit.ok = true;
+    const HandFitResult& r = fit.calibration.fit;
+    log << "benchmark: fitted the model to hand " << hand.name << ": size x"
+        << fixed(r.shape.scale, 3) << ", palm width x" << fixed(r.shape.palm_width, 3)
+        << ", finger length x" << fixed(r.shape.finger_length, 3) << ", thickness x"
+        << fixed(r.shape.thickness, 3) << "; energy " << fixed(r.energy_before, 4) << " -> "
+        << fixed(r.energy_after, 4) << " in " << fixed(fit.calibration.seconds, 1) << " s -> "
+        << fit.model << "\n"
+        << std::flush;
+  } catch (const std::exception& error) {
+    // InputError (the routine, the bag) or fs::filesystem_error (moving the model into place).
+    if (!dynamic_cast<const InputError*>(&error) &&
+        !dynamic_cast<const fs::filesystem_error*>(&error)) {
+      throw;
+    }
+    std::error_code ignored;
+    fs::remove(staging, ignored);
+    fit.error = error.what();
+    log << "benchmark: the fit on hand " << hand.name
+        << " failed (no fitted runs for it): " << fit.error << "\n"
+        << std::flush;
+  }
+  return fit;
 }
 
 // ---- aggregation --------------------------------------------------------------------------------
@@ -264,6 +332,20 @@ std::vector<std::vector<int>> combinations(int n, int k) {
   return result;
 }
 
+// The trackers of the Figure 6 runs: the --models (the fitted models are not run there).
+std::vector<std::string> cameraTrackers(const BenchmarkResults& results) {
+  std::vector<std::string> trackers;
+  for (const std::string& t : results.trackers) {
+    for (const BenchmarkRun& run : results.camera_runs) {
+      if (run.tracker == t) {
+        trackers.push_back(t);
+        break;
+      }
+    }
+  }
+  return trackers;
+}
+
 // ---- report -------------------------------------------------------------------------------------
 
 std::string markdownRow(const std::vector<std::string>& cells) {
@@ -276,6 +358,150 @@ std::string markdownRule(size_t columns) {
   std::string row = "|";
   for (size_t i = 0; i < columns; ++i) row += (i == 0 ? "---|" : "---:|");
   return row + "\n";
+}
+
+// Per hand shape, the default and the fitted model side by side, with issue 10's bar.
+struct FittedComparison {
+  std::string shape;
+  const ShapeFit* fit = nullptr;
+  Pooled with_default;  // SAG, default model
+  Pooled with_fitted;   // SAG, the shape's fitted model (no runs if the fit failed)
+  // The bar, on the shapes but the default: the fitted model's error below the default model's,
+  // and within 20 % of the default hand's error with the default model. NaN reference: no default
+  // hand in the run, so the second half cannot be checked.
+  double reference_mm = kNaN;
+  bool lower = false;
+  bool within_20_percent = false;
+};
+
+std::vector<FittedComparison> compareFitted(const BenchmarkResults& results) {
+  std::vector<FittedComparison> rows;
+  const Pooled reference = pool(select(results.runs, [](const BenchmarkRun& r) {
+    return r.tracker == "sag" && r.shape == "default";
+  }));
+  for (const ShapeFit& fit : results.fits) {
+    FittedComparison row;
+    row.shape = fit.shape;
+    row.fit = &fit;
+    row.with_default = pool(select(results.runs, [&](const BenchmarkRun& r) {
+      return r.tracker == "sag" && r.shape == fit.shape;
+    }));
+    row.with_fitted = pool(select(results.runs, [&](const BenchmarkRun& r) {
+      return r.tracker == kFittedTracker && r.shape == fit.shape;
+    }));
+    row.reference_mm = reference.runs > 0 ? reference.stats.mean_mm : kNaN;
+    const double fitted = row.with_fitted.stats.mean_mm;
+    // A failed frame has no error in the mean: with more failures the means are not comparable.
+    const bool no_more_failures = row.with_fitted.stats.failed <= row.with_default.stats.failed;
+    row.lower = fit.ok && std::isfinite(fitted) && no_more_failures &&
+                fitted < row.with_default.stats.mean_mm;
+    row.within_20_percent = fit.ok && std::isfinite(fitted) && std::isfinite(row.reference_mm) &&
+                            fitted <= 1.2 * row.reference_mm;
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+// A message on one table line.
+std::string oneLine(std::string text) {
+  std::replace(text.begin(), text.end(), '\n', ' ');
+  std::replace(text.begin(), text.end(), '|', '/');
+  std::replace(text.begin(), text.end(), ',', ';');  // also a CSV field
+  return text;
+}
+
+std::string fittedReport(const BenchmarkOptions& options, const BenchmarkResults& results) {
+  std::ostringstream md;
+  const std::vector<FittedComparison> rows = compareFitted(results);
+  md << "## Default model against fitted model per hand shape (mm), all sequences\n\n";
+  md << "SAG with its default model and with the model fitted to each hand (`calibrate_hand`'s "
+        "code on the calibration routine rendered on that hand, "
+     << (options.routine_frames > 0 ? std::to_string(options.routine_frames) + " frames"
+                                    : std::string("full length"))
+     << "; DIR/models/<shape>.yaml). **bar** (issue 10, shapes but the default): the fitted "
+        "model's pooled error is lower than the default model's (with no more failed frames), "
+        "and within 20 % of the default hand's error with the default model ("
+     << (rows.empty() || !std::isfinite(rows.front().reference_mm)
+             ? std::string("not in this run")
+             : fixed(rows.front().reference_mm, 1) + " mm, so at most " +
+                   fixed(1.2 * rows.front().reference_mm, 1) + " mm")
+     << ").\n\n";
+  const std::vector<std::string> header{
+      "hand shape",     "frames",        "default mean",  "fitted mean",  "change %",
+      "default failed", "fitted failed", "default rev %", "fitted rev %", "default roll %",
+      "fitted roll %",  "default wrist", "fitted wrist",  "bar"};
+  md << markdownRow(header) << markdownRule(header.size());
+  for (const FittedComparison& row : rows) {
+    const ErrorStats& d = row.with_default.stats;
+    const ErrorStats& f = row.with_fitted.stats;
+    const bool ok = row.fit->ok;
+    auto fitted = [&](const std::string& cell) { return ok ? cell : std::string("-"); };
+    std::vector<std::string> cells{row.shape,
+                                   std::to_string(d.frames),
+                                   fixed(d.mean_mm, 1),
+                                   ok ? "**" + fixed(f.mean_mm, 1) + "**" : "fit failed",
+                                   fitted(fixed(100.0 * (f.mean_mm / d.mean_mm - 1.0), 1)),
+                                   std::to_string(d.failed),
+                                   fitted(std::to_string(f.failed)),
+                                   fixed(d.reversed_pct, 1),
+                                   fitted(fixed(f.reversed_pct, 1)),
+                                   fixed(d.rolled_pct, 1),
+                                   fitted(fixed(f.rolled_pct, 1)),
+                                   fixed(d.wrist_mean_mm, 1),
+                                   fitted(fixed(f.wrist_mean_mm, 1))};
+    std::string bar;
+    if (row.shape == "default") {
+      bar = "(reference)";
+    } else if (!row.fit->ok) {
+      bar = "no (fit failed)";
+    } else if (!std::isfinite(row.reference_mm)) {
+      bar = row.lower ? "lower; 20 %: no default hand" : "no (not lower)";
+    } else if (row.lower && row.within_20_percent) {
+      bar = "yes";
+    } else {
+      bar = std::string("no (") + (row.lower ? "" : "not lower") +
+            (!row.lower && !row.within_20_percent ? ", " : "") +
+            (row.within_20_percent ? "" : "above 1.2 x default hand") + ")";
+    }
+    cells.push_back(bar);
+    md << markdownRow(cells);
+  }
+  md << "\n";
+
+  md << "## The fits (calibrate_hand's code, start model `sag`)\n\n";
+  const std::vector<std::string> fit_header{
+      "hand shape",   "result",          "frames with the hand", "used",          "size x",
+      "palm width x", "finger length x", "thickness x",          "energy before", "energy after",
+      "score before", "score after",     "tips on foreground %", "seconds"};
+  md << markdownRow(fit_header) << markdownRule(fit_header.size());
+  for (const ShapeFit& fit : results.fits) {
+    std::vector<std::string> cells{fit.shape};
+    if (!fit.ok) {
+      cells.push_back("failed: " + oneLine(fit.error));
+      while (cells.size() < fit_header.size()) cells.push_back("-");
+    } else {
+      const CalibrateHandSummary& c = fit.calibration;
+      cells.push_back("fitted");
+      cells.push_back(std::to_string(c.tracked_frames));
+      cells.push_back(std::to_string(c.fit.frame_indices.size()));
+      cells.push_back(fixed(c.fit.shape.scale, 3));
+      cells.push_back(fixed(c.fit.shape.palm_width, 3));
+      cells.push_back(fixed(c.fit.shape.finger_length, 3));
+      cells.push_back(fixed(c.fit.shape.thickness, 3));
+      cells.push_back(fixed(c.fit.energy_before, 4));
+      cells.push_back(fixed(c.fit.energy_after, 4));
+      cells.push_back(fixed(c.fit.score_before, 4));
+      cells.push_back(fixed(c.fit.score_after, 4));
+      cells.push_back(fixed(100.0 * c.tips_on_foreground_before, 1) + " -> " +
+                      fixed(100.0 * c.tips_on_foreground_after, 1));
+      cells.push_back(fixed(c.seconds, 1));
+    }
+    md << markdownRow(cells);
+  }
+  md << "\n(The factors are relative to the default model; energy: the mean tracking energy E "
+        "over the frames the fit used; seconds: the fit with its tracking of the routine, "
+        "rendering excluded.)\n\n";
+  return md.str();
 }
 
 std::string report(const BenchmarkOptions& options, const BenchmarkResults& results,
@@ -293,7 +519,11 @@ std::string report(const BenchmarkOptions& options, const BenchmarkResults& resu
      << (options.frames > 0 ? std::to_string(options.frames) + " frames per sequence"
                             : std::string("full-length sequences"))
      << "; rendered hand" << (several_shapes ? "s " : " ") << shape_list
-     << " (config/hand_shapes.yaml; the trackers keep their default models). Error: mean over "
+     << " (config/hand_shapes.yaml; the trackers keep their default models"
+     << (results.fits.empty() ? ""
+                              : "; **SAG fitted**: SAG with the model fitted by calibrate_hand's "
+                                "code to the calibration routine rendered on the same hand")
+     << "). Error: mean over "
         "the 5 fingertips per frame (mm), against the rendered ground truth. "
         "A frame without a pose (before the start, or lost) is a failed frame: left out of the "
         "mean and sd, counted against every bound of Table 1. **rev %**: tracked frames whose "
@@ -383,6 +613,8 @@ std::string report(const BenchmarkOptions& options, const BenchmarkResults& resu
     }
   }
 
+  if (!results.fits.empty()) md << fittedReport(options, results);
+
   // Table 1: rows = bounds, columns = sequence x tracker (SoG beside SAG as in the paper).
   std::vector<std::string> ordered = trackers;
   std::stable_sort(ordered.begin(), ordered.end(), [](const std::string& a, const std::string& b) {
@@ -449,7 +681,7 @@ std::string report(const BenchmarkOptions& options, const BenchmarkResults& resu
     md << "Every combination of the cameras, on " << seq_list
        << "; mean and sd over every frame of every combination and sequence.\n\n";
     std::vector<std::string> ch{"cameras", "combinations"};
-    for (const std::string& t : trackers) {
+    for (const std::string& t : cameraTrackers(results)) {
       ch.push_back(displayName(t) + " mean");
       ch.push_back(displayName(t) + " sd");
       ch.push_back(displayName(t) + " failed %");
@@ -457,7 +689,7 @@ std::string report(const BenchmarkOptions& options, const BenchmarkResults& resu
     md << markdownRow(ch) << markdownRule(ch.size());
     for (const auto& [count, combos] : combinations_per_count) {
       std::vector<std::string> cells{std::to_string(count), std::to_string(combos)};
-      for (const std::string& t : trackers) {
+      for (const std::string& t : cameraTrackers(results)) {
         const Pooled p = pool(select(results.camera_runs, [&](const BenchmarkRun& r) {
           return r.tracker == t && static_cast<int>(r.cameras.size()) == count;
         }));
@@ -512,12 +744,48 @@ void writeResultsCsv(const std::string& path, const BenchmarkResults& results) {
   writeOutputFile(path, out.str());
 }
 
+// --fitted: one row per hand shape, the default and the fitted model pooled over the sequences,
+// the bar's two halves and the fit's summary.
+void writeFittedCsv(const std::string& path, const BenchmarkResults& results) {
+  std::ostringstream out;
+  out << "shape,fit,frames,default_mean_mm,fitted_mean_mm,default_failed,fitted_failed,"
+         "default_reversed_pct,fitted_reversed_pct,default_rolled_pct,fitted_rolled_pct,"
+         "default_wrist_mm,fitted_wrist_mm,reference_mm,fitted_lower,fitted_within_20pct,"
+         "fit_tracked_frames,fit_used_frames,fit_scale,fit_palm_width,fit_finger_length,"
+         "fit_thickness,energy_before,energy_after,score_before,score_after,fit_seconds,model,"
+         "error\n";
+  for (const FittedComparison& row : compareFitted(results)) {
+    const ErrorStats& d = row.with_default.stats;
+    const ErrorStats& f = row.with_fitted.stats;
+    const ShapeFit& fit = *row.fit;
+    const CalibrateHandSummary& c = fit.calibration;
+    auto ifFitted = [&](double value, int decimals) {
+      return fit.ok ? fixed(value, decimals) : std::string("-");
+    };
+    out << row.shape << "," << (fit.ok ? "ok" : "failed") << "," << d.frames << ","
+        << fixed(d.mean_mm, 3) << "," << ifFitted(f.mean_mm, 3) << "," << d.failed << ","
+        << (fit.ok ? std::to_string(f.failed) : "-") << "," << fixed(d.reversed_pct, 2) << ","
+        << ifFitted(f.reversed_pct, 2) << "," << fixed(d.rolled_pct, 2) << ","
+        << ifFitted(f.rolled_pct, 2) << "," << fixed(d.wrist_mean_mm, 3) << ","
+        << ifFitted(f.wrist_mean_mm, 3) << "," << fixed(row.reference_mm, 3) << ","
+        << (row.lower ? 1 : 0) << "," << (row.within_20_percent ? 1 : 0) << ","
+        << (fit.ok ? std::to_string(c.tracked_frames) : "-") << ","
+        << (fit.ok ? std::to_string(c.fit.frame_indices.size()) : "-") << ","
+        << ifFitted(c.fit.shape.scale, 4) << "," << ifFitted(c.fit.shape.palm_width, 4) << ","
+        << ifFitted(c.fit.shape.finger_length, 4) << "," << ifFitted(c.fit.shape.thickness, 4)
+        << "," << ifFitted(c.fit.energy_before, 5) << "," << ifFitted(c.fit.energy_after, 5) << ","
+        << ifFitted(c.fit.score_before, 5) << "," << ifFitted(c.fit.score_after, 5) << ","
+        << ifFitted(c.seconds, 1) << "," << fit.model << "," << oneLine(fit.error) << "\n";
+  }
+  writeOutputFile(path, out.str());
+}
+
 void writeCameraCsvs(const std::string& dir, const BenchmarkResults& results,
                      const std::map<int, int>& combinations_per_count) {
   const std::string counts_path = dir + "/camera_counts.csv";
   std::ostringstream counts;
   counts << "tracker,cameras,combinations,runs,frames,failed,mean_mm,sd_mm\n";
-  for (const std::string& t : results.trackers) {
+  for (const std::string& t : cameraTrackers(results)) {
     for (const auto& [count, combos] : combinations_per_count) {
       const Pooled p = pool(select(results.camera_runs, [&](const BenchmarkRun& r) {
         return r.tracker == t && static_cast<int>(r.cameras.size()) == count;
@@ -649,13 +917,14 @@ void writePlots(const std::string& dir, const BenchmarkResults& results,
 
   if (!results.camera_runs.empty()) {
     std::vector<PlotSeries> series;
-    for (size_t i = 0; i < results.trackers.size(); ++i) {
-      const std::string& t = results.trackers[i];
+    const std::vector<std::string> trackers = cameraTrackers(results);
+    for (size_t i = 0; i < trackers.size(); ++i) {
+      const std::string& t = trackers[i];
       PlotSeries line;
       line.label = displayName(t);
       line.colour = trackerColour(t, i);
       // Side by side, so that the error bars do not hide each other.
-      const double offset = 0.06 * (static_cast<double>(i) - 0.5 * (results.trackers.size() - 1));
+      const double offset = 0.06 * (static_cast<double>(i) - 0.5 * (trackers.size() - 1));
       for (const auto& entry : combinations_per_count) {
         const int count = entry.first;
         const Pooled p = pool(select(results.camera_runs, [&](const BenchmarkRun& r) {
@@ -719,6 +988,11 @@ Options:
                        77 bags of ~350 MB; the ground-truth CSVs and tracks stay)
   --config-dir DIR     the built-in motions, rigs and models (the package's config/)
   --no-plots           no PNG plots
+  --fitted             per hand shape, also fit the model to the calibration routine rendered
+                       on that hand (calibrate_hand's code; DIR/models/<shape>.yaml) and track
+                       every sequence of the hand with it: the tracker "fitted" beside SAG with
+                       the default model (needs sag among --models); DIR/fitted.csv
+  --routine-frames N   frames of the rendered calibration routine (its full length, 125)
   --rooms a,b|all      the studio rooms (office, kitchen, daylight) against the clean studio:
                        skin gate and plate, without and with the room cues; foreground precision
                        and recall, fingertip error; DIR/rooms.md, rooms.csv, rooms/*.png
@@ -764,6 +1038,10 @@ BenchmarkOptions parseBenchmarkArguments(const std::vector<std::string>& args) {
       options.plots = false;
     } else if (arg == "--rooms") {
       options.rooms = parseListOption(arg, value());
+    } else if (arg == "--fitted") {
+      options.fitted = true;
+    } else if (arg == "--routine-frames") {
+      options.routine_frames = parseIntOption(arg, value(), 1);
     } else {
       throw UsageError("unknown argument '" + arg + "'");
     }
@@ -784,6 +1062,18 @@ BenchmarkOptions parseBenchmarkArguments(const std::vector<std::string>& args) {
   }
   if (options.frames > 0 && options.frames <= 10) {
     throw UsageError("--frames must be more than the 10 frames without the hand");
+  }
+  if (options.fitted) {
+    if (labels.count(kFittedTracker)) {
+      throw UsageError(std::string("--fitted labels its runs '") + kFittedTracker +
+                       "': a model of --models has that name");
+    }
+    if (!labels.count("sag")) {
+      throw UsageError(
+          "--fitted compares with SAG's default model, the fit's start: --models "
+          "must include sag");
+    }
+    if (!options.rooms.empty()) throw UsageError("--fitted does not apply to --rooms");
   }
   return options;
 }
@@ -894,6 +1184,7 @@ BenchmarkResults runBenchmark(const BenchmarkOptions& options, std::ostream& log
     return results;
   }
   for (const std::string& model : options.models) results.trackers.push_back(trackerLabel(model));
+  if (options.fitted) results.trackers.push_back(kFittedTracker);
   const fs::path dir(options.out_dir);
   fs::create_directories(dir / "tracks");
 
@@ -928,13 +1219,23 @@ BenchmarkResults runBenchmark(const BenchmarkOptions& options, std::ostream& log
            std::find(dexter.begin(), dexter.end(), bag.name) != dexter.end();
   };
 
+  // The fitted models first: every sequence of a hand is tracked with its hand's model.
+  std::map<std::string, const ShapeFit*> fit_of_shape;
+  if (options.fitted) {
+    for (const studio::StudioHand& hand : hands)
+      results.fits.push_back(fitShape(options, hand, log));
+    for (const ShapeFit& fit : results.fits) fit_of_shape[fit.shape] = &fit;
+  }
+  int fitted_shapes = 0;
+  for (const ShapeFit& fit : results.fits) fitted_shapes += fit.ok ? 1 : 0;
+
   std::vector<SequenceBag> camera_bags;
-  const int total_main =
-      static_cast<int>(options.sequences.size() * hands.size() * options.models.size());
+  const int total_main = static_cast<int>(options.sequences.size() *
+                                          (hands.size() * options.models.size() + fitted_shapes));
   int done = 0;
   for (const std::string& sequence : options.sequences) {
     for (const studio::StudioHand& hand : hands) {
-      const SequenceBag bag = prepareBag(options, sequence, hand, log);
+      const SequenceBag bag = prepareBag(options, sequence, hand, options.frames, log);
       if (results.rig_cameras == 0) {
         BagReader reader(bag.bag, BagReaderOptions());
         results.rig_cameras = static_cast<int>(reader.cameras().size());
@@ -943,7 +1244,17 @@ BenchmarkResults runBenchmark(const BenchmarkOptions& options, std::ostream& log
         const std::string csv =
             (dir / "tracks" / (runStem(bag.name, bag.shape) + "_" + trackerLabel(model) + ".csv"))
                 .string();
-        results.runs.push_back(trackRun(options, bag, model, {}, csv));
+        results.runs.push_back(trackRun(options, bag, model, trackerLabel(model), {}, csv));
+        log << "benchmark: [" << ++done << "/" << total_main << "] " << runLine(results.runs.back())
+            << "\n"
+            << std::flush;
+      }
+      const auto fit = fit_of_shape.find(hand.name);
+      if (fit != fit_of_shape.end() && fit->second->ok) {
+        const std::string csv =
+            (dir / "tracks" / (runStem(bag.name, bag.shape) + "_" + kFittedTracker + ".csv"))
+                .string();
+        results.runs.push_back(trackRun(options, bag, fit->second->model, kFittedTracker, {}, csv));
         log << "benchmark: [" << ++done << "/" << total_main << "] " << runLine(results.runs.back())
             << "\n"
             << std::flush;
@@ -957,7 +1268,8 @@ BenchmarkResults runBenchmark(const BenchmarkOptions& options, std::ostream& log
   }
   if (options.camera_counts && camera_bags.empty()) {
     // None of the Dexter 1 sequences but random was asked for: the first sequence's bag.
-    camera_bags.push_back(prepareBag(options, options.sequences.front(), hands.front(), log));
+    camera_bags.push_back(
+        prepareBag(options, options.sequences.front(), hands.front(), options.frames, log));
   }
 
   std::map<int, int> combinations_per_count;
@@ -976,7 +1288,8 @@ BenchmarkResults runBenchmark(const BenchmarkOptions& options, std::ostream& log
     for (const auto& cameras : combos) {
       for (const SequenceBag* bag : sequences) {
         for (const std::string& model : options.models) {
-          results.camera_runs.push_back(trackRun(options, *bag, model, cameras, scratch));
+          results.camera_runs.push_back(
+              trackRun(options, *bag, model, trackerLabel(model), cameras, scratch));
           log << "benchmark: cameras [" << ++run_index << "/" << total << "] "
               << runLine(results.camera_runs.back()) << "\n"
               << std::flush;
@@ -996,6 +1309,7 @@ BenchmarkResults runBenchmark(const BenchmarkOptions& options, std::ostream& log
   { writeOutputFile((dir / "results.md").string(), results.markdown); }
   writeResultsCsv(options.csv.empty() ? (dir / "results.csv").string() : options.csv, results);
   if (options.camera_counts) writeCameraCsvs(dir.string(), results, combinations_per_count);
+  if (options.fitted) writeFittedCsv((dir / "fitted.csv").string(), results);
   if (options.plots) writePlots(dir.string(), results, combinations_per_count);
   results.seconds = secondsSince(start);
   return results;

@@ -6,8 +6,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "sag_hand_tracker/util/types.h"
 #include "sag_hand_tracker/util/atomic_output.h"
+#include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
 namespace {
@@ -93,9 +93,18 @@ cv::Mat linePlot(const std::vector<PlotSeries>& series, const std::string& title
       }
     }
   }
-  // The legend on a white box over the lines; series without a label are left out of it.
+  // The legend on a white box over the lines; series without a label are left out of it. The box
+  // is as wide as the longest label needs (at least the 178 px of short labels).
+  int text_w = 0;
+  for (const PlotSeries& s : series) {
+    int baseline = 0;
+    if (!s.label.empty()) {
+      text_w = std::max(text_w, cv::getTextSize(s.label, font, 0.5, 1, &baseline).width);
+    }
+  }
+  const int box_w = std::min(std::max(178, text_w + 52), width - right - 3);
   if (labelled > 0) {
-    const int box_left = width - right - 178;
+    const int box_left = width - right - box_w;
     cv::rectangle(image, cv::Point(box_left, top + 3),
                   cv::Point(width - right - 3, top + 8 + 20 * labelled), cv::Scalar(255, 255, 255),
                   cv::FILLED);
@@ -105,10 +114,10 @@ cv::Mat linePlot(const std::vector<PlotSeries>& series, const std::string& title
   int legend_y = top + 20;
   for (const PlotSeries& s : series) {
     if (s.label.empty()) continue;
-    cv::line(image, cv::Point(width - right - 170, legend_y - 5),
-             cv::Point(width - right - 140, legend_y - 5), s.colour, 3);
-    cv::putText(image, s.label, cv::Point(width - right - 132, legend_y), font, 0.5, black, 1,
-                cv::LINE_AA);
+    cv::line(image, cv::Point(width - right - box_w + 8, legend_y - 5),
+             cv::Point(width - right - box_w + 38, legend_y - 5), s.colour, 3);
+    cv::putText(image, s.label, cv::Point(width - right - box_w + 46, legend_y), font, 0.5, black,
+                1, cv::LINE_AA);
     legend_y += 20;
   }
   return image;

@@ -5,7 +5,10 @@
 //
 //   rosrun sag_hand_tracker benchmark [--sequences a,b,..] [--camera-counts] [--frames N]
 //       [--out-dir DIR] [--csv FILE] [--rig dexter5] [--iterations N] [--models sag,sog]
-//       [--reuse|--rerender]
+//       [--reuse|--rerender] [--fitted [--routine-frames N]]
+//
+// --fitted: per hand shape, the model fitted to the calibration routine on that hand
+// (calibrate_hand's code) is tracked too, beside the default model (evaluation.h).
 //
 // Exit status: 0 done; 1 bad input (one-line message on stderr); 2 bad command line.
 #include <cstdio>
@@ -38,6 +41,7 @@ int main(int argc, char** argv) {
               << " tracking runs in " << seconds << " s; results in " << options.out_dir
               << "/ (results.md, " << (options.csv.empty() ? "results.csv" : options.csv)
               << (options.camera_counts ? ", camera_counts.csv, camera_combinations.csv" : "")
+              << (options.fitted ? ", fitted.csv, models/" : "")
               << (options.plots ? ", error_per_frame.png, orientation_per_frame.png" : "")
               << (options.plots && results.shapes.size() > 1 ? ", shapes.png" : "")
               << (options.plots && options.camera_counts ? ", camera_counts.png" : "") << ")\n";

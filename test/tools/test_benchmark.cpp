@@ -20,10 +20,10 @@
 #include <sstream>
 
 #include "sag_hand_tracker/apps/csv.h"
-#include "sag_hand_tracker/model/hand_model.h"
-#include "sag_hand_tracker/apps/metrics.h"
-#include "sag_hand_tracker/model/pose.h"
 #include "sag_hand_tracker/apps/evaluation.h"
+#include "sag_hand_tracker/apps/metrics.h"
+#include "sag_hand_tracker/model/hand_model.h"
+#include "sag_hand_tracker/model/pose.h"
 #include "sag_hand_tracker/util/types.h"
 
 using namespace sag_hand_tracker;
@@ -43,6 +43,7 @@ std::vector<std::map<std::string, std::string>> readCsv(const std::string& path,
     std::stringstream stream(text);
     std::string field;
     while (std::getline(stream, field, ',')) fields.push_back(field);
+    if (!text.empty() && text.back() == ',') fields.emplace_back();  // an empty last field
     return fields;
   };
   if (!std::getline(in, line)) return rows;
@@ -458,4 +459,153 @@ TEST_F(BenchmarkTool, BenchmarkReportsPerHandShapeAndPooled) {
   std::ostringstream bad;
   EXPECT_THROW(runBenchmark(options("--shapes no_such_hand --models sag --no-plots"), bad),
                InputError);
+}
+
+TEST(BenchmarkArguments, BenchmarkParsesTheFittedOptions) {
+  const BenchmarkOptions plain = parseBenchmarkArguments({});
+  EXPECT_FALSE(plain.fitted);
+  EXPECT_EQ(plain.routine_frames, 0);  // the routine's full length
+  const BenchmarkOptions o =
+      parseBenchmarkArguments({"--fitted", "--routine-frames", "60", "--models", "sag"});
+  EXPECT_TRUE(o.fitted);
+  EXPECT_EQ(o.routine_frames, 60);
+  // The fit starts from SAG's default model and is compared with it: sag must be run.
+  EXPECT_THROW(parseBenchmarkArguments({"--fitted", "--models", "sog"}), UsageError);
+  // The fitted runs' label must not be taken by a model file.
+  EXPECT_THROW(parseBenchmarkArguments({"--fitted", "--models", "sag,/tmp/fitted.yaml"}),
+               UsageError);
+  EXPECT_THROW(parseBenchmarkArguments({"--fitted", "--rooms", "office"}), UsageError);
+  EXPECT_THROW(parseBenchmarkArguments({"--routine-frames", "0"}), UsageError);
+}
+
+namespace {
+
+std::string readText(const fs::path& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+}  // namespace
+
+// --fitted: the routine rendered on each hand, fitted with calibrate_hand's code, the model file
+// written and loadable, every sequence tracked with it as the tracker "fitted", the comparison
+// table with the bar and the fits' summary; then a routine too short to fit: each shape reported
+// as failed, the default model's runs done, the earlier model files left alone.
+TEST_F(BenchmarkTool, BenchmarkFittedModelColumnPerHandShape) {
+  std::ostringstream log;
+  const BenchmarkResults results = runBenchmark(
+      options("--fitted --models sag --shapes default,long_distal --frames 24 --no-plots"), log);
+  EXPECT_EQ(results.trackers, (std::vector<std::string>{"sag", "fitted"}));
+  ASSERT_EQ(results.fits.size(), 2u);
+  const HandModel start = loadHandModel(resolveModelPath("sag", kConfig));
+  for (const ShapeFit& fit : results.fits) {
+    SCOPED_TRACE(fit.shape);
+    ASSERT_TRUE(fit.ok) << fit.error << "\n" << log.str();
+    EXPECT_EQ(fit.model, (dir_ / "models" / (fit.shape + ".yaml")).string());
+    EXPECT_TRUE(fs::exists(dir_ / "bags" / fs::path(fit.routine_bag).filename()));
+    // The model loads and is not the start model: the fit changed its shape and colours.
+    const HandModel fitted = loadHandModel(fit.model);
+    ASSERT_EQ(fitted.gaussians.size(), start.gaussians.size());
+    double change = 0.0;  // mean relative change of the covariances' traces
+    for (size_t g = 0; g < start.gaussians.size(); ++g) {
+      change += std::fabs(fitted.gaussians[g].cov.trace() / start.gaussians[g].cov.trace() - 1.0);
+    }
+    EXPECT_GT(change / start.gaussians.size(), 0.01);
+    EXPECT_GT(fit.calibration.tracked_frames, 40);
+    EXPECT_GT(fit.calibration.fit.score_after, fit.calibration.fit.score_before);
+    EXPECT_NE(log.str().find("fitted the model to hand " + fit.shape), std::string::npos)
+        << log.str();
+  }
+  // calibrate_hand's staging files are gone.
+  for (const auto& entry : fs::directory_iterator(dir_ / "models")) {
+    EXPECT_NE(entry.path().filename().string().front(), '.') << entry.path();
+  }
+  // Each sequence of each hand tracked with the default and with that hand's fitted model.
+  ASSERT_EQ(results.runs.size(), 4u);
+  std::map<std::pair<std::string, std::string>, const BenchmarkRun*> runs;
+  for (const BenchmarkRun& run : results.runs) runs[{run.shape, run.tracker}] = &run;
+  for (const std::string shape : {"default", "long_distal"}) {
+    SCOPED_TRACE(shape);
+    ASSERT_TRUE(runs.count({shape, "sag"}));
+    ASSERT_TRUE(runs.count({shape, "fitted"}));
+    const ErrorStats& stats = runs[{shape, "fitted"}]->stats;
+    EXPECT_EQ(stats.frames, 14);
+    EXPECT_TRUE(std::isfinite(stats.mean_mm));
+    EXPECT_LT(stats.mean_mm, 200.0);
+    // Another model gives other poses: not the default model's track under another name.
+    const auto& fitted_errors = runs[{shape, "fitted"}]->errors.errors_mm;
+    EXPECT_NE(fitted_errors, (runs[{shape, "sag"}]->errors.errors_mm));
+  }
+  EXPECT_TRUE(fs::exists(dir_ / "tracks" / "fingerwave__long_distal_fitted.csv"));
+  EXPECT_TRUE(fs::exists(dir_ / "tracks" / "fingerwave_fitted.csv"));
+
+  // The tables: the fitted tracker beside SAG everywhere, the comparison and the fits.
+  for (const char* part :
+       {"SAG fitted mean", "Default model against fitted model per hand shape",
+        "| hand shape | frames | default mean | fitted mean |", "| default | 14 |", "(reference) |",
+        "The fits (calibrate_hand's code", "| long_distal | fitted | "}) {
+    EXPECT_NE(results.markdown.find(part), std::string::npos) << part << "\n" << results.markdown;
+  }
+  std::vector<std::string> header;
+  const auto rows = readCsv((dir_ / "results.csv").string(), &header);
+  std::map<std::pair<std::string, std::string>, std::map<std::string, std::string>> pooled;
+  for (const auto& row : rows) {
+    if (row.at("sequence") == "all") pooled[{row.at("shape"), row.at("tracker")}] = row;
+  }
+  ASSERT_TRUE(pooled.count({"long_distal", "fitted"}));
+  ASSERT_TRUE(pooled.count({"default", "sag"}));
+  const auto fitted_rows = readCsv((dir_ / "fitted.csv").string(), &header);
+  ASSERT_EQ(fitted_rows.size(), 2u);
+  for (const auto& row : fitted_rows) {
+    SCOPED_TRACE(row.at("shape"));
+    EXPECT_EQ(row.at("fit"), "ok");
+    using Key = std::pair<std::string, std::string>;
+    EXPECT_EQ(row.at("default_mean_mm"), pooled[Key(row.at("shape"), "sag")].at("mean_mm"));
+    EXPECT_EQ(row.at("fitted_mean_mm"), pooled[Key(row.at("shape"), "fitted")].at("mean_mm"));
+    // The bar's reference: the default hand with the default model.
+    EXPECT_EQ(row.at("reference_mm"), pooled[Key("default", "sag")].at("mean_mm"));
+    EXPECT_GT(number(row, "fit_scale"), 0.5);
+    EXPECT_LT(number(row, "fit_scale"), 1.5);
+    EXPECT_GT(number(row, "energy_after"), 0.0);
+    EXPECT_GT(number(row, "fit_seconds"), 0.0);
+    const bool lower = number(row, "fitted_mean_mm") < number(row, "default_mean_mm") &&
+                       number(row, "fitted_failed") <= number(row, "default_failed");
+    EXPECT_EQ(number(row, "fitted_lower"), lower ? 1.0 : 0.0);
+    EXPECT_EQ(number(row, "fitted_within_20pct"),
+              number(row, "fitted_mean_mm") <= 1.2 * number(row, "reference_mm") ? 1.0 : 0.0);
+  }
+
+  // A routine of 30 frames (0.8 s of the hand) is too short: every fit fails, is reported, and
+  // the run goes on with the default model; the models of the run above stay as they were.
+  const std::string model_before = readText(dir_ / "models" / "long_distal.yaml");
+  std::ostringstream short_log;
+  const BenchmarkResults failed = runBenchmark(
+      options("--fitted --models sag --shapes default,long_distal --frames 24 --routine-frames 30 "
+              "--no-plots"),
+      short_log);
+  ASSERT_EQ(failed.fits.size(), 2u);
+  for (const ShapeFit& fit : failed.fits) {
+    SCOPED_TRACE(fit.shape);
+    EXPECT_FALSE(fit.ok);
+    EXPECT_TRUE(fit.model.empty());
+    EXPECT_NE(fit.error.find("the fit needs 40"), std::string::npos) << fit.error;
+    EXPECT_NE(short_log.str().find("the fit on hand " + fit.shape + " failed"), std::string::npos)
+        << short_log.str();
+  }
+  ASSERT_EQ(failed.runs.size(), 2u);  // the default model on both hands, nothing fitted
+  for (const BenchmarkRun& run : failed.runs) EXPECT_EQ(run.tracker, "sag");
+  EXPECT_EQ(readText(dir_ / "models" / "long_distal.yaml"), model_before);
+  for (const char* part : {"| fit failed |", "no (fit failed)", "| long_distal | failed: "}) {
+    EXPECT_NE(failed.markdown.find(part), std::string::npos) << part << "\n" << failed.markdown;
+  }
+  const auto failed_rows = readCsv((dir_ / "fitted.csv").string(), &header);
+  ASSERT_EQ(failed_rows.size(), 2u);
+  for (const auto& row : failed_rows) {
+    EXPECT_EQ(row.at("fit"), "failed");
+    EXPECT_EQ(row.at("fitted_mean_mm"), "-");
+    EXPECT_EQ(row.at("fitted_lower"), "0");
+    EXPECT_NE(row.at("error").find("the fit needs 40"), std::string::npos) << row.at("error");
+  }
 }

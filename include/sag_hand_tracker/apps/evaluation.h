@@ -16,6 +16,13 @@
 // frames' z axes, more than 90 deg apart) and the wrist (root position) error, from the 26 pose
 // parameters of the tracked and the ground-truth rows (metrics.h, orientationError). These are
 // over the tracked frames, like the mean.
+//
+// Fitted models (issue 10, --fitted): per hand shape the benchmark renders the calibration
+// routine (config/motions/calibration_routine.yaml) on that hand, fits the default SAG model to it
+// with calibrate_hand's code (calibrateHand, calibrate_runner.h), writes the model to
+// DIR/models/<shape>.yaml and tracks every sequence of that hand with it as one more tracker,
+// labelled "fitted", beside SAG with the default model. A fit that fails (a routine too short, not
+// followed) is reported for its shape, and that shape has no fitted runs; the rest goes on.
 #pragma once
 
 #include <Eigen/Core>
@@ -25,30 +32,38 @@
 #include <string>
 #include <vector>
 
+#include "sag_hand_tracker/apps/calibrate_runner.h"
 #include "sag_hand_tracker/apps/command_line.h"
 #include "sag_hand_tracker/apps/track_runner.h"
 
 namespace sag_hand_tracker {
 
 struct BenchmarkOptions {
-  std::vector<std::string> sequences;        // --sequences a,b (default: benchmarkSequences())
-  std::vector<std::string> shapes;           // --shapes a,b (empty: all of hand_shapes.yaml)
-  bool discard_bags = false;                 // --discard-bags: remove rendered bags once tracked
-  bool camera_counts = false;                // --camera-counts: the Figure 6 experiment
-  int frames = 0;                            // --frames N rendered per sequence (0: full length)
-  std::string out_dir = "benchmark";         // --out-dir DIR
-  std::string csv;                           // --csv FILE (default DIR/results.csv)
-  std::string rig = "dexter5";               // --rig name|dir|file
-  int iterations = 10;                       // --iterations N (optimiser, per frame)
+  std::vector<std::string> sequences;  // --sequences a,b (default: benchmarkSequences())
+  std::vector<std::string> shapes;     // --shapes a,b (empty: all of hand_shapes.yaml)
+  bool discard_bags = false;           // --discard-bags: remove rendered bags once tracked
+  bool camera_counts = false;          // --camera-counts: the Figure 6 experiment
+  int frames = 0;                      // --frames N rendered per sequence (0: full length)
+  std::string out_dir = "benchmark";   // --out-dir DIR
+  std::string csv;                     // --csv FILE (default DIR/results.csv)
+  std::string rig = "dexter5";         // --rig name|dir|file
+  int iterations = 10;                 // --iterations N (optimiser, per frame)
   std::vector<std::string> models{"sag", "sog"};  // --models sag,sog (or model files)
-  bool rerender = false;                     // --rerender (default --reuse: keep matching bags)
-  std::string config_dir;                    // --config-dir DIR (default: the package's config/)
-  bool plots = true;                         // --no-plots
+  bool rerender = false;   // --rerender (default --reuse: keep matching bags)
+  std::string config_dir;  // --config-dir DIR (default: the package's config/)
+  bool plots = true;       // --no-plots
   // --rooms office,kitchen,daylight|all: instead of the bags, the studio rooms against the clean
   // studio (room_benchmark.h); its default sequences are adbadd and pinch.
   std::vector<std::string> rooms;
+  // --fitted: per hand shape, fit the model to the calibration routine rendered on that hand and
+  // track with it too (tracker "fitted"); needs "sag" among the models, the default it starts from.
+  bool fitted = false;
+  int routine_frames = 0;  // --routine-frames N of the rendered routine (0: its full length)
   bool help = false;
 };
+
+// The label of the fitted models' tracker in the tables and CSVs.
+extern const char* const kFittedTracker;
 
 // The seven sequences of Dexter 1, in the paper's order, then issue 9's harder ones (raised,
 // pronation, wristflex, fastturn).
@@ -82,10 +97,10 @@ RunErrors matchToGroundTruth(const std::string& ground_truth_csv, const std::str
 
 // Statistics of a set of per-frame errors with failures as +inf (see the file comment).
 struct ErrorStats {
-  int frames = 0;       // ground-truth frames
-  int failed = 0;       // of which without a pose
-  double mean_mm = 0.0;  // over the tracked frames (NaN if none)
-  double sd_mm = 0.0;    // over the tracked frames (NaN if none)
+  int frames = 0;                         // ground-truth frames
+  int failed = 0;                         // of which without a pose
+  double mean_mm = 0.0;                   // over the tracked frames (NaN if none)
+  double sd_mm = 0.0;                     // over the tracked frames (NaN if none)
   std::array<double, 5> percent_below{};  // errorBoundsMm(), over all frames
   // Over the tracked frames with root parameters (NaN if none), see the file comment.
   int oriented_frames = 0;
@@ -101,15 +116,25 @@ ErrorStats errorStats(const RunErrors& errors);
 struct BenchmarkRun {
   std::string sequence;
   std::string shape = "default";  // the rendered hand (config/hand_shapes.yaml)
-  std::string tracker;        // the model's label: "sag", "sog" or the file's stem
-  std::vector<int> cameras;   // empty: all
+  std::string tracker;            // the model's label: "sag", "sog" or the file's stem
+  std::vector<int> cameras;       // empty: all
   RunErrors errors;
   ErrorStats stats;
-  double fps = 0.0;                  // TrackBagSummary::pipelineFps()
-  int pipeline_frames = 0;           // frames after the background
+  double fps = 0.0;         // TrackBagSummary::pipelineFps()
+  int pipeline_frames = 0;  // frames after the background
   double pipeline_seconds = 0.0;
   double segmentation_seconds = 0.0;
   double tracking_seconds = 0.0;
+};
+
+// The fit of one hand shape (--fitted).
+struct ShapeFit {
+  std::string shape;
+  bool ok = false;
+  std::string error;                 // why the fit failed (calibrateHand's message)
+  std::string routine_bag;           // the rendered routine
+  std::string model;                 // DIR/models/<shape>.yaml (empty when the fit failed)
+  CalibrateHandSummary calibration;  // valid when ok
 };
 
 struct BenchmarkResults {
@@ -117,10 +142,11 @@ struct BenchmarkResults {
   std::vector<std::string> shapes;
   std::vector<std::string> trackers;
   int rig_cameras = 0;
-  std::vector<BenchmarkRun> runs;          // sequence x tracker, all cameras
-  std::vector<BenchmarkRun> camera_runs;   // --camera-counts: combination x sequence x tracker
-  std::string markdown;                    // the report (also DIR/results.md)
-  double seconds = 0.0;                    // the whole benchmark
+  std::vector<BenchmarkRun> runs;         // sequence x tracker, all cameras
+  std::vector<BenchmarkRun> camera_runs;  // --camera-counts: combination x sequence x tracker
+  std::vector<ShapeFit> fits;             // --fitted: one per hand shape, in the shapes' order
+  std::string markdown;                   // the report (also DIR/results.md)
+  double seconds = 0.0;                   // the whole benchmark
 };
 
 // Runs the benchmark and writes DIR/results.md, the CSVs and the plots. Progress lines go to
