@@ -33,8 +33,9 @@ struct EnergyParams {
   // larger than the hand, a finger hidden behind the palm) the capped overlap of eq. 8 has no
   // gradient, and such fingers drifted to their limits: the thumb folded across the palm, a
   // finger curled into a fist over the palm's saturated foreground. The prior pulls them gently
-  // to the middle of their range. 0 disables it.
-  double joint_range_weight = 0.003;
+  // to the middle of their range. Off by default: at 0.003 it helped curled and small hands a
+  // little and cost the open default hand more (adbadd 6.2 -> 12.7 mm; README).
+  double joint_range_weight = 0.0;
   // lambda of the per-camera normalisation E_c = (1 + lambda) O_c / (I_c + lambda M_c), with O_c
   // the capped overlap of eq. 8, I_c = sum_q E_qq the image's foreground area and M_c the projected
   // model's area (sum_p w_p 2 pi sqrt|Sigma_p|, the mass a model Gaussian would cover on a
