@@ -10,7 +10,10 @@
 // Private parameters: num_cameras (5), root_frame (world), model ("sag", "sog" or a path),
 //   handedness (right|left), camera_timeout (0.5 s), time_jump_threshold (1.0 s),
 //   calibration_max_frames (16) and calibration_rounds (2): the live fit's HandFitParams
-//   max_frames and rounds, plus the dynamic_reconfigure parameters of cfg/Tracker.cfg.
+//   max_frames and rounds, asynchronous_search (true: the start and re-detection searches run on
+//   a worker thread, off the frame path; false: on the set that needs them, as track_bag does,
+//   so that a replay gives track_bag's poses exactly), plus the dynamic_reconfigure parameters
+//   of cfg/Tracker.cfg.
 //
 // Live calibration (~calibrate, srv/Calibrate.srv, doc/calibration.md "Live"): the call collects
 // the sets of the next `duration` seconds (image stamps) as CalibrationFrames (the observations
@@ -131,6 +134,7 @@ class TrackerNodelet : public nodelet::Nodelet {
     sync_params.camera_timeout = pnh.param("camera_timeout", 0.5);
     sync_params.time_jump_threshold = pnh.param("time_jump_threshold", 1.0);
     synchronizer_ = std::make_unique<Synchronizer>(sync_params);
+    asynchronous_search_ = pnh.param("asynchronous_search", true);
     const std::string model_name = pnh.param<std::string>("model", "sag");
     const std::string handedness = pnh.param<std::string>("handedness", "right");
     try {
@@ -206,10 +210,11 @@ class TrackerNodelet : public nodelet::Nodelet {
                  root_frame_.c_str(), model_.name.c_str(), model_.gaussians.size());
   }
 
-  // The live graph runs the start and re-detection searches off the frame path.
-  static TrackerParams liveTrackerParams() {
+  // The live graph runs the start and re-detection searches off the frame path (unless the
+  // asynchronous_search parameter says otherwise).
+  TrackerParams liveTrackerParams() const {
     TrackerParams params;
-    params.asynchronous_search = true;
+    params.asynchronous_search = asynchronous_search_;
     return params;
   }
 
@@ -759,6 +764,7 @@ class TrackerNodelet : public nodelet::Nodelet {
   std::mutex mutex_;  // guards everything below (callbacks may run on several threads)
   // The model and the tracker; replaced together by a live calibration.
   HandModel model_;
+  bool asynchronous_search_ = true;
   std::unique_ptr<HandTracker> tracker_;
   std::string model_label_;  // for the status: the model parameter, or the saved file
   std::optional<CalibrationRecording> recording_;  // while a ~calibrate call collects
