@@ -577,12 +577,11 @@ class TrackerNodelet : public nodelet::Nodelet {
     }
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      const TrackerParams params = tracker_->params();
       model_ = fit.model;
-      tracker_ = std::make_unique<HandTracker>(model_, params);
+      tracker_->setModel(model_);  // tracking goes on from the current pose
       model_label_ = request.save_path.empty() ? "fitted (not saved)" : request.save_path;
     }
-    summary << "; the tracker now uses the fitted model (it starts again on the next open hand)";
+    summary << "; the tracker now uses the fitted model";
     *message = summary.str();
     return true;
   }

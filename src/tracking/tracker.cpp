@@ -241,6 +241,16 @@ bool HandTracker::looksLost(double similarity) const {
          similarity < params_.lost_ratio * typical_similarity_;
 }
 
+void HandTracker::setModel(const HandModel& model) {
+  search_.reset();
+  model_ = model;
+  energy_ = PoseEnergy(model_, params_.energy);
+  if (current_) clampToLimits(model_, &*current_);
+  if (previous_) clampToLimits(model_, &*previous_);
+  alternative_.reset();
+  typical_similarity_ = 0.0;
+}
+
 void HandTracker::setParams(const TrackerParams& params) {
   params_ = params;
   energy_ = PoseEnergy(model_, params_.energy);

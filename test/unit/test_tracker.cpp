@@ -287,6 +287,29 @@ TEST(Tracker, AsynchronousStartReturnsAtOnceAndStartsOnALaterFrame) {
   EXPECT_FALSE(tracker.searching());
 }
 
+// The live calibration switches to the fitted model: tracking goes on from the current pose,
+// with the new model's limits, instead of starting again.
+TEST(Tracker, SwitchingTheModelKeepsTracking) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  HandTracker tracker(model, TrackerParams());
+  Pose truth = typicalPose(model);
+  for (int frame = 0; frame < 5; ++frame) {
+    truth.translation.x() += 0.002;
+    ASSERT_TRUE(tracker.update(modelObservations(model, truth, cameras, 3.0), frame).has_pose);
+  }
+  HandModel fitted = model;
+  for (ModelGaussian& g : fitted.gaussians) g.cov *= 0.81;  // 10 % thinner, like a fit
+  tracker.setModel(fitted);
+  EXPECT_TRUE(tracker.model().gaussians[0].cov.isApprox(fitted.gaussians[0].cov));
+  truth.translation.x() += 0.002;
+  const FrameResult next = tracker.update(modelObservations(fitted, truth, cameras, 3.0), 6.0);
+  ASSERT_TRUE(next.has_pose);
+  EXPECT_EQ(next.status, TrackStatus::kTracking);
+  EXPECT_FALSE(next.restarted);
+  EXPECT_LT(meanFingertipError(next.fingertips, fingertips(fitted, truth)), 0.015);
+}
+
 TEST(TrackerHonesty, PoseBehindACameraOrOutsideTheViewsIsImplausible) {
   const HandModel model = loadHandModel(modelPath("sag"));
   const std::vector<Camera> cameras = fiveCameraRig();

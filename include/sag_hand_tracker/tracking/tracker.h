@@ -158,6 +158,10 @@ class HandTracker {
   FrameResult update(const std::vector<CameraObservation>& observations, double stamp);
 
   void reset();
+  // Switches to another model of the same hand (a fitted one, issue 10) and keeps tracking from
+  // the current pose (joints clamped to the new limits); a pending search, the carried
+  // alternative and the similarity reference are dropped, since they belong to the old model.
+  void setModel(const HandModel& model);
   // A search launched on a worker thread (TrackerParams::asynchronous_search) is still pending.
   bool searching() const { return search_ != nullptr; }
   const HandModel& model() const { return model_; }
