@@ -56,9 +56,10 @@ struct TrackerParams {
   // the previous frame's by at most `max_rotation_per_frame`; a larger turn is pulled back. A real
   // hand speeds up its turn over several frames and never flips in one: 0.45 rad per frame at
   // 25 fps is 640 deg/s, above the fastest turns of a forearm and wrist, and the change bound lets
-  // a turn reach that in 5 frames. A bound on the turn itself, not its change, kept fast turns from
-  // being followed (at 0.1 rad, 143 deg/s, a 500 deg/s turn rolled the track over). A turn the
-  // bounds cannot follow ends in the lost test and a restart instead. 0 disables a bound.
+  // a turn reach that in 3 frames (0.1 was worse on the benchmark's raised, wristflex and fastturn
+  // sequences, 0.3 the same as 0.2; README). A bound on the turn itself, not its change, kept fast
+  // turns from being followed (at 0.1 rad, 143 deg/s, a 500 deg/s turn rolled the track over). A
+  // turn the bounds cannot follow ends in the lost test and a restart instead. 0 disables a bound.
   double max_rotation_per_frame = 0.45;
   double max_rotation_change_per_frame = 0.2;
   // Forearm cue: a camera whose segmentation found at least `min_arm_cells` sleeve cells
@@ -71,11 +72,12 @@ struct TrackerParams {
   int arm_reversed_frames = 3;
   // Start prior for hands the silhouettes cannot resolve (issue 9): an open hand and the same hand
   // rolled over (turned 180 degrees about its wrist->knuckle axis) differ only in the thumb's
-  // side, and on hands with other proportions than the model the energy often ties them. Among
-  // the refined start candidates whose energy is within `start_facing_margin` of the best, the
-  // start takes the one whose back of the hand faces the cameras most (cameras look at the
-  // back of a hand held over a table far more often than at its palm). A clearly better
-  // candidate still wins; 0 disables the prior.
+  // side, and on hands with other proportions than the model the energy often ties them. The
+  // start also refines the rolled-over twin of its best candidate, and among the refined
+  // candidates whose energy is within `start_facing_margin` of the best it takes the one whose
+  // back of the hand faces the cameras most (cameras look at the back of a hand held over a
+  // table far more often than at its palm). A clearly better candidate still wins; 0 disables
+  // the prior (and the twin).
   double start_facing_margin = 0.03;
   // Plausibility: the hand centre must lie at least `min_camera_depth` (m) in front of every
   // camera and inside the image of at least `min_cameras_for_start` cameras; a pose that is not is
