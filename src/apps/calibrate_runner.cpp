@@ -126,19 +126,8 @@ CalibrateHandOptions parseCalibrateHandArguments(const std::vector<std::string>&
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string& arg = args[i];
     auto value = [&]() -> const std::string& { return nextOptionValue(args, &i); };
-    if (arg == "--help" || arg == "-h") {
-      options.help = true;
-    } else if (arg == "--bag") {
-      options.bag = value();
-    } else if (arg == "--out") {
-      options.out = value();
-    } else if (arg == "--model") {
-      options.model = value();
-    } else if (arg == "--hand") {
-      options.hand = parseHandOption(value());
-    } else if (arg == "--background-frames") {
-      options.background_frames = parseIntOption(arg, value(), 0);
-    } else if (arg == "--contact-sheet") {
+    if (parseBagToolOption(args, &i, &options)) continue;
+    if (arg == "--contact-sheet") {
       options.contact_sheet = value();
     } else if (arg == "--max-frames") {
       options.max_frames = parseIntOption(arg, value(), 1);
@@ -146,15 +135,11 @@ CalibrateHandOptions parseCalibrateHandArguments(const std::vector<std::string>&
       options.rounds = parseIntOption(arg, value(), 1);
     } else if (arg == "--config-dir") {
       options.config_dir = value();
-    } else if (arg == "--quiet") {
-      options.quiet = true;
     } else {
       throw UsageError("unknown argument '" + arg + "'");
     }
   }
-  if (options.help) return options;
-  if (options.bag.empty()) throw UsageError("--bag is required");
-  if (options.out.empty()) throw UsageError("--out is required");
+  requireBagAndOut(options);
   return options;
 }
 

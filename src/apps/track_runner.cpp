@@ -78,15 +78,8 @@ TrackBagOptions parseTrackBagArguments(const std::vector<std::string>& args) {
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string& arg = args[i];
     auto value = [&]() -> const std::string& { return nextOptionValue(args, &i); };
-    if (arg == "--help" || arg == "-h") {
-      options.help = true;
-    } else if (arg == "--bag") {
-      options.bag = value();
-    } else if (arg == "--out") {
-      options.out = value();
-    } else if (arg == "--model") {
-      options.model = value();
-    } else if (arg == "--iterations") {
+    if (parseBagToolOption(args, &i, &options)) continue;
+    if (arg == "--iterations") {
       options.iterations = parseIntOption(arg, value(), 1);
     } else if (arg == "--step-control") {
       options.step_control = value();
@@ -96,21 +89,13 @@ TrackBagOptions parseTrackBagArguments(const std::vector<std::string>& args) {
       }
     } else if (arg == "--cameras") {
       options.cameras = parseCameraList(value());
-    } else if (arg == "--background-frames") {
-      options.background_frames = parseIntOption(arg, value(), 0);
-    } else if (arg == "--hand") {
-      options.hand = parseHandOption(value());
     } else if (arg == "--root-frame") {
       options.root_frame = value();
-    } else if (arg == "--quiet") {
-      options.quiet = true;
     } else {
       throw UsageError("unknown argument '" + arg + "'");
     }
   }
-  if (options.help) return options;
-  if (options.bag.empty()) throw UsageError("--bag is required");
-  if (options.out.empty()) throw UsageError("--out is required");
+  requireBagAndOut(options);
   return options;
 }
 

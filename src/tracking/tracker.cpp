@@ -269,23 +269,23 @@ bool plausibleFor(const TrackerParams& params, const Pose& pose,
   return isPlausiblePose(pose, observations, params.min_camera_depth, params.min_cameras_for_start);
 }
 
-// Best first. (Not std::stable_sort: its temporary buffer ignores the alignment that the Eigen
-// members of OptimizationResult need with -march=native, and crashes.)
-void sortByEnergy(std::vector<OptimizationResult>* candidates) {
-  std::sort(
-      candidates->begin(), candidates->end(),
-      [](const OptimizationResult& a, const OptimizationResult& b) { return a.energy > b.energy; });
-}
-
-// Drops the candidates the honesty rules and the forearm refuse.
-void removeRefused(const TrackerParams& params, const std::vector<CameraObservation>& observations,
-                   std::vector<OptimizationResult>* candidates) {
+// The candidates' final order, the same for a synchronous search and for an asynchronous one
+// collected on a later frame: the ones the honesty rules and the forearm refuse are dropped, the
+// rest sorted best first (std::sort, not std::stable_sort: the latter's temporary buffer ignores
+// the alignment that the Eigen members of OptimizationResult need with -march=native, and
+// crashes), and the start prior decides near ties between the palm sides.
+void rankCandidates(const TrackerParams& params, const std::vector<CameraObservation>& observations,
+                    std::vector<OptimizationResult>* candidates) {
   candidates->erase(std::remove_if(candidates->begin(), candidates->end(),
                                    [&](const OptimizationResult& candidate) {
                                      return !plausibleFor(params, candidate.pose, observations) ||
                                             armCallsReversed(params, candidate.pose, observations);
                                    }),
                     candidates->end());
+  std::sort(
+      candidates->begin(), candidates->end(),
+      [](const OptimizationResult& a, const OptimizationResult& b) { return a.energy > b.energy; });
+  preferBackFacingCameras(observations, params.start_facing_margin, candidates);
 }
 
 }  // namespace
@@ -325,9 +325,7 @@ std::optional<std::vector<OptimizationResult>> HandTracker::hypothesisSearch(
   for (OptimizationResult& candidate : candidates) {
     candidate = optimizePose(energy, candidate.pose, params_.optimizer);
   }
-  removeRefused(params_, observations, &candidates);
-  sortByEnergy(&candidates);
-  preferBackFacingCameras(observations, params_.start_facing_margin, &candidates);
+  rankCandidates(params_, observations, &candidates);
   return candidates;
 }
 
@@ -420,9 +418,7 @@ std::vector<OptimizationResult> HandTracker::startFromHypotheses(
   for (OptimizationResult& candidate : candidates) {
     candidate = optimizePose(energy, candidate.pose, stage_params);
   }
-  removeRefused(params, observations, &candidates);
-  sortByEnergy(&candidates);
-  preferBackFacingCameras(observations, params.start_facing_margin, &candidates);
+  rankCandidates(params, observations, &candidates);
   return candidates;
 }
 

@@ -33,4 +33,39 @@ std::vector<std::string> parseListOption(const std::string& option, const std::s
 // "--hand expects left or right, got '<text>'".
 Handedness parseHandOption(const std::string& text);
 
+// The options that the bag tools (track_bag, calibrate_hand) share: --help/-h, --bag, --out,
+// --model, --hand, --background-frames (>= 0) and --quiet, stored in the members of `options`
+// of the same names. Returns false when args[*i] is none of them; otherwise takes its value
+// (advancing *i) and returns true.
+template <typename Options>
+bool parseBagToolOption(const std::vector<std::string>& args, size_t* i, Options* options) {
+  const std::string& arg = args[*i];
+  if (arg == "--help" || arg == "-h") {
+    options->help = true;
+  } else if (arg == "--bag") {
+    options->bag = nextOptionValue(args, i);
+  } else if (arg == "--out") {
+    options->out = nextOptionValue(args, i);
+  } else if (arg == "--model") {
+    options->model = nextOptionValue(args, i);
+  } else if (arg == "--hand") {
+    options->hand = parseHandOption(nextOptionValue(args, i));
+  } else if (arg == "--background-frames") {
+    options->background_frames = parseIntOption(arg, nextOptionValue(args, i), 0);
+  } else if (arg == "--quiet") {
+    options->quiet = true;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+// UsageError when a bag tool was given no --bag or no --out (and no --help).
+template <typename Options>
+void requireBagAndOut(const Options& options) {
+  if (options.help) return;
+  if (options.bag.empty()) throw UsageError("--bag is required");
+  if (options.out.empty()) throw UsageError("--out is required");
+}
+
 }  // namespace sag_hand_tracker
