@@ -73,4 +73,43 @@ double colourSimilarity(const Hsv& a, const Hsv& b, const ColourSimilarityParams
   return wendland(std::sqrt(dh * dh + ds * ds + dv * dv));
 }
 
+Hsv meanColour(const std::vector<Hsv>& colours, const std::vector<double>& weights) {
+  double weight_sum = 0.0, cos_sum = 0.0, sin_sum = 0.0, saturation = 0.0, value = 0.0;
+  for (size_t i = 0; i < colours.size() && i < weights.size(); ++i) {
+    const double w = weights[i];
+    const double hue = colours[i][0] * M_PI / 180.0;
+    weight_sum += w;
+    cos_sum += w * colours[i][1] * std::cos(hue);
+    sin_sum += w * colours[i][1] * std::sin(hue);
+    saturation += w * colours[i][1];
+    value += w * colours[i][2];
+  }
+  if (!(weight_sum > 0.0)) return Hsv::Zero();
+  double hue = std::atan2(sin_sum, cos_sum) * 180.0 / M_PI;
+  if (hue < 0.0) hue += 360.0;
+  return Hsv(hue, saturation / weight_sum, value / weight_sum);
+}
+
+Hsv ColourCast::apply(const Hsv& image_colour) const {
+  double hue = std::fmod(image_colour[0] + hue_shift_deg, 360.0);
+  if (hue < 0.0) hue += 360.0;
+  return Hsv(hue, std::clamp(image_colour[1] * saturation_gain, 0.0, 1.0),
+             std::clamp(image_colour[2] * value_gain, 0.0, 1.0));
+}
+
+ColourCast colourCast(const Hsv& model_mean, const Hsv& image_mean, double max_gain) {
+  ColourCast cast;
+  const auto gain = [max_gain](double model, double image) {
+    if (!(image > 1e-6) || !(model > 1e-6)) return 1.0;
+    return std::clamp(model / image, 1.0 / max_gain, max_gain);
+  };
+  cast.saturation_gain = gain(model_mean[1], image_mean[1]);
+  cast.value_gain = gain(model_mean[2], image_mean[2]);
+  double shift = model_mean[0] - image_mean[0];
+  shift = std::remainder(shift, 360.0);  // the shorter way round, in (-180, 180]
+  // A hue is only as reliable as its saturation: no shift from grey colours.
+  cast.hue_shift_deg = std::min(model_mean[1], image_mean[1]) > 0.05 ? shift : 0.0;
+  return cast;
+}
+
 }  // namespace sag_hand_tracker

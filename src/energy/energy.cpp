@@ -1,5 +1,6 @@
 #include "sag_hand_tracker/energy/energy.h"
 
+#include <Eigen/Eigenvalues>
 #include <unsupported/Eigen/AutoDiff>
 
 #include "projection_impl.h"
@@ -84,6 +85,22 @@ PoseEnergy::PoseEnergy(const HandModel& model, const EnergyParams& params)
       if (model_.joints[dip].name == dip_name) pip_dip_pairs_.emplace_back(pip, dip);
     }
   }
+  // The model's mean colour, each Gaussian weighted by its largest cross-section (the area it
+  // covers in an image when seen broadside), as the image's foreground colours are by area.
+  std::vector<Hsv> colours;
+  std::vector<double> areas;
+  for (const ModelGaussian& gaussian : model_.gaussians) {
+    const Eigen::Vector3d variances =
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(gaussian.cov, Eigen::EigenvaluesOnly)
+            .eigenvalues();  // ascending
+    colours.push_back(gaussian.hsv);
+    areas.push_back(gaussian.weight * std::sqrt(std::max(variances[1] * variances[2], 0.0)));
+  }
+  model_mean_colour_ = meanColour(colours, areas);
+  if (!(params_.max_colour_gain >= 1.0) || !std::isfinite(params_.max_colour_gain)) {
+    throw InputError("energy: max_colour_gain must be a finite number >= 1, got " +
+                     std::to_string(params_.max_colour_gain));
+  }
   if (!(params_.model_area_weight >= 0.0) || !std::isfinite(params_.model_area_weight)) {
     throw InputError("energy: model_area_weight must be a finite number >= 0, got " +
                      std::to_string(params_.model_area_weight));
@@ -113,6 +130,9 @@ bool isInFrontOfCameras(const Eigen::Vector3d& point,
 void PoseEnergy::setFrame(const std::vector<CameraObservation>& observations) {
   cameras_.clear();
   const size_t num_gaussians = model_.gaussians.size();
+  std::vector<std::vector<const ImageGaussian*>> kept_per_camera;
+  std::vector<Hsv> foreground_colours;
+  std::vector<double> foreground_areas;
   for (const CameraObservation& observation : observations) {
     validateCamera(observation.camera);
     FrameCamera camera;
@@ -133,19 +153,34 @@ void PoseEnergy::setFrame(const std::vector<CameraObservation>& observations) {
       q.variance.push_back(g.sigma * g.sigma);
       q.self_overlap.push_back(M_PI * g.sigma * g.sigma);  // E_qq: D_qq with d(c_q, c_q) = 1
       self_overlap_sum += q.self_overlap.back();
+      foreground_colours.push_back(g.hsv);
+      foreground_areas.push_back(q.self_overlap.back());
     }
     // A camera that sees nothing carries no information: it is left out of the mean.
     if (kept.empty()) continue;
-    camera.weights.resize(num_gaussians * kept.size());
+    camera.image_area = self_overlap_sum;
+    cameras_.push_back(std::move(camera));
+    kept_per_camera.push_back(std::move(kept));
+  }
+  const ColourCast cast =
+      params_.correct_colour_cast
+          ? colourCast(model_mean_colour_, meanColour(foreground_colours, foreground_areas),
+                       params_.max_colour_gain)
+          : ColourCast();
+  for (size_t c = 0; c < cameras_.size(); ++c) {
+    const std::vector<const ImageGaussian*>& kept = kept_per_camera[c];
+    std::vector<Hsv> corrected;
+    corrected.reserve(kept.size());
+    for (const ImageGaussian* g : kept) corrected.push_back(cast.apply(g->hsv));
+    std::vector<double>& weights = cameras_[c].weights;
+    weights.resize(num_gaussians * kept.size());
     for (size_t p = 0; p < num_gaussians; ++p) {
       const double model_weight = modelWeight(p);
       for (size_t i = 0; i < kept.size(); ++i) {
-        camera.weights[p * kept.size() + i] =
-            model_weight * colourSimilarity(model_.gaussians[p].hsv, kept[i]->hsv, params_.colour);
+        weights[p * kept.size() + i] =
+            model_weight * colourSimilarity(model_.gaussians[p].hsv, corrected[i], params_.colour);
       }
     }
-    camera.image_area = self_overlap_sum;
-    cameras_.push_back(std::move(camera));
   }
 }
 

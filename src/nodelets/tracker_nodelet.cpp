@@ -233,6 +233,7 @@ class TrackerNodelet : public nodelet::Nodelet {
     params.energy.limit_weight = config.limit_weight;
     params.energy.colour.hue_radius_deg = config.hue_radius_deg;
     params.energy.colour.saturation_radius = config.saturation_radius;
+    params.energy.correct_colour_cast = config.correct_colour_cast;
     params.energy.model_weight = config.model_weight;
     params.lost_similarity = config.lost_similarity;
     params.min_foreground_gaussians = config.min_foreground_gaussians;

@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "sag_hand_tracker/energy/colour.h"
 
 using namespace sag_hand_tracker;
@@ -39,4 +41,32 @@ TEST(Colour, HsvToRgbInvertsRgbToHsv) {
     const Eigen::Vector3d back = hsvToRgb(rgbToHsv(rgb[0], rgb[1], rgb[2])) * 255.0;
     EXPECT_LT((back - rgb).norm(), 1e-9) << rgb.transpose();
   }
+}
+
+TEST(Colour, MeanColourTakesTheShorterWayRoundTheHueCircle) {
+  const Hsv mean = meanColour({Hsv(350, 0.5, 0.4), Hsv(10, 0.5, 0.8)}, {1.0, 1.0});
+  EXPECT_NEAR(std::remainder(mean[0], 360.0), 0.0, 1e-9);
+  EXPECT_NEAR(mean[1], 0.5, 1e-12);
+  EXPECT_NEAR(mean[2], 0.6, 1e-12);
+  // Weights count, and a grey colour has no say in the hue.
+  const Hsv weighted = meanColour({Hsv(20, 0.5, 0.5), Hsv(200, 0.0, 0.5)}, {1.0, 3.0});
+  EXPECT_NEAR(weighted[0], 20.0, 1e-9);
+  EXPECT_NEAR(weighted[1], 0.125, 1e-12);
+  EXPECT_EQ(meanColour({}, {}), Hsv::Zero());
+}
+
+TEST(Colour, CastMapsTheImageMeanOntoTheModelMean) {
+  const Hsv model(20.0, 0.45, 0.80), pale(12.0, 0.24, 0.70), dark(30.0, 0.50, 0.30);
+  for (const Hsv& image : {pale, dark}) {
+    const ColourCast cast = colourCast(model, image, 3.0);
+    EXPECT_LT((cast.apply(image) - model).norm(), 1e-9) << image.transpose();
+  }
+  // Hue shifts wrap; gains are limited; a grey foreground leaves the hue alone.
+  EXPECT_NEAR(colourCast(Hsv(5, 0.5, 0.5), Hsv(355, 0.5, 0.5), 3.0).hue_shift_deg, 10.0, 1e-9);
+  EXPECT_DOUBLE_EQ(colourCast(model, Hsv(20, 0.45, 0.05), 3.0).value_gain, 3.0);
+  EXPECT_DOUBLE_EQ(colourCast(model, Hsv(200, 0.0, 0.8), 3.0).hue_shift_deg, 0.0);
+  const Hsv clamped = ColourCast{350.0, 4.0, 4.0}.apply(Hsv(20, 0.5, 0.5));
+  EXPECT_NEAR(clamped[0], 10.0, 1e-9);
+  EXPECT_DOUBLE_EQ(clamped[1], 1.0);
+  EXPECT_DOUBLE_EQ(clamped[2], 1.0);
 }

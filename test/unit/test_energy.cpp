@@ -170,6 +170,36 @@ TEST(Energy, TruePoseScoresHigherThanPerturbedPoses) {
   EXPECT_GT(at_truth, energy.evaluate(moved));
 }
 
+// Issue 9: a pale or a dark hand is the model's hand in another colour. With the cast corrected
+// the energy of every pose is what it is for the model's own colour; without, a uniform tint
+// changes the energy's landscape (the pose ranking flips for a darker skin).
+TEST(Energy, SkinToneDoesNotChangeTheEnergyOnceTheColourCastIsCorrected) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const Pose truth = typicalPose(model);
+  const std::vector<CameraObservation> own = modelObservations(model, truth, fiveCameraRig());
+  std::vector<CameraObservation> tinted = own;
+  for (CameraObservation& observation : tinted) {
+    for (ImageGaussian& g : observation.sog.gaussians) {
+      g.hsv = Hsv(g.hsv[0] - 8.0, 0.5 * g.hsv[1], 0.45 * g.hsv[2]);  // darker, greyer, redder
+    }
+  }
+  EnergyParams corrected, uncorrected;
+  uncorrected.correct_colour_cast = false;
+  PoseEnergy own_energy(model, corrected), tinted_energy(model, corrected),
+      tinted_uncorrected(model, uncorrected);
+  own_energy.setFrame(own);
+  tinted_energy.setFrame(tinted);
+  tinted_uncorrected.setFrame(tinted);
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 5; ++trial) {
+    const Pose pose = randomPose(model, rng);
+    EXPECT_NEAR(tinted_energy.evaluate(pose), own_energy.evaluate(pose), 1e-9);
+  }
+  EXPECT_NEAR(tinted_energy.evaluate(truth), own_energy.evaluate(truth), 1e-9);
+  // Without the correction the tint costs similarity at the true pose.
+  EXPECT_LT(tinted_uncorrected.evaluate(truth), own_energy.evaluate(truth) - 0.1);
+}
+
 TEST(Energy, LimitPenaltyIsQuadraticOutsideTheLimits) {
   const HandModel model = loadHandModel(modelPath("sag"));
   Pose pose = neutralPose(model, Eigen::Vector3d::Zero(), Eigen::Matrix3d::Identity());

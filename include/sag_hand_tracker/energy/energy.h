@@ -20,6 +20,11 @@ struct EnergyParams {
   // true pose instead of a flat plateau; overlapping model Gaussians still saturate (occlusion).
   double model_weight = 0.5;
   ColourSimilarityParams colour;
+  // Correct each frame's colour cast (ColourCast, colour.h) before d(c_p, c_q): the foreground's
+  // area-weighted mean colour over all cameras is mapped onto the model's. Pose-independent, once
+  // per frame. Gains are limited to [1 / max_colour_gain, max_colour_gain].
+  bool correct_colour_cast = true;
+  double max_colour_gain = 3.0;
   // Pairs whose Mahalanobis term exceeds this are skipped: exp(-30) ~ 1e-13 of the pair's peak.
   double max_mahalanobis_sq = 60.0;
   // PIP-DIP coupling (as in Sridhar et al.'s successors and most hand trackers): a soft prior
@@ -57,8 +62,8 @@ struct CameraObservation {
 
 // Per-camera breakdown, for diagnostics and the overlay.
 struct EnergyTerms {
-  double similarity = 0.0;     // E_sim, normalised: mean over cameras of E_c (model_area_weight)
-  double limit_penalty = 0.0;  // E_lim
+  double similarity = 0.0;        // E_sim, normalised: mean over cameras of E_c (model_area_weight)
+  double limit_penalty = 0.0;     // E_lim
   double coupling_penalty = 0.0;  // sum_f (theta_dip - k theta_pip)^2 (EnergyParams)
   double range_penalty = 0.0;     // sum_j ((theta_j - m_j) / h_j)^2 (EnergyParams)
   double total = 0.0;             // E_sim - w_l E_lim - w_c coupling - w_r range
@@ -98,7 +103,9 @@ class PoseEnergy {
     double image_area = 1.0;  // I_c = sum_q E_qq
   };
 
-  double modelWeight(size_t p) const;  // w_p of eq. 8: the Gaussian's weight times model_weight
+  double modelWeight(size_t p) const;
+  Hsv model_mean_colour_ = Hsv::Zero();  // area-weighted mean of the model Gaussians' colours  //
+                                         // w_p of eq. 8: the Gaussian's weight times model_weight
 
   HandModel model_;
   EnergyParams params_;
