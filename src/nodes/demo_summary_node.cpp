@@ -236,7 +236,7 @@ class DemoSummary {
          hand_without_joints = 0, hand_unprocessed = 0;
     std::vector<double> latencies, on_time_latencies, late_latencies, errors;
     std::map<std::string, std::vector<double>> per_sequence;
-    std::map<std::string, long> statuses;
+    std::map<std::string, long> statuses, dropped_by_status;
     for (auto& [stamp, set] : sets_) {
       ++sets;
       if (set.cameras >= num_cameras_) ++complete;
@@ -251,7 +251,10 @@ class DemoSummary {
       }
       if (set.ground_truth) {
         ++hand_sets;
-        if (!set.joint_state) ++hand_without_joints;
+        if (!set.joint_state) {
+          ++hand_without_joints;
+          ++dropped_by_status[set.status ? set.status_text : "no status"];
+        }
         if (!set.status) ++hand_unprocessed;
       }
       if (set.ground_truth && set.fingertips && set.tips.size() == set.truth.size() &&
@@ -296,6 +299,11 @@ class DemoSummary {
                   "state in all: %ld of %ld (the rest: the studio's empty frames)\n",
                   hand_without_joints, hand_sets, sets - with_joints, sets);
     out << line;
+    if (!dropped_by_status.empty()) {
+      out << "  dropped by the status of their set:";
+      for (const auto& [name, count] : dropped_by_status) out << " " << name << " " << count;
+      out << " (\"no status\": the set never reached the tracker's output)\n";
+    }
     std::snprintf(line, sizeof line,
                   "fingertip error vs ground truth: mean %.1f mm, median %.1f mm, 95th pct %.1f "
                   "mm over %zu sets\n",
