@@ -21,7 +21,8 @@
 // or re-detection search ran was published with a status without pose; the set that collects the
 // finished search first publishes those sets' poses (joint_states, tf, fingertips, markers and a
 // second status with has_pose and late true), each with its own image stamp, oldest first, then
-// its own. Sets beyond the bound stay lost. No overlay images for late sets.
+// its own. Sets beyond the bound stay lost. Late sets get no overlay images and are not collected
+// by a running ~calibrate.
 //
 // Live calibration (~calibrate, srv/Calibrate.srv, doc/calibration.md "Live"): the call collects
 // the sets of the next `duration` seconds (image stamps) as CalibrationFrames (the observations

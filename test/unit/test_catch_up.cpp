@@ -292,3 +292,55 @@ TEST(TrackerCatchUp, ResetDropsTheKeptSets) {
   EXPECT_EQ(tracker.keptFrames(), 0);
   EXPECT_FALSE(tracker.searching());
 }
+
+// A set that needs a new search during the catch-up is kept again with the ones after it: the
+// search for an empty set (no camera sees the hand) finds nothing, so the next kept set launches
+// its own; the sets with the hand get their poses once the search of the first of them is done.
+TEST(TrackerCatchUp, ASetThatNeedsANewSearchIsKeptAgain) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  TrackerParams params;
+  params.asynchronous_search = true;
+  HandTracker tracker(model, params);
+  std::promise<void> gate;
+  tracker.holdSearchesUntil(gate.get_future().share());
+  constexpr int kEmpty = 2, kFirstHand = kEmpty;
+  auto observationsOf = [&](int frame) {
+    return frame < kEmpty ? std::vector<CameraObservation>()
+                          : modelObservations(model, movingHand(model, frame), cameras, 3.0);
+  };
+  auto update = [&](int frame) {
+    return tracker.update(observationsOf(frame), frame * kFramePeriod, kFirstId + frame);
+  };
+  for (int frame = 0; frame < 5; ++frame) EXPECT_FALSE(update(frame).has_pose);
+  EXPECT_EQ(tracker.keptFrames(), 5);
+  gate.set_value();
+  tracker.waitForSearch();
+  // Set 0's search found nothing: set 0 stays without a pose, set 1 launches a search of its own
+  // and is kept with the rest.
+  EXPECT_FALSE(update(5).has_pose);
+  EXPECT_TRUE(tracker.takeLateResults().empty());
+  EXPECT_EQ(tracker.keptFrames(), 5);  // sets 1..5
+  tracker.waitForSearch();
+  // Set 1 (empty) finds nothing either; set 2, the first with the hand, launches its own.
+  EXPECT_FALSE(update(6).has_pose);
+  EXPECT_TRUE(tracker.takeLateResults().empty());
+  EXPECT_EQ(tracker.keptFrames(), 5);  // sets 2..6
+  tracker.waitForSearch();
+  const FrameResult result = update(7);
+  ASSERT_TRUE(result.has_pose);
+  EXPECT_EQ(result.status, TrackStatus::kTracking);
+  const std::vector<FrameResult> late = tracker.takeLateResults();
+  ASSERT_EQ(late.size(), 5u);
+  for (int i = 0; i < 5; ++i) {
+    const int frame = kFirstHand + i;
+    EXPECT_EQ(late[i].frame_id, kFirstId + frame);
+    EXPECT_TRUE(late[i].late);
+    EXPECT_EQ(late[i].status, i == 0 ? TrackStatus::kStarted : TrackStatus::kTracking);
+    EXPECT_LT(meanFingertipError(late[i].fingertips, fingertips(model, movingHand(model, frame))),
+              0.02)
+        << "frame " << frame;
+  }
+  EXPECT_EQ(tracker.keptFrames(), 0);
+  EXPECT_FALSE(tracker.searching());
+}

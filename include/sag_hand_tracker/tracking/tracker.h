@@ -88,10 +88,10 @@ struct TrackerParams {
   // Live graphs (issue 12): the start and re-detection searches (the hypotheses above) take tens of
   // milliseconds, which on the frame path is a latency spike. With asynchronous_search they run
   // on a worker thread with a copy of the frame that asked for them, and the frames meanwhile are
-  // tracked as usual (or, without a track, reported without a pose); a later frame collects the
-  // result, refines its best `async_refined_candidates` candidates on itself and decides as the
-  // synchronous search would have. Offline tools keep it off: their results then do not depend
-  // on thread timing.
+  // tracked as usual (or, without a track, reported without a pose and kept for the catch-up
+  // below); a later frame collects the result, refines its best `async_refined_candidates`
+  // candidates on itself and decides as the synchronous search would have. Offline tools keep it
+  // off: their results then do not depend on thread timing.
   bool asynchronous_search = false;
   int async_refined_candidates = 2;
   // Catch-up (issue 12): with asynchronous_search, the sets that get no pose while a search runs
@@ -209,9 +209,8 @@ class HandTracker {
       const std::vector<CameraObservation>& observations, const std::optional<Pose>& current);
   // The search for this frame: the candidates, best first; or, with asynchronous_search, empty
   // while it runs (a search is launched when none is pending) and the candidates of a finished
-  // one refined on this frame.
-  // A search launched for an earlier set is collected only when no set is kept for the
-  // catch-up: the oldest kept one collects it.
+  // one refined on this frame (as they are when this is the set that launched it, in the
+  // catch-up). While sets are kept for the catch-up, only the oldest of them collects it.
   std::optional<std::vector<OptimizationResult>> hypothesisSearch(
       const PoseEnergy& energy, const std::vector<CameraObservation>& observations);
   // The tracking of one set (update without the catch-up).
