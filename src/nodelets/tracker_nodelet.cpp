@@ -12,8 +12,17 @@
 //   calibration_max_frames (16) and calibration_rounds (2): the live fit's HandFitParams
 //   max_frames and rounds, asynchronous_search (true: the start and re-detection searches run on
 //   a worker thread, off the frame path; false: on the set that needs them, as track_bag does,
-//   so that a replay gives track_bag's poses exactly), plus the dynamic_reconfigure parameters
-//   of cfg/Tracker.cfg.
+//   so that a replay gives track_bag's poses exactly), catch_up_seconds (0.25; with
+//   asynchronous_search: the sets of up to this many seconds that arrive without a pose while a
+//   search runs are tracked once it has finished and published late, below), plus the
+//   dynamic_reconfigure parameters of cfg/Tracker.cfg.
+//
+// Late results (catch-up, TrackerParams::catch_up_seconds): a set that got no pose while a start
+// or re-detection search ran was published with a status without pose; the set that collects the
+// finished search first publishes those sets' poses (joint_states, tf, fingertips, markers and a
+// second status with has_pose and late true), each with its own image stamp, oldest first, then
+// its own. Sets beyond the bound stay lost. Late sets get no overlay images and are not collected
+// by a running ~calibrate.
 //
 // Live calibration (~calibrate, srv/Calibrate.srv, doc/calibration.md "Live"): the call collects
 // the sets of the next `duration` seconds (image stamps) as CalibrationFrames (the observations
@@ -135,6 +144,11 @@ class TrackerNodelet : public nodelet::Nodelet {
     sync_params.time_jump_threshold = pnh.param("time_jump_threshold", 1.0);
     synchronizer_ = std::make_unique<Synchronizer>(sync_params);
     asynchronous_search_ = pnh.param("asynchronous_search", true);
+    catch_up_seconds_ = pnh.param("catch_up_seconds", catch_up_seconds_);
+    if (!(catch_up_seconds_ >= 0.0 && catch_up_seconds_ <= 10.0)) {
+      NODELET_ERROR("catch_up_seconds must be in [0, 10] (got %g); using 0.25", catch_up_seconds_);
+      catch_up_seconds_ = 0.25;
+    }
     const std::string model_name = pnh.param<std::string>("model", "sag");
     const std::string handedness = pnh.param<std::string>("handedness", "right");
     try {
@@ -215,6 +229,7 @@ class TrackerNodelet : public nodelet::Nodelet {
   TrackerParams liveTrackerParams() const {
     TrackerParams params;
     params.asynchronous_search = asynchronous_search_;
+    params.catch_up_seconds = catch_up_seconds_;
     return params;
   }
 
@@ -335,14 +350,18 @@ class TrackerNodelet : public nodelet::Nodelet {
       }
     }
     FrameResult result;
+    std::vector<FrameResult> late_results;
     try {
-      result = tracker_->update(observations, stamp.toSec());
+      result = tracker_->update(observations, stamp.toSec(), set.stamp_ns);
+      late_results = tracker_->takeLateResults();
     } catch (const std::exception& e) {
       NODELET_ERROR_THROTTLE(2.0, "tracker failed on the set at %.3f: %s", stamp.toSec(), e.what());
       tracker_->reset();
       return;
     }
     const double seconds = secondsSince(start);
+    // The catch-up's sets first, oldest first, each with its own stamp.
+    for (const FrameResult& late : late_results) publishLateResult(late);
     ++frames_;
     seconds_sum_ += seconds;
     last_result_ = result;
@@ -359,6 +378,29 @@ class TrackerNodelet : public nodelet::Nodelet {
       publishPose(stamp, result, hand);
       publishOverlays(stamp, observations, observation_camera, hand);
     }
+    publishStatus(stamp, result, pose_ok, seconds);
+  }
+
+  // A late result of the catch-up (see the header comment): its stamp is its frame_id (the set's
+  // stamp in ns, given to update). Caller holds mutex_.
+  void publishLateResult(const FrameResult& result) {
+    ros::Time stamp;
+    stamp.fromNSec(static_cast<std::uint64_t>(result.frame_id));
+    if (!result.has_pose || !result.pose.allFinite()) {
+      NODELET_ERROR_THROTTLE(2.0,
+                             "tracker returned a late result without a finite pose (set at "
+                             "%.3f): not published",
+                             stamp.toSec());
+      return;
+    }
+    ++late_results_;
+    publishPose(stamp, result, forwardKinematics(model_, result.pose));
+    publishStatus(stamp, result, true, 0.0);
+  }
+
+  // Caller holds mutex_.
+  void publishStatus(const ros::Time& stamp, const FrameResult& result, bool pose_ok,
+                     double seconds) {
     TrackingStatus status;
     status.header.stamp = stamp;
     status.header.frame_id = root_frame_;
@@ -366,10 +408,11 @@ class TrackerNodelet : public nodelet::Nodelet {
     status.has_pose = pose_ok;
     status.energy = std::isfinite(result.energy.total) ? result.energy.total : 0.0;
     status.similarity = std::isfinite(result.energy.similarity) ? result.energy.similarity : 0.0;
-    status.num_cameras = static_cast<int>(observations.size());
+    status.num_cameras = result.num_cameras;
     status.expected_cameras = num_cameras_;
     status.seconds_per_frame = seconds;
     status.restarted = result.restarted;
+    status.late = result.late;
     status.model = model_label_;
     status.calibration = calibrationState();
     status_pub_.publish(status);
@@ -751,6 +794,7 @@ class TrackerNodelet : public nodelet::Nodelet {
     stat.add("dropped incomplete sets", sync.dropped_sets);
     stat.add("late messages", sync.late_messages);
     stat.add("skipped camera inputs", skipped_inputs_);
+    stat.add("late results (catch-up)", late_results_);
     stat.add("resets (time jumped back)", sync.resets);
     stat.add("model", model_label_);
     stat.add("calibration", calibrationState());
@@ -765,6 +809,7 @@ class TrackerNodelet : public nodelet::Nodelet {
   // The model and the tracker; replaced together by a live calibration.
   HandModel model_;
   bool asynchronous_search_ = true;
+  double catch_up_seconds_ = 0.25;
   std::unique_ptr<HandTracker> tracker_;
   std::string model_label_;  // for the status: the model parameter, or the saved file
   std::optional<CalibrationRecording> recording_;  // while a ~calibrate call collects
@@ -774,7 +819,7 @@ class TrackerNodelet : public nodelet::Nodelet {
   ThrottledWarnings warnings_;
   FrameResult last_result_;
   double last_seconds_ = 0.0, seconds_sum_ = 0.0;
-  long frames_ = 0, skipped_inputs_ = 0;
+  long frames_ = 0, skipped_inputs_ = 0, late_results_ = 0;
 
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;

@@ -16,6 +16,10 @@
 //     and 10 s after the signal if still running, the node shuts itself down)
 // Latency: ros::WallTime::now() when the joint state arrives minus its header stamp (the image
 // stamp); meaningful with wall-clock stamps (no use_sim_time; the studio stamps with now()).
+// Late joint states (the tracker's catch-up: a set first reported without a pose while a search
+// ran, its status with `late`) count as joint states, so their sets are not dropped; their
+// latency is in every latency figure, and also reported on its own beside the on-time ones', with
+// a histogram of both.
 #include <geometry_msgs/PoseArray.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
@@ -46,9 +50,11 @@ struct SetRecord {
   bool status = false;
   std::string status_text;
   bool joint_state = false;
+  bool late = false;  // a late status with a pose (the catch-up) came for this set
   bool fingertips = false;
   bool ground_truth = false;
   double latency = NAN;  // seconds, joint state
+  double work = NAN;     // seconds the tracker spent on the set (its status; a catch-up included)
   double error = NAN;    // mean fingertip error (m) when both are there
   std::string sequence;
   std::vector<double> tips, truth;  // 15 values each
@@ -61,6 +67,33 @@ double percentile(std::vector<double> values, double p) {
   const size_t lo = static_cast<size_t>(std::floor(rank));
   const size_t hi = std::min(lo + 1, values.size() - 1);
   return values[lo] + (rank - lo) * (values[hi] - values[lo]);
+}
+
+double maximum(const std::vector<double>& values) {
+  return values.empty() ? NAN : *std::max_element(values.begin(), values.end());
+}
+
+// Latency histogram buckets (ms): [0, 2), [2, 5), ... [200, inf).
+const std::vector<double> kBucketEdges = {0, 2, 5, 10, 20, 50, 100, 200};
+
+std::vector<long> histogram(const std::vector<double>& values) {
+  std::vector<long> counts(kBucketEdges.size(), 0);
+  for (double v : values) {
+    size_t b = 0;
+    while (b + 1 < kBucketEdges.size() && v >= kBucketEdges[b + 1]) ++b;
+    ++counts[b];
+  }
+  return counts;
+}
+
+std::string bucketName(size_t b) {
+  char name[64];
+  if (b + 1 < kBucketEdges.size()) {
+    std::snprintf(name, sizeof name, "[%g, %g)", kBucketEdges[b], kBucketEdges[b + 1]);
+  } else {
+    std::snprintf(name, sizeof name, ">= %g", kBucketEdges[b]);
+  }
+  return name;
 }
 
 double mean(const std::vector<double>& values) {
@@ -125,8 +158,16 @@ class DemoSummary {
           std::lock_guard<std::mutex> lock(mutex_);
           SetRecord* set = find(msg->header.stamp);
           if (!set) return;
-          set->status = true;
-          set->status_text = msg->status;
+          if (msg->late && msg->has_pose) {
+            // The set's second status: its pose, found once the search had finished. The first
+            // one (without a pose) already counted the set as processed.
+            set->late = true;
+            ++late_statuses_;
+          } else {
+            set->status = true;
+            set->status_text = msg->status;
+            set->work = msg->seconds_per_frame;
+          }
           if (msg->restarted) ++restarts_;
         }));
     subs_.push_back(nh_.subscribe<std_msgs::String>(
@@ -195,23 +236,28 @@ class DemoSummary {
   void report() {
     long sets = 0, complete = 0, with_status = 0, with_joints = 0, hand_sets = 0,
          hand_without_joints = 0, hand_unprocessed = 0;
-    std::vector<double> latencies, errors;
+    std::vector<double> latencies, on_time_latencies, late_latencies, errors, work;
     std::map<std::string, std::vector<double>> per_sequence;
-    std::map<std::string, long> statuses;
+    std::map<std::string, long> statuses, dropped_by_status;
     for (auto& [stamp, set] : sets_) {
       ++sets;
       if (set.cameras >= num_cameras_) ++complete;
       if (set.status) {
+        if (std::isfinite(set.work)) work.push_back(set.work * 1000.0);
         ++with_status;
         ++statuses[set.status_text];
       }
       if (set.joint_state) {
         ++with_joints;
         latencies.push_back(set.latency * 1000.0);
+        (set.late ? late_latencies : on_time_latencies).push_back(set.latency * 1000.0);
       }
       if (set.ground_truth) {
         ++hand_sets;
-        if (!set.joint_state) ++hand_without_joints;
+        if (!set.joint_state) {
+          ++hand_without_joints;
+          ++dropped_by_status[set.status ? set.status_text : "no status"];
+        }
         if (!set.status) ++hand_unprocessed;
       }
       if (set.ground_truth && set.fingertips && set.tips.size() == set.truth.size() &&
@@ -256,6 +302,11 @@ class DemoSummary {
                   "state in all: %ld of %ld (the rest: the studio's empty frames)\n",
                   hand_without_joints, hand_sets, sets - with_joints, sets);
     out << line;
+    if (!dropped_by_status.empty()) {
+      out << "  dropped by the status of their set:";
+      for (const auto& [name, count] : dropped_by_status) out << " " << name << " " << count;
+      out << " (\"no status\": the set never reached the tracker's output)\n";
+    }
     std::snprintf(line, sizeof line,
                   "fingertip error vs ground truth: mean %.1f mm, median %.1f mm, 95th pct %.1f "
                   "mm over %zu sets\n",
@@ -269,11 +320,32 @@ class DemoSummary {
       out << line;
     }
     std::snprintf(line, sizeof line,
-                  "latency image stamp -> joint_states: median %.1f ms, 99th pct %.1f ms, max "
-                  "%.1f ms\n",
-                  percentile(latencies, 50), percentile(latencies, 99),
-                  latencies.empty() ? NAN : *std::max_element(latencies.begin(), latencies.end()));
+                  "latency image stamp -> joint_states (all %zu, late ones included): median "
+                  "%.1f ms, 99th pct %.1f ms, max %.1f ms\n",
+                  latencies.size(), percentile(latencies, 50), percentile(latencies, 99),
+                  maximum(latencies));
     out << line;
+    std::snprintf(line, sizeof line,
+                  "  on time %zu: median %.1f ms, 99th pct %.1f ms, max %.1f ms; late (catch-up) "
+                  "%zu (%ld late statuses): median %.1f ms, max %.1f ms\n",
+                  on_time_latencies.size(), percentile(on_time_latencies, 50),
+                  percentile(on_time_latencies, 99), maximum(on_time_latencies),
+                  late_latencies.size(), late_statuses_, percentile(late_latencies, 50),
+                  maximum(late_latencies));
+    out << line;
+    std::snprintf(line, sizeof line,
+                  "  the tracker's work per set (status seconds_per_frame, a catch-up included): "
+                  "median %.1f ms, 99th pct %.1f ms, max %.1f ms\n",
+                  percentile(work, 50), percentile(work, 99), maximum(work));
+    out << line;
+    const std::vector<long> on_time_histogram = histogram(on_time_latencies);
+    const std::vector<long> late_histogram = histogram(late_latencies);
+    out << "  latency histogram (ms)   on time     late\n";
+    for (size_t b = 0; b < on_time_histogram.size(); ++b) {
+      std::snprintf(line, sizeof line, "  %-22s %8ld %8ld\n", bucketName(b).c_str(),
+                    on_time_histogram[b], late_histogram[b]);
+      out << line;
+    }
     out << "=======================================================================\n";
     std::printf("%s", out.str().c_str());
     std::fflush(stdout);
@@ -289,7 +361,22 @@ class DemoSummary {
            << "\nmedian_fingertip_error_mm: " << percentile(errors, 50)
            << "\nerror_sets: " << errors.size()
            << "\nlatency_median_ms: " << percentile(latencies, 50)
-           << "\nlatency_p99_ms: " << percentile(latencies, 99) << "\n";
+           << "\nlatency_p99_ms: " << percentile(latencies, 99)
+           << "\nlatency_max_ms: " << maximum(latencies)
+           << "\non_time_joint_states: " << on_time_latencies.size()
+           << "\non_time_latency_median_ms: " << percentile(on_time_latencies, 50)
+           << "\non_time_latency_p99_ms: " << percentile(on_time_latencies, 99)
+           << "\non_time_latency_max_ms: " << maximum(on_time_latencies)
+           << "\nlate_joint_states: " << late_latencies.size()
+           << "\nlate_latency_median_ms: " << percentile(late_latencies, 50)
+           << "\nlate_latency_max_ms: " << maximum(late_latencies)
+           << "\ntracker_work_median_ms: " << percentile(work, 50)
+           << "\ntracker_work_p99_ms: " << percentile(work, 99)
+           << "\ntracker_work_max_ms: " << maximum(work) << "\nlatency_histogram_ms:\n";
+      for (size_t b = 0; b < on_time_histogram.size(); ++b) {
+        file << "  - {bucket: \"" << bucketName(b) << "\", on_time: " << on_time_histogram[b]
+             << ", late: " << late_histogram[b] << "}\n";
+      }
       if (!file) ROS_ERROR("cannot write the summary to %s", summary_file_.c_str());
     }
   }
@@ -307,7 +394,7 @@ class DemoSummary {
   std::map<ros::Time, SetRecord> sets_;
   std::string sequence_;
   std::vector<std::string> sequences_;
-  long joint_states_ = 0, restarts_ = 0;
+  long joint_states_ = 0, restarts_ = 0, late_statuses_ = 0;
   bool ending_ = false, reported_ = false;
   ros::WallTime first_wall_, end_wall_;
 };

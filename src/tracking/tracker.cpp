@@ -227,6 +227,8 @@ HandTracker::HandTracker(const HandModel& model, const TrackerParams& params)
 
 void HandTracker::reset() {
   search_.reset();
+  kept_.clear();
+  late_results_.clear();
   previous_.reset();
   current_.reset();
   lost_ = false;
@@ -243,6 +245,7 @@ bool HandTracker::looksLost(double similarity) const {
 
 void HandTracker::setModel(const HandModel& model) {
   search_.reset();
+  kept_.clear();
   model_ = model;
   energy_ = PoseEnergy(model_, params_.energy);
   if (current_) clampToLimits(model_, &*current_);
@@ -308,17 +311,24 @@ std::optional<std::vector<OptimizationResult>> HandTracker::hypothesisSearch(
   }
   if (!search_) {
     // Everything the worker reads is copied: the tracker goes on with the next frames.
-    search_ = std::make_shared<std::future<std::vector<OptimizationResult>>>(std::async(
-        std::launch::async, [model = model_, params = params_, observations, current = current_]() {
+    search_sequence_ = step_sequence_;
+    search_ = std::make_shared<std::future<std::vector<OptimizationResult>>>(
+        std::async(std::launch::async, [model = model_, params = params_, observations,
+                                        current = current_, gate = search_gate_]() {
+          if (gate.valid()) gate.wait();
           PoseEnergy search_energy(model, params.energy);
           search_energy.setFrame(observations);
           return startFromHypotheses(model, params, search_energy, observations, current);
         }));
     return std::nullopt;
   }
-  if (search_->wait_for(std::chrono::seconds(0)) != std::future_status::ready) return std::nullopt;
+  if (!kept_.empty() || search_->wait_for(std::chrono::seconds(0)) != std::future_status::ready) {
+    return std::nullopt;
+  }
   std::vector<OptimizationResult> candidates = search_->get();
   search_.reset();
+  // The catch-up gave the search its own set back: the candidates are final, as synchronously.
+  if (search_sequence_ == step_sequence_) return candidates;
   // Found on an earlier frame: the best ones are refined on this one and judged again.
   candidates.resize(std::min(candidates.size(),
                              static_cast<size_t>(std::max(params_.async_refined_candidates, 1))));
@@ -422,7 +432,55 @@ std::vector<OptimizationResult> HandTracker::startFromHypotheses(
   return candidates;
 }
 
-FrameResult HandTracker::update(const std::vector<CameraObservation>& observations, double stamp) {
+FrameResult HandTracker::update(const std::vector<CameraObservation>& observations, double stamp,
+                                std::int64_t frame_id) {
+  late_results_.clear();
+  if (!search_) kept_.clear();  // nothing will be adopted for them (reset, model or params)
+  if (!kept_.empty() && search_->wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
+    // Catch-up: the kept sets, oldest first, tracked from the finished search as they would have
+    // been synchronously; one that asks for a new search is kept again (with those after it).
+    std::deque<KeptFrame> frames;
+    frames.swap(kept_);
+    for (KeptFrame& frame : frames) {
+      step_sequence_ = frame.sequence;
+      FrameResult result = step(frame.observations, frame.stamp);
+      result.frame_id = frame.frame_id;
+      if (result.has_pose) {
+        result.late = true;
+        late_results_.push_back(std::move(result));
+      } else {
+        keepForCatchUp(std::move(frame));
+      }
+    }
+  }
+  step_sequence_ = sequence_++;
+  FrameResult result = step(observations, stamp);
+  result.frame_id = frame_id;
+  if (!result.has_pose && search_) keepForCatchUp({observations, stamp, frame_id, step_sequence_});
+  return result;
+}
+
+void HandTracker::keepForCatchUp(KeptFrame frame) {
+  if (!search_ || !params_.asynchronous_search || !(params_.catch_up_seconds > 0.0)) return;
+  kept_.push_back(std::move(frame));
+  // Beyond the bounds the oldest stay lost, as they were reported.
+  while (static_cast<int>(kept_.size()) > kMaxCatchUpFrames ||
+         kept_.back().stamp - kept_.front().stamp > params_.catch_up_seconds) {
+    kept_.pop_front();
+  }
+}
+
+std::vector<FrameResult> HandTracker::takeLateResults() {
+  std::vector<FrameResult> results;
+  results.swap(late_results_);
+  return results;
+}
+
+void HandTracker::waitForSearch() const {
+  if (search_) search_->wait();
+}
+
+FrameResult HandTracker::step(const std::vector<CameraObservation>& observations, double stamp) {
   FrameResult result;
   result.stamp = stamp;
   result.num_cameras = static_cast<int>(observations.size());

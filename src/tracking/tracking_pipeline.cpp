@@ -142,7 +142,8 @@ ProcessedFrame TrackingPipeline::process(const FrameSet& set,
   processed.segmentation_seconds = secondsSince(segmentation_start);
 
   const auto tracking_start = std::chrono::steady_clock::now();
-  processed.result = tracker_.update(observations, set.stamp());
+  processed.result = tracker_.update(observations, set.stamp(), sets_seen_ - 1);
+  processed.late = tracker_.takeLateResults();
   processed.tracking_seconds = secondsSince(tracking_start);
 
   if (params_.segmentation.room.enabled) {

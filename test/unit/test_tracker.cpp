@@ -253,12 +253,14 @@ TEST(TrackerOrientation, FollowsAFastRollWithoutRollingOver) {
 }
 
 // Live graphs run the start search on a worker thread: the frame that launches it returns at once
-// without a pose, later frames collect it and start the track on themselves.
+// without a pose, later frames collect it and start the track on themselves. (Without the
+// catch-up; with it: test_catch_up.cpp.)
 TEST(Tracker, AsynchronousStartReturnsAtOnceAndStartsOnALaterFrame) {
   const HandModel model = loadHandModel(modelPath("sag"));
   const std::vector<Camera> cameras = fiveCameraRig();
   TrackerParams params;
   params.asynchronous_search = true;
+  params.catch_up_seconds = 0.0;
   HandTracker tracker(model, params);
   Pose truth = typicalPose(model);
   const FrameResult first = tracker.update(modelObservations(model, truth, cameras, 3.0), 0.0);

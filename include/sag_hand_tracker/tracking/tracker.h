@@ -3,6 +3,8 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
+#include <deque>
 #include <future>
 #include <memory>
 #include <optional>
@@ -86,13 +88,22 @@ struct TrackerParams {
   // Live graphs (issue 12): the start and re-detection searches (the hypotheses above) take tens of
   // milliseconds, which on the frame path is a latency spike. With asynchronous_search they run
   // on a worker thread with a copy of the frame that asked for them, and the frames meanwhile are
-  // tracked as usual (or, without a track, reported without a pose); a later frame collects the
-  // result, refines its best `async_refined_candidates` candidates on itself and decides as the
-  // synchronous search would have. Offline tools keep it off: their results then do not depend
-  // on thread timing.
+  // tracked as usual (or, without a track, reported without a pose and kept for the catch-up
+  // below); a later frame collects the result, refines its best `async_refined_candidates`
+  // candidates on itself and decides as the synchronous search would have. Offline tools keep it
+  // off: their results then do not depend on thread timing.
   bool asynchronous_search = false;
   int async_refined_candidates = 2;
+  // Catch-up (issue 12): with asynchronous_search, the sets that get no pose while a search runs
+  // (no track yet, or the track was lost) are kept, those of the last `catch_up_seconds` (by
+  // stamp; at most kMaxCatchUpFrames). The update that finds the search finished first tracks
+  // them in order from its result, as the synchronous search would have (the set that launched
+  // it takes its best candidate, the next ones the ordinary per-frame step), and returns their
+  // results as late results (HandTracker::takeLateResults); older sets stay lost. 0: none kept.
+  double catch_up_seconds = 0.25;
 };
+// The most sets the catch-up keeps, whatever their stamps say.
+constexpr int kMaxCatchUpFrames = 120;
 
 // The angle (radians) between two orientations' wrist->middle-knuckle axes (x) and between their
 // back-of-hand normals (z). A flip in the sense of TrackerParams: either is above 90 degrees.
@@ -141,6 +152,10 @@ bool isPlausiblePose(const Pose& pose, const std::vector<CameraObservation>& obs
 
 struct FrameResult {
   double stamp = 0.0;
+  std::int64_t frame_id = 0;  // update's frame_id: the caller's identity of the set
+  // A catch-up result (TrackerParams::catch_up_seconds): an earlier update reported this set
+  // without a pose while a search ran; this is its pose, tracked once the search had finished.
+  bool late = false;
   TrackStatus status = TrackStatus::kWaiting;
   bool has_pose = false;  // false while waiting: pose and fingertips are then meaningless
   Pose pose;
@@ -156,8 +171,13 @@ class HandTracker {
   HandTracker(const HandModel& model, const TrackerParams& params);
 
   // One synchronized set: the cameras that delivered, each with its foreground image SoG
-  // (undistorted pixels). Missing cameras are simply absent.
-  FrameResult update(const std::vector<CameraObservation>& observations, double stamp);
+  // (undistorted pixels). Missing cameras are simply absent. `frame_id` identifies the set in the
+  // results (FrameResult::frame_id; the live graph passes its stamp in ns).
+  FrameResult update(const std::vector<CameraObservation>& observations, double stamp,
+                     std::int64_t frame_id = 0);
+  // The late results of the last update (TrackerParams::catch_up_seconds), oldest first, all of
+  // sets before that update's own; moved out (the next update replaces them).
+  std::vector<FrameResult> takeLateResults();
 
   void reset();
   // Switches to another model of the same hand (a fitted one, issue 10) and keeps tracking from
@@ -166,6 +186,13 @@ class HandTracker {
   void setModel(const HandModel& model);
   // A search launched on a worker thread (TrackerParams::asynchronous_search) is still pending.
   bool searching() const { return search_ != nullptr; }
+  // Blocks until the pending search (if any) has finished; the next update collects it.
+  void waitForSearch() const;
+  // Tests: every search launched from now on waits for `gate` before it starts, so that a test
+  // decides how many sets arrive while it runs.
+  void holdSearchesUntil(std::shared_future<void> gate) { search_gate_ = std::move(gate); }
+  // Sets kept for the catch-up (no pose yet, a search running).
+  int keptFrames() const { return static_cast<int>(kept_.size()); }
   const HandModel& model() const { return model_; }
   const TrackerParams& params() const { return params_; }
   void setParams(const TrackerParams& params);
@@ -182,9 +209,20 @@ class HandTracker {
       const std::vector<CameraObservation>& observations, const std::optional<Pose>& current);
   // The search for this frame: the candidates, best first; or, with asynchronous_search, empty
   // while it runs (a search is launched when none is pending) and the candidates of a finished
-  // one refined on this frame.
+  // one refined on this frame (as they are when this is the set that launched it, in the
+  // catch-up). While sets are kept for the catch-up, only the oldest of them collects it.
   std::optional<std::vector<OptimizationResult>> hypothesisSearch(
       const PoseEnergy& energy, const std::vector<CameraObservation>& observations);
+  // The tracking of one set (update without the catch-up).
+  FrameResult step(const std::vector<CameraObservation>& observations, double stamp);
+  // A set that got no pose while a search runs: kept for the catch-up, within its bounds.
+  struct KeptFrame {
+    std::vector<CameraObservation> observations;
+    double stamp = 0.0;
+    std::int64_t frame_id = 0;
+    long sequence = 0;
+  };
+  void keepForCatchUp(KeptFrame frame);
   bool armSaysReversed(const Pose& pose, const std::vector<CameraObservation>& observations) const;
   bool plausible(const Pose& pose, const std::vector<CameraObservation>& observations) const;
   // The pose the optimiser starts from: `current` moved on at the velocity from `previous`
@@ -214,6 +252,14 @@ class HandTracker {
   // The search running on a worker thread (asynchronous_search); shared so that the tracker stays
   // copyable.
   std::shared_ptr<std::future<std::vector<OptimizationResult>>> search_;
+  // The catch-up: update calls so far (their sequence numbers), the set being stepped and the one
+  // the pending search was launched for, the kept sets (oldest first) and the late results.
+  long sequence_ = 0;
+  long step_sequence_ = 0;
+  long search_sequence_ = -1;
+  std::deque<KeptFrame> kept_;
+  std::vector<FrameResult> late_results_;
+  std::shared_future<void> search_gate_;
   bool looksLost(double similarity) const;
 };
 

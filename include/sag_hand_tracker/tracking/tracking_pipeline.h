@@ -18,7 +18,10 @@ namespace sag_hand_tracker {
 // recording, without the hand), or it was segmented and tracked.
 struct ProcessedFrame {
   bool background = false;  // true: learned as background, `result` holds no pose
-  FrameResult result;
+  FrameResult result;       // frame_id: the set's index (setsSeen() - 1)
+  // Earlier sets' late results (HandTracker::takeLateResults; only with
+  // TrackerParams::asynchronous_search, which the offline tools keep off).
+  std::vector<FrameResult> late;
   int image_gaussians = 0;  // foreground image Gaussians over all cameras of the set
   double segmentation_seconds = 0.0;
   double tracking_seconds = 0.0;  // HandTracker::update (start or optimisation)
