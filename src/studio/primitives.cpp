@@ -51,8 +51,14 @@ double distanceToSegment2d(const Eigen::Vector2d& p, const Eigen::Vector2d& a,
 bool intersect(const RoundCone& cone, const Eigen::Vector3d& origin, const Eigen::Vector3d& dir,
                RayHit* hit, double t_min) {
   const Eigen::Vector3d ba = cone.b - cone.a;
-  const double rr = cone.ra - cone.rb;
   const double m0 = ba.squaredNorm();
+  // Early out (most rays of a part's bounding box miss it): a line farther from the midpoint than
+  // the bounding sphere's radius (with a margin for rounding) cannot meet the hull.
+  const Eigen::Vector3d to_centre = 0.5 * (cone.a + cone.b) - origin;
+  const double along = to_centre.dot(dir);
+  const double bound = 0.5 * std::sqrt(m0) + std::max(cone.ra, cone.rb);
+  if (to_centre.squaredNorm() - along * along > bound * bound * (1.0 + 1e-9) + 1e-18) return false;
+  const double rr = cone.ra - cone.rb;
   const double d2 = m0 - rr * rr;
   if (d2 <= 1e-12 * std::max(m0, 1e-12)) {
     // One sphere contains the other: the hull is the larger sphere.
