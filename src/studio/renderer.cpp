@@ -5,6 +5,7 @@
 #include <cmath>
 #include <iomanip>
 #include <limits>
+#include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
@@ -463,6 +464,39 @@ FrameScratch& frameScratch() {
   return scratch;
 }
 
+// The 8-bit image: linear values in [0, 1] (clamped) encoded to sRGB through a 4097-entry
+// table, plus the sensor noise, rounded to nearest (even) and saturated, as
+// cv::saturate_cast<uchar>(table[size_t(l * 4096 + 0.5)] + noise) does, with OpenCV's universal
+// intrinsics where the CPU has them.
+void encodeSrgb(const float* linear, const float* noise, size_t count, std::uint8_t* out) {
+  static const std::vector<float> kLut = [] {
+    std::vector<float> lut(4097);
+    for (size_t i = 0; i < lut.size(); ++i) lut[i] = 255.0f * linearToSrgb(i / 4096.0f);
+    return lut;
+  }();
+  const float* lut = kLut.data();
+  size_t i = 0;
+#if CV_SIMD
+  const int lanes = cv::v_float32::nlanes;
+  const cv::v_float32 zero = cv::vx_setzero_f32(), one = cv::vx_setall_f32(1.0f);
+  const cv::v_float32 scale = cv::vx_setall_f32(4096.0f), half = cv::vx_setall_f32(0.5f);
+  auto level = [&](size_t at) {
+    const cv::v_float32 l = cv::v_min(cv::v_max(cv::vx_load(linear + at), zero), one);
+    const cv::v_int32 index = cv::v_trunc(l * scale + half);
+    return cv::v_round(cv::v_lut(lut, index) + cv::vx_load(noise + at));
+  };
+  for (; i + 4 * lanes <= count; i += 4 * lanes) {
+    const cv::v_int16 low = cv::v_pack(level(i), level(i + lanes));
+    const cv::v_int16 high = cv::v_pack(level(i + 2 * lanes), level(i + 3 * lanes));
+    cv::v_store(out + i, cv::v_pack_u(low, high));
+  }
+#endif
+  for (; i < count; ++i) {
+    const float l = std::clamp(linear[i], 0.0f, 1.0f);
+    out[i] = cv::saturate_cast<uchar>(lut[static_cast<size_t>(l * 4096.0f + 0.5f)] + noise[i]);
+  }
+}
+
 PixelBox unite(const PixelBox& a, const PixelBox& b) {
   if (a.empty()) return b;
   if (b.empty()) return a;
@@ -594,10 +628,28 @@ StudioImage StudioRenderer::renderCamera(int camera_index,
     const std::vector<SurfacePart>& parts = local[s];
     for (size_t k = 0; k < parts.size(); ++k) {
       const PixelBox& box = boxes[s][k];
+      // Most rays of the box miss the part: a sphere around it (radius with a margin for
+      // rounding) rejects them before the exact intersection.
+      Eigen::Vector3d centre;
+      double radius;
+      if (parts[k].kind == SurfacePart::Kind::kRoundCone) {
+        const RoundCone& cone = parts[k].cone;
+        centre = 0.5 * (cone.a + cone.b);
+        radius = 0.5 * (cone.b - cone.a).norm() + std::max(cone.ra, cone.rb);
+      } else {
+        Eigen::Vector3d lo, hi;
+        partBounds(parts[k], &lo, &hi);
+        centre = 0.5 * (lo + hi);
+        radius = 0.5 * (hi - lo).norm();
+      }
+      const double reject = radius * radius * (1.0 + 1e-6) + 1e-12;
+      const double centre_sq = centre.squaredNorm();
       for (int v = box.v0; v <= box.v1; ++v) {
         for (int u = box.u0; u <= box.u1; ++u) {
           const size_t i = static_cast<size_t>(v) * width + u;
           const Eigen::Vector3d dir = data.rays[i].cast<double>();
+          const double along = centre.dot(dir);
+          if (centre_sq - along * along > reject) continue;
           if (partIntersect(parts[k], origin, dir, &hit, 1e-4) && hit.t < scratch.tbuf[i]) {
             scratch.tbuf[i] = static_cast<float>(hit.t);
             scratch.owner[i] = static_cast<int>(k);
@@ -655,11 +707,6 @@ StudioImage StudioRenderer::renderCamera(int camera_index,
   if (sensor_.blur_sigma > 0.0) cv::GaussianBlur(accum, accum, cv::Size(0, 0), sensor_.blur_sigma);
 
   // Encode (sRGB), add sensor noise, quantise.
-  static const std::vector<float> kLut = [] {
-    std::vector<float> lut(4097);
-    for (size_t i = 0; i < lut.size(); ++i) lut[i] = 255.0f * linearToSrgb(i / 4096.0f);
-    return lut;
-  }();
   scratch.noise.create(height, width, CV_32FC3);
   if (sensor_.noise_sigma > 0.0) {
     cv::RNG rng(mixSeed(noise_seed, static_cast<std::uint64_t>(camera_index)));
@@ -669,19 +716,7 @@ StudioImage StudioRenderer::renderCamera(int camera_index,
     scratch.noise.setTo(cv::Scalar::all(0));
   }
   image.rgb = cv::Mat(height, width, CV_8UC3);
-  const float* linear = accum.ptr<float>();
-  const float* noise = scratch.noise.ptr<float>();
-  const float* lut = kLut.data();
-  std::uint8_t* out = image.rgb.ptr<std::uint8_t>();
-  // Written so that it vectorises: cv::saturate_cast<uchar>(float) is a round to nearest (even)
-  // and a clamp to [0, 255]; the index truncates as the cast to size_t did.
-  const int samples = static_cast<int>(3 * n);
-  for (int i = 0; i < samples; ++i) {
-    const float l = std::min(std::max(linear[i], 0.0f), 1.0f);
-    const float level = lut[static_cast<int>(l * 4096.0f + 0.5f)] + noise[i];
-    const float rounded = std::nearbyint(level);
-    out[i] = static_cast<std::uint8_t>(std::min(std::max(rounded, 0.0f), 255.0f));
-  }
+  encodeSrgb(accum.ptr<float>(), scratch.noise.ptr<float>(), 3 * n, image.rgb.ptr<std::uint8_t>());
   return image;
 }
 
