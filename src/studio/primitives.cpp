@@ -52,12 +52,17 @@ bool intersect(const RoundCone& cone, const Eigen::Vector3d& origin, const Eigen
                RayHit* hit, double t_min) {
   const Eigen::Vector3d ba = cone.b - cone.a;
   const double m0 = ba.squaredNorm();
-  // Early out (most rays of a part's bounding box miss it): a line farther from the midpoint than
-  // the bounding sphere's radius (with a margin for rounding) cannot meet the hull.
-  const Eigen::Vector3d to_centre = 0.5 * (cone.a + cone.b) - origin;
-  const double along = to_centre.dot(dir);
-  const double bound = 0.5 * std::sqrt(m0) + std::max(cone.ra, cone.rb);
-  if (to_centre.squaredNorm() - along * along > bound * bound * (1.0 + 1e-9) + 1e-18) return false;
+  // Early out (most rays of a part's bounding box miss it): the hull lies within max(ra, rb) of
+  // the segment ab, so a line farther from the segment (with a margin for rounding) misses it.
+  // Squared distance of the line to a + s (b - a): A s^2 + 2 B s + C, minimised over [0, 1].
+  {
+    const Eigen::Vector3d w = cone.a - origin;
+    const double wd = w.dot(dir), ed = ba.dot(dir);
+    const double A = m0 - ed * ed, B = w.dot(ba) - wd * ed, C = w.squaredNorm() - wd * wd;
+    const double s = A > 1e-12 * m0 ? std::clamp(-B / A, 0.0, 1.0) : 0.0;
+    const double bound = std::max(cone.ra, cone.rb);
+    if ((A * s + 2.0 * B) * s + C > bound * bound * (1.0 + 1e-6) + 1e-12) return false;
+  }
   const double rr = cone.ra - cone.rb;
   const double d2 = m0 - rr * rr;
   if (d2 <= 1e-12 * std::max(m0, 1e-12)) {
