@@ -6,7 +6,6 @@
 #include <cstring>
 #include <functional>
 #include <iomanip>
-#include <iostream>
 #include <map>
 #include <opencv2/core.hpp>
 #include <random>
