@@ -391,8 +391,8 @@ std::string resolveMotionPath(const std::string& name_or_path, const std::string
   }
   // Other motions in config/motions (calibration_routine) by name too; a path is taken as it is.
   const std::string in_config = config_dir + "/motions/" + name_or_path + ".yaml";
-  if (name_or_path.find('/') == std::string::npos &&
-      name_or_path.find('.') == std::string::npos && std::ifstream(in_config).good()) {
+  if (name_or_path.find('/') == std::string::npos && name_or_path.find('.') == std::string::npos &&
+      std::ifstream(in_config).good()) {
     return in_config;
   }
   return name_or_path;

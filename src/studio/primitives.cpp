@@ -51,8 +51,19 @@ double distanceToSegment2d(const Eigen::Vector2d& p, const Eigen::Vector2d& a,
 bool intersect(const RoundCone& cone, const Eigen::Vector3d& origin, const Eigen::Vector3d& dir,
                RayHit* hit, double t_min) {
   const Eigen::Vector3d ba = cone.b - cone.a;
-  const double rr = cone.ra - cone.rb;
   const double m0 = ba.squaredNorm();
+  // Early out (most rays of a part's bounding box miss it): the hull lies within max(ra, rb) of
+  // the segment ab, so a line farther from the segment (with a margin for rounding) misses it.
+  // Squared distance of the line to a + s (b - a): A s^2 + 2 B s + C, minimised over [0, 1].
+  {
+    const Eigen::Vector3d w = cone.a - origin;
+    const double wd = w.dot(dir), ed = ba.dot(dir);
+    const double A = m0 - ed * ed, B = w.dot(ba) - wd * ed, C = w.squaredNorm() - wd * wd;
+    const double s = A > 1e-12 * m0 ? std::clamp(-B / A, 0.0, 1.0) : 0.0;
+    const double bound = std::max(cone.ra, cone.rb);
+    if ((A * s + 2.0 * B) * s + C > bound * bound * (1.0 + 1e-6) + 1e-12) return false;
+  }
+  const double rr = cone.ra - cone.rb;
   const double d2 = m0 - rr * rr;
   if (d2 <= 1e-12 * std::max(m0, 1e-12)) {
     // One sphere contains the other: the hull is the larger sphere.

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <iomanip>
 #include <limits>
+#include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
@@ -19,17 +20,16 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 
 // ---- procedural textures --------------------------------------------------------------------
 
-std::uint64_t hash3(std::int64_t x, std::int64_t y, std::int64_t z, std::uint64_t seed) {
-  std::uint64_t h = mixSeed(seed, static_cast<std::uint64_t>(x));
-  h = mixSeed(h, static_cast<std::uint64_t>(y));
-  return mixSeed(h, static_cast<std::uint64_t>(z));
+// mixSeed's splitmix64, inlinable here (the exported mixSeed is called through the PLT).
+inline std::uint64_t mix64(std::uint64_t a, std::uint64_t b) {
+  std::uint64_t z = a + 0x9e3779b97f4a7c15ULL * (b + 1);
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  return z ^ (z >> 31);
 }
 
-double lattice(std::int64_t x, std::int64_t y, std::int64_t z, std::uint64_t seed) {
-  return static_cast<double>(hash3(x, y, z, seed) >> 11) * (1.0 / 9007199254740992.0);
-}
-
-// Smooth value noise in [0, 1].
+// Smooth value noise in [0, 1]. The lattice value of (x, y, z) is
+// mix(mix(mix(seed, x), y), z) scaled to [0, 1); the eight corners share their x and xy hashes.
 double valueNoise(const Eigen::Vector3d& p, std::uint64_t seed) {
   const Eigen::Vector3d f = p.array().floor();
   const Eigen::Vector3d r = p - f;
@@ -37,11 +37,15 @@ double valueNoise(const Eigen::Vector3d& p, std::uint64_t seed) {
   const auto ix = static_cast<std::int64_t>(f.x());
   const auto iy = static_cast<std::int64_t>(f.y());
   const auto iz = static_cast<std::int64_t>(f.z());
+  std::uint64_t hx[2], hxy[4];
+  for (int dx = 0; dx < 2; ++dx) hx[dx] = mix64(seed, static_cast<std::uint64_t>(ix + dx));
+  for (int c = 0; c < 4; ++c) hxy[c] = mix64(hx[c & 1], static_cast<std::uint64_t>(iy + (c >> 1)));
   double value = 0.0;
   for (int c = 0; c < 8; ++c) {
     const int dx = c & 1, dy = (c >> 1) & 1, dz = (c >> 2) & 1;
     const double w = (dx ? s.x() : 1 - s.x()) * (dy ? s.y() : 1 - s.y()) * (dz ? s.z() : 1 - s.z());
-    value += w * lattice(ix + dx, iy + dy, iz + dz, seed);
+    const std::uint64_t h = mix64(hxy[c & 3], static_cast<std::uint64_t>(iz + dz));
+    value += w * (static_cast<double>(h >> 11) * (1.0 / 9007199254740992.0));
   }
   return value;
 }
@@ -50,7 +54,7 @@ double valueNoise(const Eigen::Vector3d& p, std::uint64_t seed) {
 double fractalNoise(const Eigen::Vector3d& p, double period, int octaves, std::uint64_t seed) {
   double sum = 0.0, norm = 0.0, amplitude = 1.0, frequency = 1.0 / period;
   for (int o = 0; o < octaves; ++o) {
-    sum += amplitude * valueNoise(p * frequency, mixSeed(seed, o));
+    sum += amplitude * valueNoise(p * frequency, mix64(seed, static_cast<std::uint64_t>(o)));
     norm += amplitude;
     amplitude *= 0.5;
     frequency *= 2.0;
@@ -72,8 +76,8 @@ bool onGrid(double x, double period, double half) {
 Eigen::Vector3f tableAlbedo(const Eigen::Vector3d& p, std::uint64_t seed) {
   // A blue-grey desk with a dark green cutting mat (5 cm grid) in the workspace.
   const double grain =
-      fractalNoise(Eigen::Vector3d(p.x() * 0.25, p.y() * 4.0, 0.0), 0.05, 3, mixSeed(seed, 11));
-  const double blotch = fractalNoise(p, 0.12, 3, mixSeed(seed, 12));
+      fractalNoise(Eigen::Vector3d(p.x() * 0.25, p.y() * 4.0, 0.0), 0.05, 3, mix64(seed, 11));
+  const double blotch = fractalNoise(p, 0.12, 3, mix64(seed, 12));
   const bool mat = p.x() > -0.32 && p.x() < 0.3 && p.y() > -0.26 && p.y() < 0.3;
   Eigen::Vector3f colour;
   if (mat) {
@@ -91,7 +95,7 @@ Eigen::Vector3f tableAlbedo(const Eigen::Vector3d& p, std::uint64_t seed) {
 }
 
 Eigen::Vector3f roomAlbedo(const Eigen::Vector3d& p, const Eigen::Vector3d& n, std::uint64_t seed) {
-  const double noise = fractalNoise(p, 0.4, 4, mixSeed(seed, 21));
+  const double noise = fractalNoise(p, 0.4, 4, mix64(seed, 21));
   if (n.z() > 0.5) {  // floor: dark carpet
     return srgb(0.24, 0.23, 0.25) * static_cast<float>(0.8 + 0.4 * fractalNoise(p, 0.03, 3, seed));
   }
@@ -239,12 +243,7 @@ void checkCamera(const Camera& camera) {
 
 }  // namespace
 
-std::uint64_t mixSeed(std::uint64_t a, std::uint64_t b) {
-  std::uint64_t z = a + 0x9e3779b97f4a7c15ULL * (b + 1);
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-  return z ^ (z >> 31);
-}
+std::uint64_t mixSeed(std::uint64_t a, std::uint64_t b) { return mix64(a, b); }
 
 float srgbToLinear(float s) {
   s = std::clamp(s, 0.0f, 1.0f);
@@ -339,7 +338,9 @@ StudioRenderer::StudioRenderer(std::vector<Camera> cameras, const StudioScenePar
     CameraData data;
     const size_t n = static_cast<size_t>(camera.width) * camera.height;
     data.rays.resize(n);
-    data.bg_linear.resize(n);
+    data.bg_linear.create(camera.height, camera.width, CV_32FC3);
+    data.bg_depth.create(camera.height, camera.width, CV_32FC1);
+    auto* bg_linear = data.bg_linear.ptr<Eigen::Vector3f>();
     data.bg_t.resize(n);
     data.bg_direct.resize(n);
     data.table_uv.resize(n);
@@ -356,6 +357,7 @@ StudioRenderer::StudioRenderer(std::vector<Camera> cameras, const StudioScenePar
         // The exact pixel ray gives the depth and the table point (shadows).
         const BackgroundHit centre_hit = traceBackground(centre, camera_to_world.linear() * ray);
         data.bg_t[i] = static_cast<float>(centre_hit.t);
+        data.bg_depth.ptr<float>()[i] = data.bg_t[i] * data.rays[i].z();
         data.table_uv[i] = centre_hit.on_table
                                ? Eigen::Vector2f(centre_hit.point.x(), centre_hit.point.y())
                                : Eigen::Vector2f::Constant(std::numeric_limits<float>::quiet_NaN());
@@ -373,7 +375,7 @@ StudioRenderer::StudioRenderer(std::vector<Camera> cameras, const StudioScenePar
           }
         }
         const double samples = supersampling * supersampling;
-        data.bg_linear[i] = (sum_lit / samples).cast<float>();
+        bg_linear[i] = (sum_lit / samples).cast<float>();
         // The key light's share, to darken shadowed table pixels.
         data.bg_direct[i] = static_cast<float>(sum_direct / samples);
       }
@@ -443,79 +445,88 @@ StudioRenderer::ShadowMap StudioRenderer::computeShadow(
   return map;
 }
 
-void StudioRenderer::renderLinear(int camera_index, const std::vector<SurfacePart>& parts,
-                                  const ShadowMap* shadow, std::vector<Eigen::Vector3f>* colour,
-                                  cv::Mat* labels, cv::Mat* depth) const {
-  const Camera& camera = cameras_[camera_index];
-  const CameraData& data = data_[camera_index];
-  const int width = camera.width;
-  const size_t n = static_cast<size_t>(width) * camera.height;
-  std::vector<float> tbuf(data.bg_t);
-  std::vector<int> owner(n, -1);
-  std::vector<Eigen::Vector3f> normals(n);
+namespace {
 
-  std::vector<SurfacePart> local;
-  local.reserve(parts.size());
-  for (const SurfacePart& part : parts)
-    local.push_back(partTransformed(part, camera.world_to_camera));
+// Buffers of one camera's frame, reused from frame to frame by each rendering thread (allocating
+// them per frame cost more than the shading: fresh pages are faulted in and cleared).
+static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float), "a CV_32FC3 pixel is a Vector3f");
 
-  RayHit hit;
-  const Eigen::Vector3d origin = Eigen::Vector3d::Zero();
-  for (size_t k = 0; k < local.size(); ++k) {
-    Eigen::Vector3d lo, hi;
-    partBounds(local[k], &lo, &hi);
-    const PixelBox box = projectBox(camera, lo, hi);
-    if (box.empty()) continue;
-    for (int v = box.v0; v <= box.v1; ++v) {
-      for (int u = box.u0; u <= box.u1; ++u) {
-        const size_t i = static_cast<size_t>(v) * width + u;
-        const Eigen::Vector3d dir = data.rays[i].cast<double>();
-        if (partIntersect(local[k], origin, dir, &hit, 1e-4) && hit.t < tbuf[i]) {
-          tbuf[i] = static_cast<float>(hit.t);
-          owner[i] = static_cast<int>(k);
-          normals[i] = hit.normal.cast<float>();
-        }
-      }
-    }
-  }
+struct FrameScratch {
+  std::vector<float> tbuf;               // nearest hit so far (the background's distance)
+  std::vector<int> owner;                // index of the part seen, -1 for the background
+  std::vector<Eigen::Vector3f> normals;  // its normal, where owner >= 0
+  std::vector<std::uint8_t> changed;     // 1 where a sub-frame may differ from the background
+  cv::Mat accum, noise;                  // CV_32FC3: sum of the sub-frames; sensor noise
+};
 
-  const Eigen::Matrix3d world_to_camera_rotation = camera.world_to_camera.linear();
-  const Eigen::Vector3d light = world_to_camera_rotation * light_;
-  const Eigen::Vector3d up = world_to_camera_rotation * Eigen::Vector3d::UnitZ();
-  colour->resize(n);
-  for (size_t i = 0; i < n; ++i) {
-    const int k = owner[i];
-    if (k < 0) {
-      Eigen::Vector3f c = data.bg_linear[i];
-      if (shadow != nullptr && shadow->width > 0 && !std::isnan(data.table_uv[i].x())) {
-        const float occ = shadow->sample(data.table_uv[i].x(), data.table_uv[i].y());
-        if (occ > 0.0f) {
-          const float lit = static_cast<float>(scene_.ambient) + data.bg_direct[i];
-          c *= (lit - occ * data.bg_direct[i]) / lit;
-        }
-      }
-      (*colour)[i] = c;
-      continue;
-    }
-    const SurfacePart& part = local[k];
-    const Eigen::Vector3d normal = normals[i].cast<double>();
-    const Eigen::Vector3d point = static_cast<double>(tbuf[i]) * data.rays[i].cast<double>();
-    const Eigen::Vector3f albedo = surfaceAlbedo(part, point, normal);
-    const double ambient = scene_.ambient * (0.8 + 0.2 * normal.dot(up));
-    const double direct = scene_.light_intensity * std::max(0.0, normal.dot(light));
-    (*colour)[i] = albedo * static_cast<float>(ambient + direct);
+FrameScratch& frameScratch() {
+  thread_local FrameScratch scratch;
+  return scratch;
+}
+
+// The 8-bit image: linear values in [0, 1] (clamped) encoded to sRGB through a 4097-entry
+// table, plus the sensor noise, rounded to nearest (even) and saturated, as
+// cv::saturate_cast<uchar>(table[size_t(l * 4096 + 0.5)] + noise) does, with OpenCV's universal
+// intrinsics where the CPU has them.
+void encodeSrgb(const float* linear, const float* noise, size_t count, std::uint8_t* out) {
+  static const std::vector<float> kLut = [] {
+    std::vector<float> lut(4097);
+    for (size_t i = 0; i < lut.size(); ++i) lut[i] = 255.0f * linearToSrgb(i / 4096.0f);
+    return lut;
+  }();
+  const float* lut = kLut.data();
+  size_t i = 0;
+#if CV_SIMD
+  const int lanes = cv::v_float32::nlanes;
+  const cv::v_float32 zero = cv::vx_setzero_f32(), one = cv::vx_setall_f32(1.0f);
+  const cv::v_float32 scale = cv::vx_setall_f32(4096.0f), half = cv::vx_setall_f32(0.5f);
+  auto level = [&](size_t at) {
+    const cv::v_float32 l = cv::v_min(cv::v_max(cv::vx_load(linear + at), zero), one);
+    const cv::v_int32 index = cv::v_trunc(l * scale + half);
+    return cv::v_round(cv::v_lut(lut, index) + cv::vx_load(noise + at));
+  };
+  for (; i + 4 * lanes <= count; i += 4 * lanes) {
+    const cv::v_int16 low = cv::v_pack(level(i), level(i + lanes));
+    const cv::v_int16 high = cv::v_pack(level(i + 2 * lanes), level(i + 3 * lanes));
+    cv::v_store(out + i, cv::v_pack_u(low, high));
   }
-  if (labels != nullptr) {
-    *labels = cv::Mat(camera.height, width, CV_8UC1, cv::Scalar(kLabelBackground));
-    for (size_t i = 0; i < n; ++i) {
-      if (owner[i] >= 0) labels->data[i] = local[owner[i]].label;
-    }
+#endif
+  for (; i < count; ++i) {
+    const float l = std::clamp(linear[i], 0.0f, 1.0f);
+    out[i] = cv::saturate_cast<uchar>(lut[static_cast<size_t>(l * 4096.0f + 0.5f)] + noise[i]);
   }
-  if (depth != nullptr) {
-    *depth = cv::Mat(camera.height, width, CV_32FC1);
-    float* out = depth->ptr<float>();
-    for (size_t i = 0; i < n; ++i) out[i] = tbuf[i] * data.rays[i].z();
+}
+
+PixelBox unite(const PixelBox& a, const PixelBox& b) {
+  if (a.empty()) return b;
+  if (b.empty()) return a;
+  return PixelBox{std::min(a.u0, b.u0), std::min(a.v0, b.v0), std::max(a.u1, b.u1),
+                  std::max(a.v1, b.v1)};
+}
+
+// Pixels whose view ray meets the table (z = 0) inside the world rectangle [lo, hi].
+PixelBox projectTableRectangle(const Camera& camera, const Eigen::Vector2d& lo,
+                               const Eigen::Vector2d& hi) {
+  Eigen::Vector3d clo = Eigen::Vector3d::Constant(kInf), chi = Eigen::Vector3d::Constant(-kInf);
+  for (int c = 0; c < 4; ++c) {
+    const Eigen::Vector3d corner((c & 1) ? hi.x() : lo.x(), (c & 2) ? hi.y() : lo.y(), 0.0);
+    const Eigen::Vector3d p = camera.world_to_camera * corner;
+    clo = clo.cwiseMin(p);
+    chi = chi.cwiseMax(p);
   }
+  // The rectangle's corners bound it; a camera-frame box around them projects (projectBox) to
+  // pixels bounding the rectangle's image, or to the whole image if it reaches behind the camera.
+  return projectBox(camera, clo, chi);
+}
+
+}  // namespace
+
+std::vector<StudioRenderer::ShadowMap> StudioRenderer::computeShadows(
+    const std::vector<std::vector<SurfacePart>>& subframes) const {
+  std::vector<ShadowMap> shadows;
+  shadows.reserve(subframes.size());
+  for (const auto& parts : subframes) shadows.push_back(computeShadow(parts));
+  return shadows;
 }
 
 StudioImage StudioRenderer::renderCamera(int camera,
@@ -524,69 +535,200 @@ StudioImage StudioRenderer::renderCamera(int camera,
   if (camera < 0 || camera >= static_cast<int>(cameras_.size())) {
     throw InputError("studio: no camera " + std::to_string(camera));
   }
-  std::vector<ShadowMap> shadows;
-  for (const auto& parts : subframes) shadows.push_back(computeShadow(parts));
-  return renderCamera(camera, subframes, shadows, noise_seed, light_gain);
+  return renderCamera(camera, subframes, computeShadows(subframes), noise_seed, light_gain, false);
 }
 
-StudioImage StudioRenderer::renderCamera(int camera,
+StudioImage StudioRenderer::renderCameraFullFrame(
+    int camera, const std::vector<std::vector<SurfacePart>>& subframes, std::uint64_t noise_seed,
+    double light_gain) const {
+  if (camera < 0 || camera >= static_cast<int>(cameras_.size())) {
+    throw InputError("studio: no camera " + std::to_string(camera));
+  }
+  return renderCamera(camera, subframes, computeShadows(subframes), noise_seed, light_gain, true);
+}
+
+StudioImage StudioRenderer::renderCamera(int camera_index,
                                          const std::vector<std::vector<SurfacePart>>& subframes,
                                          const std::vector<ShadowMap>& shadows,
-                                         std::uint64_t noise_seed, double light_gain) const {
-  const Camera& cam = cameras_[camera];
-  const size_t n = static_cast<size_t>(cam.width) * cam.height;
-  StudioImage image;
-  cv::Mat accum(cam.height, cam.width, CV_32FC3, cv::Scalar::all(0));
-  auto* acc = accum.ptr<cv::Vec3f>();
-  std::vector<Eigen::Vector3f> colour;
+                                         std::uint64_t noise_seed, double light_gain,
+                                         bool full_frame) const {
+  const Camera& camera = cameras_[camera_index];
+  const CameraData& data = data_[camera_index];
+  const int width = camera.width, height = camera.height;
+  const size_t n = static_cast<size_t>(width) * height;
+  FrameScratch& scratch = frameScratch();
+  scratch.tbuf.resize(n);
+  scratch.owner.resize(n);
+  scratch.normals.resize(n);
+  scratch.changed.assign(n, full_frame ? 1 : 0);
+
+  // The sum of the sub-frames' colours starts as the background added up once per sub-frame (in
+  // the order the sub-frames add up): what every pixel that no sub-frame changes holds.
   const size_t count = std::max<size_t>(1, subframes.size());
   const size_t middle = subframes.size() / 2;
-  for (size_t s = 0; s < count; ++s) {
-    static const std::vector<SurfacePart> kNone;
-    const auto& parts = subframes.empty() ? kNone : subframes[s];
-    const bool keep = s == middle;
-    renderLinear(camera, parts, subframes.empty() ? nullptr : &shadows[s], &colour,
-                 keep ? &image.labels : nullptr, keep ? &image.depth : nullptr);
-    for (size_t i = 0; i < n; ++i) {
-      acc[i] += cv::Vec3f(colour[i].x(), colour[i].y(), colour[i].z());
+  data.bg_linear.copyTo(scratch.accum);
+  for (size_t s = 1; s < count; ++s) cv::add(scratch.accum, data.bg_linear, scratch.accum);
+  auto* acc = scratch.accum.ptr<Eigen::Vector3f>();
+
+  // The pixels any sub-frame may change: its parts' projected bounds and its shadow's footprint
+  // (where ShadowMap::sample can be non-zero: half a texel beyond the map; one texel here).
+  PixelBox region = full_frame ? PixelBox{0, 0, width - 1, height - 1} : PixelBox{};
+  auto mark = [&](const PixelBox& box) {
+    if (box.empty()) return;
+    for (int v = box.v0; v <= box.v1; ++v) {
+      std::fill_n(scratch.changed.begin() + static_cast<size_t>(v) * width + box.u0,
+                  box.u1 - box.u0 + 1, 1);
+    }
+    region = unite(region, box);
+  };
+  std::vector<std::vector<SurfacePart>> local(subframes.size());  // in the camera frame
+  std::vector<std::vector<PixelBox>> boxes(subframes.size());
+  for (size_t s = 0; s < subframes.size(); ++s) {
+    local[s].reserve(subframes[s].size());
+    for (const SurfacePart& part : subframes[s]) {
+      local[s].push_back(partTransformed(part, camera.world_to_camera));
+      Eigen::Vector3d lo, hi;
+      partBounds(local[s].back(), &lo, &hi);
+      boxes[s].push_back(projectBox(camera, lo, hi));
+      if (!full_frame) mark(boxes[s].back());
+    }
+    const ShadowMap& shadow = shadows[s];
+    if (!full_frame && shadow.width > 0) {
+      const Eigen::Vector2d margin = Eigen::Vector2d::Constant(shadow.texel);
+      const Eigen::Vector2d extent(shadow.width * shadow.texel, shadow.height * shadow.texel);
+      mark(projectTableRectangle(camera, shadow.origin - margin, shadow.origin + extent + margin));
     }
   }
+
+  StudioImage image;
+  image.labels = cv::Mat(height, width, CV_8UC1, cv::Scalar(kLabelBackground));
+  image.depth = data.bg_depth.clone();
+  if (!subframes.empty() && !region.empty()) {
+    for (int v = region.v0; v <= region.v1; ++v) {
+      for (int u = region.u0; u <= region.u1; ++u) {
+        const size_t i = static_cast<size_t>(v) * width + u;
+        if (scratch.changed[i]) acc[i] = Eigen::Vector3f::Zero();
+      }
+    }
+  }
+  const Eigen::Matrix3d world_to_camera_rotation = camera.world_to_camera.linear();
+  const Eigen::Vector3d light = world_to_camera_rotation * light_;
+  const Eigen::Vector3d up = world_to_camera_rotation * Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  RayHit hit;
+  for (size_t s = 0; s < subframes.size() && !region.empty(); ++s) {
+    // Depth test of the parts inside their boxes, over the background's distances.
+    for (int v = region.v0; v <= region.v1; ++v) {
+      const size_t row = static_cast<size_t>(v) * width;
+      std::copy(data.bg_t.begin() + row + region.u0, data.bg_t.begin() + row + region.u1 + 1,
+                scratch.tbuf.begin() + row + region.u0);
+      std::fill(scratch.owner.begin() + row + region.u0,
+                scratch.owner.begin() + row + region.u1 + 1, -1);
+    }
+    const std::vector<SurfacePart>& parts = local[s];
+    for (size_t k = 0; k < parts.size(); ++k) {
+      const PixelBox& box = boxes[s][k];
+      // Most rays of the box miss the part: a sphere around it (radius with a margin for
+      // rounding) rejects them before the exact intersection.
+      Eigen::Vector3d centre;
+      double radius;
+      if (parts[k].kind == SurfacePart::Kind::kRoundCone) {
+        const RoundCone& cone = parts[k].cone;
+        centre = 0.5 * (cone.a + cone.b);
+        radius = 0.5 * (cone.b - cone.a).norm() + std::max(cone.ra, cone.rb);
+      } else {
+        Eigen::Vector3d lo, hi;
+        partBounds(parts[k], &lo, &hi);
+        centre = 0.5 * (lo + hi);
+        radius = 0.5 * (hi - lo).norm();
+      }
+      const double reject = radius * radius * (1.0 + 1e-6) + 1e-12;
+      const double centre_sq = centre.squaredNorm();
+      for (int v = box.v0; v <= box.v1; ++v) {
+        for (int u = box.u0; u <= box.u1; ++u) {
+          const size_t i = static_cast<size_t>(v) * width + u;
+          const Eigen::Vector3d dir = data.rays[i].cast<double>();
+          const double along = centre.dot(dir);
+          if (centre_sq - along * along > reject) continue;
+          if (partIntersect(parts[k], origin, dir, &hit, 1e-4) && hit.t < scratch.tbuf[i]) {
+            scratch.tbuf[i] = static_cast<float>(hit.t);
+            scratch.owner[i] = static_cast<int>(k);
+            scratch.normals[i] = hit.normal.cast<float>();
+          }
+        }
+      }
+    }
+    // Shading of the changed pixels: the parts, and the background with the shadow.
+    const ShadowMap& shadow = shadows[s];
+    const auto* bg_linear = data.bg_linear.ptr<Eigen::Vector3f>();
+    for (int v = region.v0; v <= region.v1; ++v) {
+      for (int u = region.u0; u <= region.u1; ++u) {
+        const size_t i = static_cast<size_t>(v) * width + u;
+        if (!scratch.changed[i]) continue;
+        const int k = scratch.owner[i];
+        if (k < 0) {
+          Eigen::Vector3f c = bg_linear[i];
+          if (shadow.width > 0 && !std::isnan(data.table_uv[i].x())) {
+            const float occ = shadow.sample(data.table_uv[i].x(), data.table_uv[i].y());
+            if (occ > 0.0f) {
+              const float lit = static_cast<float>(scene_.ambient) + data.bg_direct[i];
+              c *= (lit - occ * data.bg_direct[i]) / lit;
+            }
+          }
+          acc[i] += c;
+          continue;
+        }
+        const SurfacePart& part = parts[k];
+        const Eigen::Vector3d normal = scratch.normals[i].cast<double>();
+        const Eigen::Vector3d point =
+            static_cast<double>(scratch.tbuf[i]) * data.rays[i].cast<double>();
+        const Eigen::Vector3f albedo = surfaceAlbedo(part, point, normal);
+        const double ambient = scene_.ambient * (0.8 + 0.2 * normal.dot(up));
+        const double direct = scene_.light_intensity * std::max(0.0, normal.dot(light));
+        acc[i] += albedo * static_cast<float>(ambient + direct);
+      }
+    }
+    if (s == middle) {
+      float* depth = image.depth.ptr<float>();
+      for (int v = region.v0; v <= region.v1; ++v) {
+        for (int u = region.u0; u <= region.u1; ++u) {
+          const size_t i = static_cast<size_t>(v) * width + u;
+          const int k = scratch.owner[i];
+          if (k < 0) continue;
+          image.labels.data[i] = parts[k].label;
+          depth[i] = scratch.tbuf[i] * data.rays[i].z();
+        }
+      }
+    }
+  }
+
+  cv::Mat& accum = scratch.accum;
   accum *= light_gain / static_cast<double>(count);
   if (sensor_.blur_sigma > 0.0) cv::GaussianBlur(accum, accum, cv::Size(0, 0), sensor_.blur_sigma);
 
   // Encode (sRGB), add sensor noise, quantise.
-  static const std::vector<float> kLut = [] {
-    std::vector<float> lut(4097);
-    for (size_t i = 0; i < lut.size(); ++i) lut[i] = 255.0f * linearToSrgb(i / 4096.0f);
-    return lut;
-  }();
-  cv::Mat noise(cam.height, cam.width, CV_32FC3, cv::Scalar::all(0));
+  scratch.noise.create(height, width, CV_32FC3);
   if (sensor_.noise_sigma > 0.0) {
-    cv::RNG rng(mixSeed(noise_seed, static_cast<std::uint64_t>(camera)));
-    rng.fill(noise, cv::RNG::NORMAL, cv::Scalar::all(0), cv::Scalar::all(sensor_.noise_sigma));
+    cv::RNG rng(mixSeed(noise_seed, static_cast<std::uint64_t>(camera_index)));
+    rng.fill(scratch.noise, cv::RNG::NORMAL, cv::Scalar::all(0),
+             cv::Scalar::all(sensor_.noise_sigma));
+  } else {
+    scratch.noise.setTo(cv::Scalar::all(0));
   }
-  image.rgb = cv::Mat(cam.height, cam.width, CV_8UC3);
-  const auto* nz = noise.ptr<cv::Vec3f>();
-  auto* out = image.rgb.ptr<cv::Vec3b>();
-  for (size_t i = 0; i < n; ++i) {
-    for (int c = 0; c < 3; ++c) {
-      const float l = std::clamp(acc[i][c], 0.0f, 1.0f);
-      out[i][c] =
-          cv::saturate_cast<uchar>(kLut[static_cast<size_t>(l * 4096.0f + 0.5f)] + nz[i][c]);
-    }
-  }
+  image.rgb = cv::Mat(height, width, CV_8UC3);
+  encodeSrgb(accum.ptr<float>(), scratch.noise.ptr<float>(), 3 * n, image.rgb.ptr<std::uint8_t>());
   return image;
 }
 
 std::vector<StudioImage> StudioRenderer::render(
     const std::vector<std::vector<SurfacePart>>& subframes, std::uint64_t noise_seed,
     double light_gain) const {
-  std::vector<ShadowMap> shadows;
-  for (const auto& parts : subframes) shadows.push_back(computeShadow(parts));
+  const std::vector<ShadowMap> shadows = computeShadows(subframes);
   std::vector<StudioImage> images;
   images.reserve(cameras_.size());
   for (size_t c = 0; c < cameras_.size(); ++c) {
-    images.push_back(renderCamera(static_cast<int>(c), subframes, shadows, noise_seed, light_gain));
+    images.push_back(
+        renderCamera(static_cast<int>(c), subframes, shadows, noise_seed, light_gain, false));
   }
   return images;
 }

@@ -1,12 +1,15 @@
 // Tests of the synthetic studio: primitives, hand surface, renderer, motions and sequences.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <functional>
+#include <iomanip>
 #include <map>
 #include <opencv2/core.hpp>
 #include <random>
+#include <sstream>
 
 #include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/energy/colour.h"
@@ -17,6 +20,7 @@
 #include "sag_hand_tracker/studio/motion.h"
 #include "sag_hand_tracker/studio/primitives.h"
 #include "sag_hand_tracker/studio/renderer.h"
+#include "sag_hand_tracker/studio/room.h"
 #include "sag_hand_tracker/studio/sequence.h"
 
 using namespace sag_hand_tracker;
@@ -479,6 +483,126 @@ TEST(StudioRender, PlateSegmentationSeparatesTheRenderedHand) {
   EXPECT_GT(hand_found / hand_total, 0.95);
   EXPECT_LT(false_fg / fg_total, 0.05);
   EXPECT_LT(sleeve_fg / fg_total, 0.01);
+}
+
+namespace {
+
+// The daylight room (photographs, props, the second arm) with the pinch hand at frame 40,
+// `subframes` sub-frames of motion blur, lit by `light_gain`: everything the renderer draws.
+struct RoomFrameRenderer {
+  StudioRoom room{builtinRoom("daylight"), handModel(), kSourceDir + "/config"};
+  StudioRenderer renderer;
+  RoomFrameRenderer() : renderer(dexter5(), sceneOf(room)) {}
+  static StudioSceneParams sceneOf(const StudioRoom& room) {
+    StudioSceneParams base;
+    base.background_supersampling = 1;  // the background cache is the same code, set-up faster
+    return room.scene(base);
+  }
+  std::vector<std::vector<SurfacePart>> subframes(int count) const {
+    SequenceParams params;
+    params.motion_blur_samples = count;
+    const StudioSequence sequence(handModel(), builtinMotion("pinch", 1), params);
+    auto parts = sequence.surfaces(40);
+    room.addProps(&parts, sequence.frameTime(40));
+    return parts;
+  }
+};
+
+const RoomFrameRenderer& roomFrameRenderer() {
+  static const RoomFrameRenderer renderer;
+  return renderer;
+}
+
+// A summary of one image that survives rounding: the sum of each colour channel, the pixels of
+// each kind of label, the summed depth.
+struct ImageFingerprint {
+  std::array<double, 3> channel_sum{};
+  int background = 0, prop = 0, hand = 0, sleeve = 0;
+  double depth_sum = 0.0;
+};
+
+ImageFingerprint fingerprint(const StudioImage& image) {
+  ImageFingerprint f;
+  const cv::Scalar sum = cv::sum(image.rgb);
+  for (int c = 0; c < 3; ++c) f.channel_sum[c] = sum[c];
+  for (size_t i = 0; i < image.labels.total(); ++i) {
+    const std::uint8_t label = image.labels.data[i];
+    if (label == kLabelBackground)
+      ++f.background;
+    else if (label == kLabelProp)
+      ++f.prop;
+    else if (label == kLabelSleeve)
+      ++f.sleeve;
+    else if (isTrackedHandLabel(label))
+      ++f.hand;
+  }
+  f.depth_sum = cv::sum(image.depth)[0];
+  return f;
+}
+
+std::string describe(const ImageFingerprint& f) {
+  std::ostringstream out;
+  out << std::setprecision(12) << "{{" << f.channel_sum[0] << ", " << f.channel_sum[1] << ", "
+      << f.channel_sum[2] << "}, " << f.background << ", " << f.prop << ", " << f.hand << ", "
+      << f.sleeve << ", " << f.depth_sum << "}";
+  return out.str();
+}
+
+}  // namespace
+
+bool sameImage(const StudioImage& a, const StudioImage& b) {
+  return cv::norm(a.rgb, b.rgb, cv::NORM_INF) == 0.0 &&
+         cv::norm(a.labels, b.labels, cv::NORM_INF) == 0.0 &&
+         cv::norm(a.depth, b.depth, cv::NORM_INF) == 0.0;
+}
+
+// The fast path (only the pixels the parts and their shadows can change are shaded, over the
+// cached background, in reused buffers) gives exactly the image of shading every pixel: one and
+// several sub-frames, the empty studio, after other frames were rendered in the same buffers.
+TEST(StudioRender, ChangedRegionRenderingEqualsShadingEveryPixel) {
+  const RoomFrameRenderer& room = roomFrameRenderer();
+  for (const int count : {1, 3, 4}) {
+    const auto subframes = room.subframes(count);
+    for (int c = 0; c < static_cast<int>(dexter5().size()); ++c) {
+      const StudioImage fast = room.renderer.renderCamera(c, subframes, 5 + count, 0.8);
+      const StudioImage full = room.renderer.renderCameraFullFrame(c, subframes, 5 + count, 0.8);
+      EXPECT_TRUE(sameImage(fast, full)) << count << " sub-frames, camera " << c;
+      EXPECT_GT(cv::countNonZero(fast.labels != kLabelBackground), 1000) << c;
+    }
+  }
+  const StudioImage empty = room.renderer.renderCamera(2, {}, 9, 0.5);
+  EXPECT_TRUE(sameImage(empty, room.renderer.renderCameraFullFrame(2, {}, 9, 0.5)));
+  EXPECT_EQ(cv::countNonZero(empty.labels != kLabelBackground), 0);
+  // The same frame again, after others: nothing of them is left in the buffers.
+  const auto subframes = room.subframes(1);
+  const StudioImage again = room.renderer.renderCamera(0, subframes, 6, 0.8);
+  EXPECT_TRUE(sameImage(again, room.renderer.renderCameraFullFrame(0, subframes, 6, 0.8)));
+}
+
+// The images as the renderer made them before the changed-region fast path (commit 00d8c5c, on
+// this machine; equal there bit for bit but for rounding in the motion blur's sum): the daylight
+// room, shadows, noise, dimmed light, 3 sub-frames of motion blur.
+TEST(StudioRender, RoomFrameMatchesTheImagesOfTheEarlierRenderer) {
+  const ImageFingerprint before[5] = {
+      {{4669798, 5552663, 5297980}, 68319, 1497, 2648, 4336, 110005.760582},
+      {{4892034, 6007915, 5698817}, 69539, 2115, 2698, 2448, 97176.9149728},
+      {{4828086, 5775507, 5442393}, 67024, 4334, 2065, 3377, 102163.902562},
+      {{4926739, 5694430, 5426085}, 66671, 2667, 1515, 5947, 129590.061371},
+      {{5389503, 6640941, 6064699}, 63413, 7225, 2958, 3204, 62977.4524893},
+  };
+  const RoomFrameRenderer& room = roomFrameRenderer();
+  const auto images = room.renderer.render(room.subframes(3), 77, 0.7);
+  ASSERT_EQ(images.size(), 5u);
+  for (size_t c = 0; c < images.size(); ++c) {
+    const ImageFingerprint now = fingerprint(images[c]);
+    SCOPED_TRACE("camera " + std::to_string(c) + ": " + describe(now));
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(now.channel_sum[k], before[c].channel_sum[k], 20.0);
+    EXPECT_NEAR(now.background, before[c].background, 2);
+    EXPECT_NEAR(now.prop, before[c].prop, 2);
+    EXPECT_NEAR(now.hand, before[c].hand, 2);
+    EXPECT_NEAR(now.sleeve, before[c].sleeve, 2);
+    EXPECT_NEAR(now.depth_sum, before[c].depth_sum, 1e-6 * before[c].depth_sum);
+  }
 }
 
 TEST(StudioRender, RejectsUnusableCameras) {

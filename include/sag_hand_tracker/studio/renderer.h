@@ -3,6 +3,12 @@
 // primitive's projected bounding box with a depth buffer, its cast shadow on the table, optional
 // motion blur (average of sub-frame renders), a small optical blur and seeded Gaussian sensor
 // noise. Cameras are exact pinholes (distortion, if any, is ignored). No ROS.
+//
+// Speed: the lit background (room, table, textures) is computed once per camera at construction;
+// a frame shades only the pixels a sub-frame can change (the parts' projected bounding boxes and
+// their shadow's footprint on the table) over that cached image, in per-thread buffers reused
+// from frame to frame. The light gain scales the finished sum, so the cache does not depend on
+// it. renderCameraFullFrame shades every pixel instead: the same image, for the tests.
 #pragma once
 
 #include <Eigen/Core>
@@ -74,6 +80,11 @@ class StudioRenderer {
   // One camera only.
   StudioImage renderCamera(int camera, const std::vector<std::vector<SurfacePart>>& subframes,
                            std::uint64_t noise_seed, double light_gain = 1.0) const;
+  // The same image with every pixel of every sub-frame shaded (no changed-region bookkeeping):
+  // slower, the reference the tests hold renderCamera to.
+  StudioImage renderCameraFullFrame(int camera,
+                                    const std::vector<std::vector<SurfacePart>>& subframes,
+                                    std::uint64_t noise_seed, double light_gain = 1.0) const;
 
   const std::vector<Camera>& cameras() const { return cameras_; }
   const StudioSceneParams& scene() const { return scene_; }
@@ -81,11 +92,12 @@ class StudioRenderer {
 
  private:
   struct CameraData {
-    std::vector<Eigen::Vector3f> rays;       // per pixel, unit direction in the camera frame
-    std::vector<Eigen::Vector3f> bg_linear;  // per pixel, lit background colour (linear RGB)
-    std::vector<float> bg_t;                 // per pixel, ray distance to the background
-    std::vector<float> bg_direct;            // per pixel, the key light's share of bg_linear
-    std::vector<Eigen::Vector2f> table_uv;   // per pixel, table point (x, y), NaN if not table
+    std::vector<Eigen::Vector3f> rays;      // per pixel, unit direction in the camera frame
+    cv::Mat bg_linear;                      // CV_32FC3, lit background colour (linear RGB)
+    std::vector<float> bg_t;                // per pixel, ray distance to the background
+    std::vector<float> bg_direct;           // per pixel, the key light's share of bg_linear
+    std::vector<Eigen::Vector2f> table_uv;  // per pixel, table point (x, y), NaN if not table
+    cv::Mat bg_depth;                       // CV_32FC1, bg_t along the optical axis
   };
   // Per sub-frame: which table points are in the hand's shadow (fraction 0..1 of key light).
   struct ShadowMap {
@@ -97,11 +109,11 @@ class StudioRenderer {
     float sample(float x, float y) const;
   };
   ShadowMap computeShadow(const std::vector<SurfacePart>& parts) const;
+  std::vector<ShadowMap> computeShadows(
+      const std::vector<std::vector<SurfacePart>>& subframes) const;
   StudioImage renderCamera(int camera, const std::vector<std::vector<SurfacePart>>& subframes,
                            const std::vector<ShadowMap>& shadows, std::uint64_t noise_seed,
-                           double light_gain) const;
-  void renderLinear(int camera, const std::vector<SurfacePart>& parts, const ShadowMap* shadow,
-                    std::vector<Eigen::Vector3f>* colour, cv::Mat* labels, cv::Mat* depth) const;
+                           double light_gain, bool full_frame) const;
 
   std::vector<Camera> cameras_;
   StudioSceneParams scene_;
