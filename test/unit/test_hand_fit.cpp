@@ -337,7 +337,8 @@ TEST_P(FitOnStudioHands, TrackingWithTheFittedModelBeatsTheDefault) {
 // The bar of issue 10: every fitted finger bone within 5 % of the rendered hand's. NOT MET
 // (doc/calibration.md, "Measured" and "Why the size comes out small"): wrist to fingertip is
 // within 5 %, but the shape score does not fix where the knuckles sit, and single fingers are off
-// by up to 8 % here (up to 6 % with calibrate_hand's 16 frames and 2 rounds), so this test fails.
+// by up to 8 % here and the thumb of short_wide_thick by 14.5 % (up to 6 % with calibrate_hand's
+// 16 frames and 2 rounds), so this test fails.
 // It is disabled to keep the suite green, at the bar, not loosened: run it with
 // --gtest_also_run_disabled_tests.
 TEST_P(FitOnStudioHands, DISABLED_BoneLengthsWithinFivePercent) {
