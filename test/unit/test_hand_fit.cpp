@@ -9,7 +9,6 @@
 #include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/fitting/hand_fit.h"
 #include "sag_hand_tracker/model/hand_model.h"
-#include "sag_hand_tracker/model/hand_model.h"
 #include "sag_hand_tracker/model/kinematics.h"
 #include "sag_hand_tracker/studio/hand_surface.h"
 #include "sag_hand_tracker/studio/motion.h"
@@ -186,6 +185,40 @@ std::string joined(const std::vector<std::string>& items) {
   std::string text;
   for (const std::string& item : items) text += item + "; ";
   return text;
+}
+
+// The fitted skeleton against a known one: per bone, knuckle and finger, fitted / true - 1.
+TEST(SkeletonComparison, ErrorsAgainstAShapedModel) {
+  const HandModel model = handModel();
+  studio::HandShape shape;
+  shape.finger_length[1] = 1.1;  // the index
+  const SkeletonErrors same = compareSkeletons(model, model);
+  EXPECT_EQ(same.worst_bone, 0.0);
+  EXPECT_EQ(same.bonesWithin(0.05), 15);
+
+  const SkeletonErrors errors = compareSkeletons(model, studio::shapeHandModel(model, shape));
+  for (int f = 0; f < kNumFingers; ++f) {
+    const double expected = f == 1 ? 1.0 / 1.1 - 1.0 : 0.0;
+    for (double bone : errors.bone[f]) EXPECT_NEAR(bone, expected, 1e-12) << fingerNames()[f];
+    EXPECT_NEAR(errors.finger[f], expected, 1e-12);
+    EXPECT_NEAR(errors.knuckle[f], 0.0, 1e-12);
+  }
+  EXPECT_NEAR(errors.worst_bone, 1.0 - 1.0 / 1.1, 1e-12);
+  EXPECT_EQ(errors.bonesWithin(0.05), 12);
+
+  // A longer palm moves every knuckle away from the wrist: the model's knuckles are too close.
+  studio::HandShape long_palm;
+  long_palm.palm_length = 1.2;
+  const SkeletonErrors palm = compareSkeletons(model, studio::shapeHandModel(model, long_palm));
+  for (int f = 0; f < kNumFingers; ++f) {
+    EXPECT_LT(palm.knuckle[f], -0.01) << fingerNames()[f];
+    EXPECT_NEAR(palm.finger[f], 0.0, 1e-12);
+  }
+
+  HandModel renamed = model;
+  renamed.bones[3].name = "elsewhere";
+  EXPECT_NE(sag_test::inputErrorOf([&] { compareSkeletons(renamed, model); }).find("'elsewhere'"),
+            std::string::npos);
 }
 
 TEST(CalibrationRoutine, AcceptsTheWholeRoutine) {
