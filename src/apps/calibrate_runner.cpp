@@ -14,6 +14,8 @@
 #include "sag_hand_tracker/apps/track_runner.h"
 #include "sag_hand_tracker/model/hand_model.h"
 #include "sag_hand_tracker/ros/bag_input.h"
+#include "sag_hand_tracker/ros/package_config.h"
+#include "sag_hand_tracker/studio/hand_shapes.h"
 #include "sag_hand_tracker/studio/hand_surface.h"
 #include "sag_hand_tracker/tracking/tracking_pipeline.h"
 #include "sag_hand_tracker/util/types.h"
@@ -116,6 +118,8 @@ Options:
   --contact-sheet PNG      also write the fitted model drawn over the images of 4 frames
   --max-frames N           frames of the recording the fit uses (16)
   --rounds N               sweeps of the greedy search (2)
+  --truth-shape NAME|FILE  a studio hand (config/hand_shapes.yaml, or a shape file) shown in
+                           the bag: also print the fitted bones' errors against its true skeleton
   --quiet                  no progress bar
   --help                   this text
 )";
@@ -135,6 +139,8 @@ CalibrateHandOptions parseCalibrateHandArguments(const std::vector<std::string>&
       options.rounds = parseIntOption(arg, value(), 1);
     } else if (arg == "--config-dir") {
       options.config_dir = value();
+    } else if (arg == "--truth-shape") {
+      options.truth_shape = value();
     } else {
       throw UsageError("unknown argument '" + arg + "'");
     }
@@ -154,6 +160,13 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
   summary.start_model =
       loadHandModel(trackBagModelPath(options.model, options.config_dir), options.hand);
   const HandModel& start = summary.start_model;
+  // The true skeleton, resolved before the long work so that a wrong name fails at once.
+  HandModel truth;
+  if (!options.truth_shape.empty()) {
+    truth = studio::shapeHandModel(
+        start,
+        studio::resolveHandShape(options.truth_shape, packageConfigDir(options.config_dir)).shape);
+  }
 
   BagReaderOptions reader_options;
   BagReader reader(options.bag, reader_options);
@@ -215,6 +228,10 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
   for (int index : summary.fit.frame_indices) {
     used.push_back(frames[index]);
     tracked_poses.push_back(frames[index].pose);
+  }
+  if (!options.truth_shape.empty()) {
+    summary.truth_shape = options.truth_shape;
+    summary.truth_errors = compareSkeletons(summary.fit.model, truth);
   }
   summary.tips_on_foreground_before = fingertipsOnForeground(start, used, tracked_poses);
   summary.tips_on_foreground_after =
@@ -313,6 +330,20 @@ std::string formatCalibrateHandSummary(const CalibrateHandSummary& s) {
   out << "  fingertips:   on the foreground in " << fixed(100.0 * s.tips_on_foreground_before, 1)
       << " % of the views with the start model, " << fixed(100.0 * s.tips_on_foreground_after, 1)
       << " % with the fitted one\n";
+  if (!s.truth_shape.empty()) {
+    const SkeletonErrors& e = s.truth_errors;
+    out << "  against the true skeleton of '" << s.truth_shape
+        << "' (fitted / true - 1; bones palm to tip, the knuckle's distance from the wrist, the "
+           "finger's length):\n";
+    for (int f = 0; f < kNumFingers; ++f) {
+      out << "    " << fingerNames()[f] << ": bones";
+      for (double error : e.bone[f]) out << " " << fixed(100.0 * error, 1) << " %";
+      out << "; knuckle " << fixed(100.0 * e.knuckle[f], 1) << " %, finger "
+          << fixed(100.0 * e.finger[f], 1) << " %\n";
+    }
+    out << "    worst bone " << fixed(100.0 * e.worst_bone, 1) << " %, " << e.bonesWithin(0.05)
+        << " of 15 bones within 5 %\n";
+  }
   out << "  output:       " << s.out;
   if (!s.contact_sheet.empty()) out << ", contact sheet " << s.contact_sheet;
   out << " (" << fixed(s.seconds, 1) << " s)\n";

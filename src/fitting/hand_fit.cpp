@@ -8,8 +8,8 @@
 #include <sstream>
 
 #include "sag_hand_tracker/energy/colour.h"
-#include "sag_hand_tracker/model/kinematics.h"
 #include "sag_hand_tracker/energy/projection.h"
+#include "sag_hand_tracker/model/kinematics.h"
 #include "sag_hand_tracker/studio/hand_surface.h"
 
 namespace sag_hand_tracker {
@@ -504,6 +504,45 @@ HandFitResult fitHandModel(const HandModel& start, const std::vector<Calibration
   result.energy_after = meanEnergy(model, params.energy, used, poses);
   report(1.0, "fitted");
   return result;
+}
+
+int SkeletonErrors::bonesWithin(double tolerance) const {
+  int count = 0;
+  for (const auto& finger_bones : bone) {
+    for (double error : finger_bones) count += std::abs(error) < tolerance ? 1 : 0;
+  }
+  return count;
+}
+
+SkeletonErrors compareSkeletons(const HandModel& fitted, const HandModel& truth) {
+  if (fitted.bones.size() != truth.bones.size()) {
+    throw InputError("comparing skeletons: the fitted model has " +
+                     std::to_string(fitted.bones.size()) + " bones, the true one " +
+                     std::to_string(truth.bones.size()));
+  }
+  for (size_t b = 0; b < truth.bones.size(); ++b) {
+    if (fitted.bones[b].name != truth.bones[b].name) {
+      throw InputError("comparing skeletons: bone " + std::to_string(b) + " is '" +
+                       fitted.bones[b].name + "' in the fitted model, '" + truth.bones[b].name +
+                       "' in the true one");
+    }
+  }
+  const auto chains = studio::fingerChains(truth);
+  SkeletonErrors errors;
+  for (int f = 0; f < kNumFingers; ++f) {
+    double fitted_sum = 0.0, true_sum = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      const int b = chains[f][k];
+      errors.bone[f][k] = fitted.bones[b].length / truth.bones[b].length - 1.0;
+      errors.worst_bone = std::max(errors.worst_bone, std::abs(errors.bone[f][k]));
+      fitted_sum += fitted.bones[b].length;
+      true_sum += truth.bones[b].length;
+    }
+    errors.finger[f] = fitted_sum / true_sum - 1.0;
+    const int root = chains[f][0];
+    errors.knuckle[f] = fitted.bones[root].offset.norm() / truth.bones[root].offset.norm() - 1.0;
+  }
+  return errors;
 }
 
 double fingertipsOnForeground(const HandModel& model, const std::vector<CalibrationFrame>& frames,

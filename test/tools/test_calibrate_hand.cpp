@@ -76,13 +76,14 @@ TEST_F(CalibrateHandTool, TooShortARecording) {
 
 TEST_F(CalibrateHandTool, OneView) {
   // A rig of dexter5's first camera only.
-  const std::string rig = write("one_camera.yaml", "root_frame: world\ncameras:\n"
-                                                   "  - name: cam0\n    calibration: " +
-                                                       kConfig +
-                                                       "/rigs/dexter5/cam0.yaml\n"
-                                                       "    translation: [0.679731, 0, 0.466964]\n"
-                                                       "    rotation: [-0.605042113, "
-                                                       "-0.587501557, 0.374348205, 0.385524815]\n");
+  const std::string rig = write("one_camera.yaml",
+                                "root_frame: world\ncameras:\n"
+                                "  - name: cam0\n    calibration: " +
+                                    kConfig +
+                                    "/rigs/dexter5/cam0.yaml\n"
+                                    "    translation: [0.679731, 0, 0.466964]\n"
+                                    "    rotation: [-0.605042113, "
+                                    "-0.587501557, 0.374348205, 0.385524815]\n");
   expectFailure(routineBag("one_view.bag", 12, rig),
                 "the recording has 1 camera; calibrate_hand needs at least 2 views of the hand");
 }
@@ -99,6 +100,13 @@ TEST_F(CalibrateHandTool, RefusesToReplaceFilesAndChecksTheCommandLine) {
   run = calibrateHand("--bag '" + path("missing.bag") + "' --out '" + path("new.yaml") + "'");
   EXPECT_EQ(run.status, 1);
   EXPECT_NE(run.err.find("missing.bag"), std::string::npos) << run.err;
+  EXPECT_FALSE(fs::exists(path("new.yaml")));
+
+  // An unknown studio hand for --truth-shape is refused before the recording is read.
+  run = calibrateHand("--bag '" + path("missing.bag") + "' --out '" + path("new.yaml") +
+                      "' --truth-shape no_such_hand");
+  EXPECT_EQ(run.status, 1);
+  EXPECT_NE(run.err.find("no hand shape 'no_such_hand'"), std::string::npos) << run.err;
   EXPECT_FALSE(fs::exists(path("new.yaml")));
 
   run = calibrateHand("--bag x.bag");

@@ -9,7 +9,6 @@
 #include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/fitting/hand_fit.h"
 #include "sag_hand_tracker/model/hand_model.h"
-#include "sag_hand_tracker/model/hand_model.h"
 #include "sag_hand_tracker/model/kinematics.h"
 #include "sag_hand_tracker/studio/hand_surface.h"
 #include "sag_hand_tracker/studio/motion.h"
@@ -188,6 +187,40 @@ std::string joined(const std::vector<std::string>& items) {
   return text;
 }
 
+// The fitted skeleton against a known one: per bone, knuckle and finger, fitted / true - 1.
+TEST(SkeletonComparison, ErrorsAgainstAShapedModel) {
+  const HandModel model = handModel();
+  studio::HandShape shape;
+  shape.finger_length[1] = 1.1;  // the index
+  const SkeletonErrors same = compareSkeletons(model, model);
+  EXPECT_EQ(same.worst_bone, 0.0);
+  EXPECT_EQ(same.bonesWithin(0.05), 15);
+
+  const SkeletonErrors errors = compareSkeletons(model, studio::shapeHandModel(model, shape));
+  for (int f = 0; f < kNumFingers; ++f) {
+    const double expected = f == 1 ? 1.0 / 1.1 - 1.0 : 0.0;
+    for (double bone : errors.bone[f]) EXPECT_NEAR(bone, expected, 1e-12) << fingerNames()[f];
+    EXPECT_NEAR(errors.finger[f], expected, 1e-12);
+    EXPECT_NEAR(errors.knuckle[f], 0.0, 1e-12);
+  }
+  EXPECT_NEAR(errors.worst_bone, 1.0 - 1.0 / 1.1, 1e-12);
+  EXPECT_EQ(errors.bonesWithin(0.05), 12);
+
+  // A longer palm moves every knuckle away from the wrist: the model's knuckles are too close.
+  studio::HandShape long_palm;
+  long_palm.palm_length = 1.2;
+  const SkeletonErrors palm = compareSkeletons(model, studio::shapeHandModel(model, long_palm));
+  for (int f = 0; f < kNumFingers; ++f) {
+    EXPECT_LT(palm.knuckle[f], -0.01) << fingerNames()[f];
+    EXPECT_NEAR(palm.finger[f], 0.0, 1e-12);
+  }
+
+  HandModel renamed = model;
+  renamed.bones[3].name = "elsewhere";
+  EXPECT_NE(sag_test::inputErrorOf([&] { compareSkeletons(renamed, model); }).find("'elsewhere'"),
+            std::string::npos);
+}
+
 TEST(CalibrationRoutine, AcceptsTheWholeRoutine) {
   const auto frames = routineFrames({"back", "palm", "back", "fist", "back"}, 15, 5);
   const RoutineCheck check = checkCalibrationRoutine(handModel(), frames, 5);
@@ -335,9 +368,12 @@ TEST_P(FitOnStudioHands, TrackingWithTheFittedModelBeatsTheDefault) {
 }
 
 // The bar of issue 10: every fitted finger bone within 5 % of the rendered hand's. NOT MET
-// (doc/calibration.md, "Measured"): wrist to fingertip is within 5 %, but single fingers are off
-// by up to 8 % on hands other than the default one, so this test fails. It is disabled to keep the
-// suite green, at the bar, not loosened: run it with --gtest_also_run_disabled_tests.
+// (doc/calibration.md, "Measured" and "Why the size comes out small"): wrist to fingertip is
+// within 5 %, but the shape score does not fix where the knuckles sit, and single fingers are off
+// by up to 8 % here and the thumb of short_wide_thick by 14.5 % (up to 6 % with calibrate_hand's
+// 16 frames and 2 rounds), so this test fails.
+// It is disabled to keep the suite green, at the bar, not loosened: run it with
+// --gtest_also_run_disabled_tests.
 TEST_P(FitOnStudioHands, DISABLED_BoneLengthsWithinFivePercent) {
   const ShapeCase& shape_case = shapeCases()[GetParam()];
   const HandFitResult& fit = fitFor(GetParam());

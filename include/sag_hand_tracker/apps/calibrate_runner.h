@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "sag_hand_tracker/apps/command_line.h"
-#include "sag_hand_tracker/fitting/hand_fit.h"
 #include "sag_hand_tracker/apps/progress.h"
+#include "sag_hand_tracker/fitting/hand_fit.h"
 
 namespace sag_hand_tracker {
 
@@ -24,6 +24,9 @@ struct CalibrateHandOptions {
   std::string contact_sheet;             // --contact-sheet PNG (must not exist)
   int max_frames = 16;                   // --max-frames N: frames used by the fit
   int rounds = 2;                        // --rounds N: sweeps of the greedy search
+  // --truth-shape NAME|FILE: a studio hand (config/hand_shapes.yaml) whose true skeleton the
+  // summary compares the fitted one with (the bag must show that hand; empty: no comparison)
+  std::string truth_shape;
   bool quiet = false;
   bool help = false;
   std::string config_dir;  // where "sag" is (empty: the package's config/); tests set it
@@ -45,6 +48,8 @@ struct CalibrateHandSummary {
   double tips_on_foreground_before = 0.0;  // fingertip reprojection check, fraction
   double tips_on_foreground_after = 0.0;
   double seconds = 0.0;
+  std::string truth_shape;  // --truth-shape, empty: none
+  SkeletonErrors truth_errors;
 };
 
 // The whole tool. Throws InputError with a message naming the problem (bad bag, fewer than two

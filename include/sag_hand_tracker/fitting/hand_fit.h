@@ -7,6 +7,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <array>
 #include <functional>
 #include <opencv2/core.hpp>
 #include <string>
@@ -14,8 +15,8 @@
 
 #include "sag_hand_tracker/energy/energy.h"
 #include "sag_hand_tracker/model/hand_model.h"
-#include "sag_hand_tracker/optimization/optimizer.h"
 #include "sag_hand_tracker/model/pose.h"
+#include "sag_hand_tracker/optimization/optimizer.h"
 
 namespace sag_hand_tracker {
 
@@ -147,6 +148,19 @@ void sampleGaussianColours(const std::vector<CalibrationFrame>& frames,
 // InputError when there are no frames.
 HandFitResult fitHandModel(const HandModel& start, const std::vector<CalibrationFrame>& frames,
                            const HandFitParams& params, const FitProgress& progress = nullptr);
+
+// A fitted skeleton against a known one (a studio hand: studio::shapeHandModel of its shape), for
+// checking the fit where the truth is known. Errors are fitted / true - 1, per finger thumb..pinky.
+struct SkeletonErrors {
+  std::array<std::array<double, 3>, kNumFingers> bone{};  // each bone's length, palm to tip
+  std::array<double, kNumFingers> knuckle{};  // wrist to the finger's first joint (the palm's part)
+  std::array<double, kNumFingers> finger{};   // the finger's bones summed
+  double worst_bone = 0.0;                    // the largest |bone error|
+  int bonesWithin(double tolerance) const;    // bones with |error| < tolerance
+};
+
+// Throws InputError when the two models do not have the same bones.
+SkeletonErrors compareSkeletons(const HandModel& fitted, const HandModel& truth);
 
 // Fingertip reprojection check without ground truth: the fraction of (frame, camera, fingertip)
 // projections that fall on the foreground (within 1.5 sigma of an image Gaussian's centre).
