@@ -98,6 +98,8 @@ void validate(const MultiViewParams& params) {
     fail("min_moving_share must be in [0, 1]");
   }
   if (params.region_margin_cells < 0) fail("region_margin_cells must be >= 0");
+  if (params.recheck_interval < 0) fail("recheck_interval must be >= 0");
+  if (!(params.switch_distance > 0.0)) fail("switch_distance must be > 0");
 }
 
 MultiViewChoice chooseConsistentCandidates(
@@ -158,12 +160,13 @@ MultiViewChoice chooseConsistentCandidates(
               chosen = refined_chosen;
             }
           }
-          int count = 0;
+          int count = 0, moving = 0;
           double score = 0.0;
           for (size_t c = 0; c < views; ++c) {
             if (chosen[c] < 0) continue;
             ++count;
             score += candidates[c][chosen[c]].score;
+            moving += candidates[c][chosen[c]].moving;
           }
           if (count < params.min_views) continue;
           if (count > best.supporting_views ||
@@ -172,6 +175,7 @@ MultiViewChoice chooseConsistentCandidates(
             best.point = point;
             best.supporting_views = count;
             best.score = score;
+            best.moving = moving;
             best.chosen = chosen;
           }
         }
@@ -179,6 +183,40 @@ MultiViewChoice chooseConsistentCandidates(
     }
   }
   return best;
+}
+
+MultiViewChoice supportAt(const std::vector<Camera>& cameras,
+                          const std::vector<std::vector<HandCandidate>>& candidates,
+                          const Eigen::Vector3d& point, const MultiViewParams& params) {
+  if (cameras.size() != candidates.size()) {
+    throw InputError("supportAt: " + std::to_string(cameras.size()) +
+                     " cameras but candidates of " + std::to_string(candidates.size()) + " views");
+  }
+  std::vector<std::vector<Eigen::Vector2d>> centroids(cameras.size());
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    const size_t n =
+        std::min(candidates[c].size(), static_cast<size_t>(params.max_candidates_per_view));
+    for (size_t j = 0; j < n; ++j) {
+      centroids[c].push_back(cameras[c].undistortPixel(candidates[c][j].centroid));
+    }
+  }
+  MultiViewChoice result;
+  result.point = point;
+  result.chosen = support(cameras, centroids, point, params);
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    if (result.chosen[c] < 0) continue;
+    ++result.supporting_views;
+    result.score += candidates[c][result.chosen[c]].score;
+    result.moving += candidates[c][result.chosen[c]].moving;
+  }
+  return result;
+}
+
+bool replacesTrack(const MultiViewChoice& challenger, const MultiViewChoice& tracked,
+                   const MultiViewParams& params) {
+  return challenger.found && (challenger.point - tracked.point).norm() >= params.switch_distance &&
+         challenger.supporting_views > tracked.supporting_views &&
+         challenger.moving > 2 * tracked.moving;
 }
 
 cv::Mat candidateRegion(const HandCandidate* candidate, int width, int height, int margin_cells) {

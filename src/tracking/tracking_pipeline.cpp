@@ -96,6 +96,7 @@ void TrackingPipeline::reset() {
   }
   sets_seen_ = 0;
   tracked_regions_ = false;
+  sets_since_recheck_ = 0;
 }
 
 void TrackingPipeline::checkImage(const CameraImage& image) const {
@@ -111,7 +112,7 @@ void TrackingPipeline::checkImage(const CameraImage& image) const {
   }
 }
 
-void TrackingPipeline::chooseRegionsAcrossViews(const FrameSet& set) {
+bool TrackingPipeline::chooseRegionsAcrossViews(const FrameSet& set, bool tracking) {
   std::vector<std::vector<HandCandidate>> candidates(cameras_.size());
   for (const CameraImage& image : set.images) {
     candidates[image.camera] = segmenters_[image.camera].handCandidates(
@@ -119,6 +120,13 @@ void TrackingPipeline::chooseRegionsAcrossViews(const FrameSet& set) {
   }
   const MultiViewChoice choice =
       chooseConsistentCandidates(cameras_, candidates, params_.multi_view);
+  if (tracking) {
+    const MultiViewChoice at_track =
+        supportAt(cameras_, candidates, tracked_centre_, params_.multi_view);
+    if (!replacesTrack(choice, at_track, params_.multi_view)) return false;
+    tracker_.reset();
+    tracked_regions_ = false;
+  }
   for (const CameraImage& image : set.images) {
     const int c = image.camera;
     if (!choice.found) {
@@ -135,6 +143,7 @@ void TrackingPipeline::chooseRegionsAcrossViews(const FrameSet& set) {
                         params_.multi_view.region_margin_cells),
         RegionSource::kCandidates);
   }
+  return true;
 }
 
 ProcessedFrame TrackingPipeline::process(const FrameSet& set,
@@ -157,8 +166,14 @@ ProcessedFrame TrackingPipeline::process(const FrameSet& set,
   ++sets_seen_;
 
   const auto segmentation_start = std::chrono::steady_clock::now();
-  if (params_.segmentation.room.enabled && params_.multi_view.enabled && !tracked_regions_) {
-    chooseRegionsAcrossViews(set);
+  if (params_.segmentation.room.enabled && params_.multi_view.enabled) {
+    if (!tracked_regions_) {
+      chooseRegionsAcrossViews(set, false);
+    } else if (params_.multi_view.recheck_interval > 0 &&
+               ++sets_since_recheck_ >= params_.multi_view.recheck_interval) {
+      sets_since_recheck_ = 0;
+      chooseRegionsAcrossViews(set, true);
+    }
   }
   std::vector<CameraObservation> observations;
   observations.reserve(set.images.size());
@@ -184,6 +199,14 @@ ProcessedFrame TrackingPipeline::process(const FrameSet& set,
           tracked ? projectedHandMask(tracker_.model(), result.pose, cameras_[c]) : cv::Mat());
     }
     tracked_regions_ = tracked;
+    if (tracked) {
+      const PosedHand hand = forwardKinematics(tracker_.model(), result.pose);
+      tracked_centre_.setZero();
+      for (const WorldGaussian& g : hand.gaussians) tracked_centre_ += g.mean;
+      tracked_centre_ /= static_cast<double>(std::max<size_t>(hand.gaussians.size(), 1));
+    } else {
+      sets_since_recheck_ = 0;
+    }
   }
   if (observations_out) *observations_out = std::move(observations);
   return processed;

@@ -410,6 +410,38 @@ TEST(MultiViewConsistency, AStillObjectSeenByEveryViewCannotStartTheTrack) {
   EXPECT_EQ(choice.supporting_views, static_cast<int>(cameras.size()));  // all views support it
 }
 
+TEST(MultiViewConsistency, AHandThatComesIntoViewReplacesATrackOnTheOtherArm) {
+  const std::vector<Camera>& cameras = dexter5();
+  const Eigen::Vector3d hand = studioPose().translation;
+  const Eigen::Vector3d other_arm = hand + Eigen::Vector3d(0.35, -0.1, -0.1);
+  std::vector<std::vector<HandCandidate>> candidates(cameras.size());
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    // The other arm drifts (some cells move) and is seen by four views; the hand has just come
+    // into view in all five (every cell moved).
+    Eigen::Vector2d pixel;
+    if (c != 0 && cameras[c].project(other_arm, &pixel)) {
+      candidates[c].push_back(candidateAt(cameras[c], other_arm, 300.0, 30));
+    }
+    candidates[c].push_back(candidateAt(cameras[c], hand, 200.0, 100));
+  }
+  const MultiViewParams params;
+  const MultiViewChoice challenger = chooseConsistentCandidates(cameras, candidates, params);
+  ASSERT_TRUE(challenger.found);
+  EXPECT_LT((challenger.point - hand).norm(), 0.005);
+  const MultiViewChoice at_arm = supportAt(cameras, candidates, other_arm, params);
+  EXPECT_FALSE(at_arm.found);
+  EXPECT_LE(at_arm.supporting_views, 4);
+  EXPECT_GE(at_arm.supporting_views, 2);
+  EXPECT_TRUE(replacesTrack(challenger, at_arm, params));
+  // A track on the hand is not replaced by the choice at the hand itself, nor by the arm.
+  const MultiViewChoice at_hand = supportAt(cameras, candidates, hand, params);
+  EXPECT_EQ(at_hand.supporting_views, static_cast<int>(cameras.size()));
+  EXPECT_FALSE(replacesTrack(challenger, at_hand, params));
+  MultiViewChoice arm_choice = at_arm;
+  arm_choice.found = true;
+  EXPECT_FALSE(replacesTrack(arm_choice, at_hand, params));
+}
+
 TEST(MultiViewConsistency, APointBehindACameraIsNeverChosen) {
   // Two cameras that look at each other's backs from in front: rays that meet behind camera 1.
   const std::vector<Camera>& rig = dexter5();

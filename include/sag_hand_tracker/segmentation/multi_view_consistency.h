@@ -23,13 +23,20 @@ struct MultiViewParams {
   // A view supports a point when one of its candidates' centroids is within this (m, at the
   // point's depth) of the point's projection.
   double support_radius = 0.05;
-  double min_depth = 0.05;      // m in front of every camera (TrackerParams::min_camera_depth)
-  int min_views = 2;            // supporting views needed for a choice
+  double min_depth = 0.05;  // m in front of every camera (TrackerParams::min_camera_depth)
+  int min_views = 2;        // supporting views needed for a choice
   // The hand moves: only a pair of candidates of which at least this share of cells moves (in
   // both views) can propose a point; a still face, a photograph or a resting object cannot start
   // the track. 0: no motion needed.
   double min_moving_share = 0.1;
   int region_margin_cells = 2;  // the chosen candidate's cells grown by this for the region
+  // While a hand is tracked, every this many sets the choice is made again on the whole images;
+  // a choice at least `switch_distance` (m) from the tracked hand, with more supporting views and
+  // more than twice the moving cells of the candidates at the tracked hand, replaces the track
+  // (the start locked on a slower thing: the other arm drifting before the hand came into view).
+  // 0: never.
+  int recheck_interval = 5;
+  double switch_distance = 0.15;
 };
 // Throws InputError naming the first bad parameter.
 void validate(const MultiViewParams& params);
@@ -39,6 +46,7 @@ struct MultiViewChoice {
   Eigen::Vector3d point = Eigen::Vector3d::Zero();  // root frame: the hand's centroid
   int supporting_views = 0;
   double score = 0.0;       // sum of the chosen candidates' scores
+  int moving = 0;           // sum of the chosen candidates' moving cells
   std::vector<int> chosen;  // per view: index into its candidates, -1 for none
 };
 
@@ -51,6 +59,16 @@ struct MultiViewChoice {
 MultiViewChoice chooseConsistentCandidates(
     const std::vector<Camera>& cameras, const std::vector<std::vector<HandCandidate>>& candidates,
     const MultiViewParams& params);
+
+// The support of a root-frame point (e.g. the tracked hand's centre): per view the candidate whose
+// centroid is nearest its projection within support_radius; `point` as given, `found` false.
+MultiViewChoice supportAt(const std::vector<Camera>& cameras,
+                          const std::vector<std::vector<HandCandidate>>& candidates,
+                          const Eigen::Vector3d& point, const MultiViewParams& params);
+
+// Whether `challenger` should replace a track whose support is `tracked` (recheck_interval).
+bool replacesTrack(const MultiViewChoice& challenger, const MultiViewChoice& tracked,
+                   const MultiViewParams& params);
 
 // The region of interest (CV_8UC1, width x height) for a view: the chosen candidate's cells grown
 // by margin_cells, or all zero when `candidate` is null (no candidate in this view agrees).

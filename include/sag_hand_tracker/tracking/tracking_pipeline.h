@@ -84,7 +84,9 @@ class TrackingPipeline {
  private:
   void checkImage(const CameraImage& image) const;
   // Before the start: gives each camera's segmenter its multi-view candidate region for `set`.
-  void chooseRegionsAcrossViews(const FrameSet& set);
+  // While tracking (MultiViewParams::recheck_interval): only when the choice replaces the track,
+  // which is then reset; returns whether the regions were set.
+  bool chooseRegionsAcrossViews(const FrameSet& set, bool tracking);
 
   std::vector<Camera> cameras_;
   PipelineParams params_;
@@ -92,6 +94,8 @@ class TrackingPipeline {
   HandTracker tracker_;
   int sets_seen_ = 0;
   bool tracked_regions_ = false;  // the segmenters hold regions from a tracked pose
+  Eigen::Vector3d tracked_centre_ = Eigen::Vector3d::Zero();  // mean of the tracked model's means
+  int sets_since_recheck_ = 0;
 };
 
 }  // namespace sag_hand_tracker
