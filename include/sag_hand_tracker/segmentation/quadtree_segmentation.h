@@ -54,11 +54,10 @@ struct QuadtreeParams {
 // skin-coloured things. ImageSegmenter::segmentFrame (stateful, one call per frame of one camera)
 // narrows their foreground down to the hand:
 //   1. learned skin colour: once the hand has been found (the first frame with a region of
-//      interest), the chromaticity (r, g) = (R, G) / (R + G + B) of the foreground cells inside
-//      it is learned (mean and covariance of the cells within 0.03 of their median, then updated
-//      slowly); a cell farther than
-//      skin_max_distance (Mahalanobis) from it is not hand. Chromaticity does not change with the
-//      light's brightness.
+//      interest from the tracked hand, RegionSource::kTrack), the chromaticity (r, g) = (R, G) / (R
+//      + G + B) of the foreground cells inside it is learned (mean and covariance of the cells
+//      within 0.03 of their median, then updated slowly); a cell farther than skin_max_distance
+//      (Mahalanobis) from it is not hand. Chromaticity does not change with the light's brightness.
 //   2. region of interest: the tracked hand projected into this view (setRegionOfInterest, fed by
 //      TrackingPipeline with the model's silhouette grown by a margin); cells outside it are
 //      background, and inside it only connected
@@ -68,8 +67,10 @@ struct QuadtreeParams {
 //      with the best score = cells + motion_weight * moving cells + sleeve_weight * cells next to
 //      a dark (sleeve) cell, together with the components inside its box (fingers cut off by a
 //      gap). The hand moves and joins the sleeve; a face, a photograph or a resting object do
-//      not. (Requiring motion before anything counts as hand was tried: it kept the start off
-//      still props, but delayed and spoiled the start with the plate; see doc/segmentation.md.)
+//      not. With several cameras TrackingPipeline chooses instead among these candidates
+//      (handCandidates) the ones that triangulate across the views (multi_view_consistency.h).
+//      (Requiring motion before anything counts as hand was tried: it kept the start off still
+//      props, but delayed and spoiled the start with the plate; see doc/segmentation.md.)
 //   4. motion: a cell moves when its colour differs from the previous frame's (scaled by the
 //      frame's overall brightness change, so that changing light is not motion) by more than
 //      motion_threshold; it stays "moving" for a while (motion_decay per frame).
