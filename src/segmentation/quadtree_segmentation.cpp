@@ -379,6 +379,12 @@ void ImageSegmenter::addBackgroundFrame(const cv::Mat& rgb) {
   ws.integral.compute(rgb, params_.cell_size);
   detail::cellMeans(ws.integral, params_.cell_size, ws.cell_means);
   plate_.addFrame(rgb.cols, rgb.rows, ws.cell_means);
+  if (params_.room.enabled) {
+    // The room cues' motion history starts here, so that the hand coming into view after the
+    // plate's frames counts as motion on its first frame.
+    room_.previous_means = ws.cell_means;
+    room_.motion.assign(ws.cell_means.size() / 3, 0.0f);
+  }
 }
 
 bool ImageSegmenter::backgroundReady() const {
@@ -529,9 +535,10 @@ cv::Mat ImageSegmenter::foregroundMask(const cv::Mat& rgb) const {
 void ImageSegmenter::setRegionOfInterest(const cv::Rect& roi) {
   roi_ = roi;
   roi_mask_ = cv::Mat();
+  roi_source_ = RegionSource::kTrack;
 }
 
-void ImageSegmenter::setRegionOfInterest(const cv::Mat& roi_mask) {
+void ImageSegmenter::setRegionOfInterest(const cv::Mat& roi_mask, RegionSource source) {
   if (roi_mask.empty()) {
     setRegionOfInterest(cv::Rect());
     return;
@@ -540,12 +547,28 @@ void ImageSegmenter::setRegionOfInterest(const cv::Mat& roi_mask) {
     throw InputError("setRegionOfInterest: the region mask must be CV_8UC1, got " +
                      cv::typeToString(roi_mask.type()));
   }
-  roi_ = cv::boundingRect(roi_mask);
+  roi_source_ = source;
   roi_mask_ = roi_mask;
+  roi_ = cv::boundingRect(roi_mask);
+  // A multi-view choice that found nothing in this view: a region that holds no cell.
+  if (roi_.area() == 0 && source == RegionSource::kCandidates) {
+    roi_ = cv::Rect(0, 0, roi_mask.cols, roi_mask.rows);
+  }
+}
+
+std::vector<HandCandidate> ImageSegmenter::handCandidates(const cv::Mat& rgb,
+                                                          int max_candidates) const {
+  Workspace& ws = workspace();
+  CellMask mask;
+  const bool masked = prepare(rgb, params_, effectiveMode(), plate_, "handCandidates", ws, mask);
+  if (!masked || !params_.room.enabled) return {};
+  return detail::roomCandidates(params_, ws.cell_means, mask.cells_x, mask.cells_y, mask.cell_size,
+                                rgb.cols, rgb.rows, room_, ws.mask, max_candidates);
 }
 
 void ImageSegmenter::resetRoomState() {
   room_ = RoomCueState();
+  roi_source_ = RegionSource::kTrack;
   roi_ = cv::Rect();
   roi_mask_ = cv::Mat();
 }
@@ -568,8 +591,8 @@ ImageSoG ImageSegmenter::segmentFrame(const cv::Mat& rgb, std::vector<QuadtreeLe
     const bool use_plate =
         (mode == SegmentationMode::kPlate || mode == SegmentationMode::kPlateAndSkin);
     detail::applyRoomCues(params_, ws.cell_means, mask.cells_x, mask.cells_y, mask.cell_size,
-                          rgb.cols, rgb.rows, roi_, roi_mask_, use_plate ? &plate_ : nullptr, room_,
-                          ws.mask);
+                          rgb.cols, rgb.rows, roi_, roi_mask_, roi_source_ == RegionSource::kTrack,
+                          use_plate ? &plate_ : nullptr, room_, ws.mask);
     finishMask(ws, mask.cells_x, mask.cells_y, mask.cell_size, mask);
     room_.mask = ws.mask;
   } else {

@@ -57,64 +57,129 @@ int labelComponents(const std::vector<unsigned char>& mask, int cells_x, int cel
 struct Component {
   int cells = 0;
   int moving = 0;
-  int sleeve = 0;  // cells next to a dark, unsaturated cell (the sleeve)
-  bool in_roi = false;
+  int sleeve = 0;      // cells next to a dark, unsaturated cell (the sleeve)
+  double score = 0.0;  // cells + motion_weight * moving + sleeve_weight * sleeve
   int x0 = 1 << 30, y0 = 1 << 30, x1 = -1, y1 = -1;  // cell box, inclusive
 };
+
+// This frame's motion per cell (RoomCueParams: decaying history, 1 = moved now) from the previous
+// frame's cell means in `state`, with the frame's overall brightness change taken out (changing
+// light is no motion). `state` is not changed.
+std::vector<float> motionOf(const RoomCueParams& room, const std::vector<float>& means,
+                            const RoomCueState& state, int cells) {
+  if (state.previous_means.size() != means.size() ||
+      state.motion.size() != static_cast<size_t>(cells)) {
+    return std::vector<float>(cells, 0.0f);
+  }
+  std::vector<float> motion(cells, 0.0f);
+  double now = 0.0, before = 0.0;
+  for (size_t i = 0; i < means.size(); ++i) {
+    now += means[i];
+    before += state.previous_means[i];
+  }
+  const double gain = before > 0.0 ? now / before : 1.0;
+  for (int i = 0; i < cells; ++i) {
+    double change = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      change =
+          std::max(change, std::fabs(means[3 * i + k] - gain * state.previous_means[3 * i + k]));
+    }
+    const float decayed = static_cast<float>(room.motion_decay) * state.motion[i];
+    motion[i] = change > room.motion_threshold ? 1.0f : decayed;
+  }
+  return motion;
+}
+
+// Drops the cells farther than skin_max_distance from the learned skin colour (once learned).
+void removeUnlikeLearnedSkin(const RoomCueParams& room, const std::vector<float>& means,
+                             const RoomCueState& state, std::vector<unsigned char>& mask) {
+  if (state.skin_frames <= 0) return;
+  const double floor = 0.012 * 0.012;  // chromaticity noise of a cell
+  const double xx = state.skin_cov[0] + floor, xy = state.skin_cov[1],
+               yy = state.skin_cov[2] + floor;
+  const double det = xx * yy - xy * xy;
+  const double limit = room.skin_max_distance * room.skin_max_distance;
+  for (size_t i = 0; i < mask.size(); ++i) {
+    if (!mask[i]) continue;
+    double r, g;
+    if (!chromaticity(&means[3 * i], &r, &g)) {
+      mask[i] = 0;
+      continue;
+    }
+    const double dr = r - state.skin_mean[0], dg = g - state.skin_mean[1];
+    const double d2 = (yy * dr * dr - 2.0 * xy * dr * dg + xx * dg * dg) / det;
+    if (d2 > limit) mask[i] = 0;
+  }
+}
+
+// The connected components of `mask` with their cues; `labels` receives the component per cell.
+std::vector<Component> analyseComponents(const SegmentationParams& params,
+                                         const std::vector<float>& means, int cells_x, int cells_y,
+                                         const std::vector<unsigned char>& mask,
+                                         const std::vector<float>& motion,
+                                         std::vector<int>& labels) {
+  const int count = labelComponents(mask, cells_x, cells_y, labels);
+  std::vector<Component> components(count);
+  for (int cy = 0; cy < cells_y; ++cy) {
+    for (int cx = 0; cx < cells_x; ++cx) {
+      const int i = cy * cells_x + cx;
+      if (labels[i] < 0) continue;
+      Component& c = components[labels[i]];
+      ++c.cells;
+      if (motion[i] > 0.5f) ++c.moving;
+      c.x0 = std::min(c.x0, cx);
+      c.x1 = std::max(c.x1, cx);
+      c.y0 = std::min(c.y0, cy);
+      c.y1 = std::max(c.y1, cy);
+      bool next_to_sleeve = false;
+      for (int dy = -1; dy <= 1 && !next_to_sleeve; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int nx = cx + dx, ny = cy + dy;
+          if (nx < 0 || ny < 0 || nx >= cells_x || ny >= cells_y) continue;
+          const float* m = &means[3 * (ny * cells_x + nx)];
+          if (isDarkNonSkin(Eigen::Vector3d(m[0], m[1], m[2]), params.background)) {
+            next_to_sleeve = true;
+            break;
+          }
+        }
+      }
+      if (next_to_sleeve) ++c.sleeve;
+    }
+  }
+  for (Component& c : components) {
+    c.score = c.cells + params.room.motion_weight * c.moving + params.room.sleeve_weight * c.sleeve;
+  }
+  return components;
+}
+
+// Component `main` together with the components inside its box grown by a quarter of its size
+// (the fingers that a gap cut off the palm): per component, whether it belongs to the group.
+std::vector<unsigned char> groupAround(const std::vector<Component>& components, int main) {
+  const Component& b = components[main];
+  const int gx = std::max(1, (b.x1 - b.x0 + 1) / 4), gy = std::max(1, (b.y1 - b.y0 + 1) / 4);
+  std::vector<unsigned char> group(components.size(), 0);
+  for (size_t k = 0; k < components.size(); ++k) {
+    const Component& c = components[k];
+    group[k] = static_cast<int>(k) == main ||
+               (c.x0 >= b.x0 - gx && c.x1 <= b.x1 + gx && c.y0 >= b.y0 - gy && c.y1 <= b.y1 + gy);
+  }
+  return group;
+}
 
 }  // namespace
 
 void applyRoomCues(const SegmentationParams& params, const std::vector<float>& means, int cells_x,
                    int cells_y, int cell_size, int width, int height, const cv::Rect& roi,
-                   const cv::Mat& roi_mask, BackgroundPlate* plate, RoomCueState& state,
-                   std::vector<unsigned char>& mask) {
+                   const cv::Mat& roi_mask, bool learn_skin, BackgroundPlate* plate,
+                   RoomCueState& state, std::vector<unsigned char>& mask) {
   const RoomCueParams& room = params.room;
   const int cells = cells_x * cells_y;
   const std::vector<unsigned char> candidate = mask;
-  if (state.previous_means.size() != means.size()) {
-    state.previous_means.clear();
-    state.motion.assign(cells, 0.0f);
-  }
-
-  // Motion, with the frame's overall brightness change taken out (changing light is no motion).
-  if (!state.previous_means.empty()) {
-    double now = 0.0, before = 0.0;
-    for (size_t i = 0; i < means.size(); ++i) {
-      now += means[i];
-      before += state.previous_means[i];
-    }
-    const double gain = before > 0.0 ? now / before : 1.0;
-    for (int i = 0; i < cells; ++i) {
-      double change = 0.0;
-      for (int k = 0; k < 3; ++k) {
-        change =
-            std::max(change, std::fabs(means[3 * i + k] - gain * state.previous_means[3 * i + k]));
-      }
-      const float decayed = static_cast<float>(room.motion_decay) * state.motion[i];
-      state.motion[i] = change > room.motion_threshold ? 1.0f : decayed;
-    }
-  }
+  const std::vector<float> motion = motionOf(room, means, state, cells);
+  state.motion = motion;
   state.previous_means = means;
 
-  // The learned skin colour.
-  if (state.skin_frames > 0) {
-    const double floor = 0.012 * 0.012;  // chromaticity noise of a cell
-    const double xx = state.skin_cov[0] + floor, xy = state.skin_cov[1],
-                 yy = state.skin_cov[2] + floor;
-    const double det = xx * yy - xy * xy;
-    const double limit = room.skin_max_distance * room.skin_max_distance;
-    for (int i = 0; i < cells; ++i) {
-      if (!mask[i]) continue;
-      double r, g;
-      if (!chromaticity(&means[3 * i], &r, &g)) {
-        mask[i] = 0;
-        continue;
-      }
-      const double dr = r - state.skin_mean[0], dg = g - state.skin_mean[1];
-      const double d2 = (yy * dr * dr - 2.0 * xy * dr * dg + xx * dg * dg) / det;
-      if (d2 > limit) mask[i] = 0;
-    }
-  }
+  removeUnlikeLearnedSkin(room, means, state, mask);
 
   // The region of interest in cells.
   const cv::Rect image(0, 0, width, height);
@@ -143,34 +208,9 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
 
   // Connected components and their cues.
   std::vector<int> labels;
-  const int count = labelComponents(mask, cells_x, cells_y, labels);
-  std::vector<Component> components(count);
-  for (int cy = 0; cy < cells_y; ++cy) {
-    for (int cx = 0; cx < cells_x; ++cx) {
-      const int i = cy * cells_x + cx;
-      if (labels[i] < 0) continue;
-      Component& c = components[labels[i]];
-      ++c.cells;
-      if (state.motion[i] > 0.5f) ++c.moving;
-      c.x0 = std::min(c.x0, cx);
-      c.x1 = std::max(c.x1, cx);
-      c.y0 = std::min(c.y0, cy);
-      c.y1 = std::max(c.y1, cy);
-      bool next_to_sleeve = false;
-      for (int dy = -1; dy <= 1 && !next_to_sleeve; ++dy) {
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int nx = cx + dx, ny = cy + dy;
-          if (nx < 0 || ny < 0 || nx >= cells_x || ny >= cells_y) continue;
-          const float* m = &means[3 * (ny * cells_x + nx)];
-          if (isDarkNonSkin(Eigen::Vector3d(m[0], m[1], m[2]), params.background)) {
-            next_to_sleeve = true;
-            break;
-          }
-        }
-      }
-      if (next_to_sleeve) ++c.sleeve;
-    }
-  }
+  const std::vector<Component> components =
+      analyseComponents(params, means, cells_x, cells_y, mask, motion, labels);
+  const int count = static_cast<int>(components.size());
   std::vector<unsigned char> keep(count, 0);
   if (count > 0) {
     if (has_roi) {
@@ -182,24 +222,10 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
       }
     } else {
       int best = 0;
-      double best_score = -1.0;
-      for (int k = 0; k < count; ++k) {
-        const Component& c = components[k];
-        const double score =
-            c.cells + room.motion_weight * c.moving + room.sleeve_weight * c.sleeve;
-        if (score > best_score) {
-          best_score = score;
-          best = k;
-        }
+      for (int k = 1; k < count; ++k) {
+        if (components[k].score > components[best].score) best = k;
       }
-      const Component& b = components[best];
-      // Its box, grown by a quarter of its size: the fingers that a gap cut off the palm.
-      const int gx = std::max(1, (b.x1 - b.x0 + 1) / 4), gy = std::max(1, (b.y1 - b.y0 + 1) / 4);
-      for (int k = 0; k < count; ++k) {
-        const Component& c = components[k];
-        keep[k] = k == best || (c.x0 >= b.x0 - gx && c.x1 <= b.x1 + gx && c.y0 >= b.y0 - gy &&
-                                c.y1 <= b.y1 + gy);
-      }
+      keep = groupAround(components, best);
     }
   }
   for (int i = 0; i < cells; ++i) mask[i] = labels[i] >= 0 && keep[labels[i]] ? 1 : 0;
@@ -208,7 +234,7 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
   // the median chromaticity of the kept cells, then mean and covariance of the cells within
   // kSkinTrim of it, so that background that passed the gates inside the region (a photograph, a
   // wooden edge) does not widen the model.
-  if (has_roi) {
+  if (has_roi && learn_skin) {
     std::vector<double> rs, gs;
     for (int i = 0; i < cells; ++i) {
       double r, g;
@@ -257,11 +283,60 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
         const int i = cy * cells_x + cx;
         // Before the hand is tracked, what might be hand (a candidate) is not learned either.
         const bool maybe_hand = has_roi ? inRoi(cx, cy) : candidate[i] != 0;
-        if (mask[i] || maybe_hand || state.motion[i] > 0.5f) continue;
+        if (mask[i] || maybe_hand || motion[i] > 0.5f) continue;
         plate->adaptCell(i, &means[3 * i], room.plate_adaptation_rate);
       }
     }
   }
+}
+
+std::vector<HandCandidate> roomCandidates(const SegmentationParams& params,
+                                          const std::vector<float>& means, int cells_x, int cells_y,
+                                          int cell_size, int width, int height,
+                                          const RoomCueState& state,
+                                          std::vector<unsigned char> mask, int max_candidates) {
+  const int cells = cells_x * cells_y;
+  const std::vector<float> motion = motionOf(params.room, means, state, cells);
+  removeUnlikeLearnedSkin(params.room, means, state, mask);
+  std::vector<int> labels;
+  const std::vector<Component> components =
+      analyseComponents(params, means, cells_x, cells_y, mask, motion, labels);
+  std::vector<int> order(components.size());
+  for (size_t k = 0; k < order.size(); ++k) order[k] = static_cast<int>(k);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return components[a].score > components[b].score; });
+  std::vector<HandCandidate> candidates;
+  std::vector<unsigned char> taken(components.size(), 0);  // already in a better group
+  for (const int main : order) {
+    if (static_cast<int>(candidates.size()) >= max_candidates) break;
+    if (taken[main]) continue;
+    const std::vector<unsigned char> group = groupAround(components, main);
+    HandCandidate candidate;
+    candidate.score = components[main].score;
+    candidate.cell_size = cell_size;
+    candidate.cells_x = cells_x;
+    Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+    int x0 = cells_x, y0 = cells_y, x1 = -1, y1 = -1;
+    for (int i = 0; i < cells; ++i) {
+      if (labels[i] < 0 || !group[labels[i]]) continue;
+      const int cx = i % cells_x, cy = i / cells_x;
+      candidate.cell_indices.push_back(i);
+      if (motion[i] > 0.5f) ++candidate.moving;
+      sum += Eigen::Vector2d((cx + 0.5) * cell_size - 0.5, (cy + 0.5) * cell_size - 0.5);
+      x0 = std::min(x0, cx);
+      y0 = std::min(y0, cy);
+      x1 = std::max(x1, cx);
+      y1 = std::max(y1, cy);
+    }
+    for (size_t k = 0; k < group.size(); ++k) taken[k] = taken[k] || group[k];
+    if (candidate.cell_indices.empty()) continue;
+    candidate.centroid = sum / static_cast<double>(candidate.cell_indices.size());
+    candidate.box = cv::Rect(x0 * cell_size, y0 * cell_size, (x1 - x0 + 1) * cell_size,
+                             (y1 - y0 + 1) * cell_size) &
+                    cv::Rect(0, 0, width, height);
+    candidates.push_back(std::move(candidate));
+  }
+  return candidates;
 }
 
 }  // namespace detail

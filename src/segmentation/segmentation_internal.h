@@ -62,11 +62,20 @@ inline int cellCount(int pixels, int cell_size) { return (pixels + cell_size - 1
 // cells removed): narrows `mask` down to the hand and updates `state` (motion, learned skin
 // colour) and, when given, the plate (adaptation where the hand is not). `means`: the frame's
 // cell means; `roi`: pixels, empty for none; `roi_mask`: optional (empty or image size, CV_8UC1),
-// narrows the region to its non-zero pixels.
+// narrows the region to its non-zero pixels; `learn_skin`: the region comes from the tracked hand,
+// so the user's skin colour may be learned from what it keeps.
 void applyRoomCues(const SegmentationParams& params, const std::vector<float>& means, int cells_x,
                    int cells_y, int cell_size, int width, int height, const cv::Rect& roi,
-                   const cv::Mat& roi_mask, BackgroundPlate* plate, RoomCueState& state,
-                   std::vector<unsigned char>& mask);
+                   const cv::Mat& roi_mask, bool learn_skin, BackgroundPlate* plate,
+                   RoomCueState& state, std::vector<unsigned char>& mask);
+
+// The groups that applyRoomCues would choose from without a region of interest (cue 3), best
+// score first, at most max_candidates; `state` is only read (motion and learned skin colour).
+std::vector<HandCandidate> roomCandidates(const SegmentationParams& params,
+                                          const std::vector<float>& means, int cells_x, int cells_y,
+                                          int cell_size, int width, int height,
+                                          const RoomCueState& state,
+                                          std::vector<unsigned char> mask, int max_candidates);
 
 }  // namespace detail
 }  // namespace sag_hand_tracker

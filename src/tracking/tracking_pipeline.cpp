@@ -5,9 +5,9 @@
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 
+#include "sag_hand_tracker/model/kinematics.h"
 #include "sag_hand_tracker/util/timing.h"
 #include "sag_hand_tracker/util/types.h"
-#include "sag_hand_tracker/model/kinematics.h"
 
 namespace sag_hand_tracker {
 namespace {
@@ -21,6 +21,7 @@ PipelineParams adjusted(PipelineParams params) {
     params.segmentation.background.frames = params.background_frames;
   }
   validate(params.segmentation);
+  validate(params.multi_view);
   return params;
 }
 
@@ -94,6 +95,8 @@ void TrackingPipeline::reset() {
     segmenter.resetRoomState();
   }
   sets_seen_ = 0;
+  tracked_regions_ = false;
+  sets_since_recheck_ = 0;
 }
 
 void TrackingPipeline::checkImage(const CameraImage& image) const {
@@ -107,6 +110,40 @@ void TrackingPipeline::checkImage(const CameraImage& image) const {
                      "x" + std::to_string(image.rgb.rows) + " but its calibration says " +
                      std::to_string(camera.width) + "x" + std::to_string(camera.height));
   }
+}
+
+bool TrackingPipeline::chooseRegionsAcrossViews(const FrameSet& set, bool tracking) {
+  std::vector<std::vector<HandCandidate>> candidates(cameras_.size());
+  for (const CameraImage& image : set.images) {
+    candidates[image.camera] = segmenters_[image.camera].handCandidates(
+        image.rgb, params_.multi_view.max_candidates_per_view);
+  }
+  const MultiViewChoice choice =
+      chooseConsistentCandidates(cameras_, candidates, params_.multi_view);
+  if (tracking) {
+    const MultiViewChoice at_track =
+        supportAt(cameras_, candidates, tracked_centre_, params_.multi_view);
+    if (!replacesTrack(choice, at_track, params_.multi_view)) return false;
+    tracker_.reset();
+    tracked_regions_ = false;
+  }
+  for (const CameraImage& image : set.images) {
+    const int c = image.camera;
+    if (!choice.found) {
+      // Nothing agrees across the views: no blob of any view is the hand.
+      segmenters_[c].setRegionOfInterest(
+          candidateRegion(nullptr, cameras_[c].width, cameras_[c].height, 0),
+          RegionSource::kCandidates);
+      continue;
+    }
+    const HandCandidate* chosen =
+        choice.chosen[c] >= 0 ? &candidates[c][choice.chosen[c]] : nullptr;
+    segmenters_[c].setRegionOfInterest(
+        candidateRegion(chosen, cameras_[c].width, cameras_[c].height,
+                        params_.multi_view.region_margin_cells),
+        RegionSource::kCandidates);
+  }
+  return true;
 }
 
 ProcessedFrame TrackingPipeline::process(const FrameSet& set,
@@ -129,6 +166,15 @@ ProcessedFrame TrackingPipeline::process(const FrameSet& set,
   ++sets_seen_;
 
   const auto segmentation_start = std::chrono::steady_clock::now();
+  if (params_.segmentation.room.enabled && params_.multi_view.enabled) {
+    if (!tracked_regions_) {
+      chooseRegionsAcrossViews(set, false);
+    } else if (params_.multi_view.recheck_interval > 0 &&
+               ++sets_since_recheck_ >= params_.multi_view.recheck_interval) {
+      sets_since_recheck_ = 0;
+      chooseRegionsAcrossViews(set, true);
+    }
+  }
   std::vector<CameraObservation> observations;
   observations.reserve(set.images.size());
   for (const CameraImage& image : set.images) {
@@ -152,6 +198,15 @@ ProcessedFrame TrackingPipeline::process(const FrameSet& set,
     for (size_t c = 0; c < segmenters_.size(); ++c) {
       segmenters_[c].setRegionOfInterest(
           tracked ? projectedHandMask(tracker_.model(), result.pose, cameras_[c]) : cv::Mat());
+    }
+    tracked_regions_ = tracked;
+    if (tracked) {
+      const PosedHand hand = forwardKinematics(tracker_.model(), result.pose);
+      tracked_centre_.setZero();
+      for (const WorldGaussian& g : hand.gaussians) tracked_centre_ += g.mean;
+      tracked_centre_ /= static_cast<double>(std::max<size_t>(hand.gaussians.size(), 1));
+    } else {
+      sets_since_recheck_ = 0;
     }
   }
   if (observations_out) *observations_out = std::move(observations);

@@ -54,11 +54,10 @@ struct QuadtreeParams {
 // skin-coloured things. ImageSegmenter::segmentFrame (stateful, one call per frame of one camera)
 // narrows their foreground down to the hand:
 //   1. learned skin colour: once the hand has been found (the first frame with a region of
-//      interest), the chromaticity (r, g) = (R, G) / (R + G + B) of the foreground cells inside
-//      it is learned (mean and covariance of the cells within 0.03 of their median, then updated
-//      slowly); a cell farther than
-//      skin_max_distance (Mahalanobis) from it is not hand. Chromaticity does not change with the
-//      light's brightness.
+//      interest from the tracked hand, RegionSource::kTrack), the chromaticity (r, g) = (R, G) / (R
+//      + G + B) of the foreground cells inside it is learned (mean and covariance of the cells
+//      within 0.03 of their median, then updated slowly); a cell farther than skin_max_distance
+//      (Mahalanobis) from it is not hand. Chromaticity does not change with the light's brightness.
 //   2. region of interest: the tracked hand projected into this view (setRegionOfInterest, fed by
 //      TrackingPipeline with the model's silhouette grown by a margin); cells outside it are
 //      background, and inside it only connected
@@ -68,8 +67,10 @@ struct QuadtreeParams {
 //      with the best score = cells + motion_weight * moving cells + sleeve_weight * cells next to
 //      a dark (sleeve) cell, together with the components inside its box (fingers cut off by a
 //      gap). The hand moves and joins the sleeve; a face, a photograph or a resting object do
-//      not. (Requiring motion before anything counts as hand was tried: it kept the start off
-//      still props, but delayed and spoiled the start with the plate; see doc/segmentation.md.)
+//      not. With several cameras TrackingPipeline chooses instead among these candidates
+//      (handCandidates) the ones that triangulate across the views (multi_view_consistency.h).
+//      (Requiring motion before anything counts as hand was tried: it kept the start off still
+//      props, but delayed and spoiled the start with the plate; see doc/segmentation.md.)
 //   4. motion: a cell moves when its colour differs from the previous frame's (scaled by the
 //      frame's overall brightness change, so that changing light is not motion) by more than
 //      motion_threshold; it stays "moving" for a while (motion_decay per frame).
@@ -124,6 +125,28 @@ struct RoomCueState {
   double skin_cov[3] = {0.0, 0.0, 0.0};  // xx, xy, yy
 };
 
+// One hand candidate of a frame without a region of interest (RoomCueParams, cue 3): a connected
+// component of candidate cells (after the learned skin colour) together with the components
+// inside its box grown by a quarter. The multi-view check (multi_view_consistency.h) picks, across
+// the cameras, the candidates that triangulate to one point in front of every camera.
+struct HandCandidate {
+  double score =
+      0.0;  // of its main component: cells + motion_weight * moving + sleeve_weight * sleeve
+  Eigen::Vector2d centroid = Eigen::Vector2d::Zero();  // pixels, of the image as given (distorted)
+  cv::Rect box;                                        // pixels
+  int moving = 0;                                      // its cells that move (cue 4)
+  std::vector<int> cell_indices;                       // its cells, row after row
+  int cell_size = 1;
+  int cells_x = 0;  // cells per row
+};
+
+// Where a region of interest comes from (ImageSegmenter::setRegionOfInterest).
+enum class RegionSource {
+  kTrack,      // the tracked hand projected: the user's skin colour is learned from what it keeps
+  kCandidates  // this frame's multi-view choice before the start: nothing is learned from it, and
+               // an all-zero mask keeps no foreground at all (no candidate in this view agrees)
+};
+
 // The single entry point: learn a plate (optional), then turn images into image SoGs.
 // segment() and foregroundMask() are const and thread-safe (scratch buffers are per thread).
 class ImageSegmenter {
@@ -168,7 +191,11 @@ class ImageSegmenter {
   // The same with the region as a mask (CV_8UC1 at image size, non-zero = region), e.g. the
   // tracked model's projected silhouette grown by a margin: tighter than its box, which in a room
   // holds much background. An empty mask clears the region. Throws InputError for another type.
-  void setRegionOfInterest(const cv::Mat& roi_mask);
+  void setRegionOfInterest(const cv::Mat& roi_mask, RegionSource source = RegionSource::kTrack);
+  // The hand candidates of `rgb` as segmentFrame would choose among them when no region of
+  // interest is set (best first, at most max_candidates), without changing any memory. Empty
+  // when params().room.enabled is false or the mode is none. Same errors as segment.
+  std::vector<HandCandidate> handCandidates(const cv::Mat& rgb, int max_candidates) const;
   const cv::Rect& regionOfInterest() const { return roi_; }
   // As segment(), then, when params().room.enabled, the room cues narrow the foreground down to
   // the hand, and update the motion history, the learned skin colour and the plate.
@@ -184,6 +211,7 @@ class ImageSegmenter {
   BackgroundPlate plate_;
   cv::Rect roi_;
   cv::Mat roi_mask_;
+  RegionSource roi_source_ = RegionSource::kTrack;
   RoomCueState room_;
 };
 

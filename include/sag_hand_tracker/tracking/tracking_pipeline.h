@@ -8,6 +8,7 @@
 
 #include "sag_hand_tracker/camera/camera.h"
 #include "sag_hand_tracker/model/hand_model.h"
+#include "sag_hand_tracker/segmentation/multi_view_consistency.h"
 #include "sag_hand_tracker/segmentation/quadtree_segmentation.h"
 #include "sag_hand_tracker/tracking/frame_set.h"
 #include "sag_hand_tracker/tracking/tracker.h"
@@ -31,7 +32,10 @@ struct PipelineParams {
   SegmentationParams segmentation;
   TrackerParams tracker;
   // With segmentation.room.enabled, the pose tracked in a set gives each camera's segmenter its
-  // region of interest for the next set (projectedHandMask); a lost track clears them.
+  // region of interest for the next set (projectedHandMask); a lost track clears them. Without a
+  // tracked region (before the start, after a loss), with multi_view.enabled the candidates of
+  // every camera that triangulate to one point (chooseConsistentCandidates) are this set's regions.
+  MultiViewParams multi_view;
   // The first sets go into the background plates and are not tracked. With 0 there is no plate:
   // the segmentation then uses the skin-colour gate (ImageSegmenter::effectiveMode). When > 0 it
   // also sets segmentation.background.frames, so that the plates are ready after these sets.
@@ -82,12 +86,19 @@ class TrackingPipeline {
 
  private:
   void checkImage(const CameraImage& image) const;
+  // Before the start: gives each camera's segmenter its multi-view candidate region for `set`.
+  // While tracking (MultiViewParams::recheck_interval): only when the choice replaces the track,
+  // which is then reset; returns whether the regions were set.
+  bool chooseRegionsAcrossViews(const FrameSet& set, bool tracking);
 
   std::vector<Camera> cameras_;
   PipelineParams params_;
   std::vector<ImageSegmenter> segmenters_;
   HandTracker tracker_;
   int sets_seen_ = 0;
+  bool tracked_regions_ = false;  // the segmenters hold regions from a tracked pose
+  Eigen::Vector3d tracked_centre_ = Eigen::Vector3d::Zero();  // mean of the tracked model's means
+  int sets_since_recheck_ = 0;
 };
 
 }  // namespace sag_hand_tracker

@@ -1,0 +1,77 @@
+// Multi-view consistency of the hand candidates before the start (issue 11): a skin blob that does
+// not triangulate with blobs in the other views (a face at the edge of one view, a photograph on
+// a wall) is not the hand. TrackingPipeline asks each camera's segmenter for its candidates
+// (ImageSegmenter::handCandidates), chooses here the ones that agree on one point in front of every
+// camera, and gives each segmenter its choice as this frame's region of interest
+// (RegionSource::kCandidates), so that the start triangulates the hand and nothing else.
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "sag_hand_tracker/camera/camera.h"
+#include "sag_hand_tracker/segmentation/quadtree_segmentation.h"
+
+namespace sag_hand_tracker {
+
+struct MultiViewParams {
+  bool enabled = true;
+  int max_candidates_per_view = 4;
+  // Two candidates' centroid rays (pixels undistorted) agree when they pass within this (m): the
+  // centroids of a hand seen from different sides are different points of its surface.
+  double max_ray_distance = 0.04;
+  // A view supports a point when one of its candidates' centroids is within this (m, at the
+  // point's depth) of the point's projection.
+  double support_radius = 0.05;
+  double min_depth = 0.05;  // m in front of every camera (TrackerParams::min_camera_depth)
+  int min_views = 2;        // supporting views needed for a choice
+  // The hand moves: only a pair of candidates of which at least this share of cells moves (in
+  // both views) can propose a point; a still face, a photograph or a resting object cannot start
+  // the track. 0: no motion needed.
+  double min_moving_share = 0.1;
+  int region_margin_cells = 2;  // the chosen candidate's cells grown by this for the region
+  // While a hand is tracked, every this many sets the choice is made again on the whole images;
+  // a choice at least `switch_distance` (m) from the tracked hand, with more supporting views and
+  // more than twice the moving cells of the candidates at the tracked hand, replaces the track
+  // (the start locked on a slower thing: the other arm drifting before the hand came into view).
+  // 0: never.
+  int recheck_interval = 5;
+  double switch_distance = 0.15;
+};
+// Throws InputError naming the first bad parameter.
+void validate(const MultiViewParams& params);
+
+struct MultiViewChoice {
+  bool found = false;
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();  // root frame: the hand's centroid
+  int supporting_views = 0;
+  double score = 0.0;       // sum of the chosen candidates' scores
+  int moving = 0;           // sum of the chosen candidates' moving cells
+  std::vector<int> chosen;  // per view: index into its candidates, -1 for none
+};
+
+// `candidates[c]` are camera c's (best first). Every pair of moving candidates (min_moving_share)
+// of two views is triangulated; a pair that agrees (max_ray_distance) on a point at least min_depth
+// in front of every camera gathers the views whose candidates lie at the point's projection. The
+// choice has the most supporting views, then the highest score; its point is re-triangulated from
+// all of them. Not found when no point has min_views supporting views. Throws InputError when the
+// sizes of `cameras` and `candidates` differ.
+MultiViewChoice chooseConsistentCandidates(
+    const std::vector<Camera>& cameras, const std::vector<std::vector<HandCandidate>>& candidates,
+    const MultiViewParams& params);
+
+// The support of a root-frame point (e.g. the tracked hand's centre): per view the candidate whose
+// centroid is nearest its projection within support_radius; `point` as given, `found` false.
+MultiViewChoice supportAt(const std::vector<Camera>& cameras,
+                          const std::vector<std::vector<HandCandidate>>& candidates,
+                          const Eigen::Vector3d& point, const MultiViewParams& params);
+
+// Whether `challenger` should replace a track whose support is `tracked` (recheck_interval).
+bool replacesTrack(const MultiViewChoice& challenger, const MultiViewChoice& tracked,
+                   const MultiViewParams& params);
+
+// The region of interest (CV_8UC1, width x height) for a view: the chosen candidate's cells grown
+// by margin_cells, or all zero when `candidate` is null (no candidate in this view agrees).
+cv::Mat candidateRegion(const HandCandidate* candidate, int width, int height, int margin_cells);
+
+}  // namespace sag_hand_tracker

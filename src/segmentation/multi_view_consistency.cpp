@@ -1,0 +1,236 @@
+// Multi-view consistency of the hand candidates (multi_view_consistency.h).
+#include "sag_hand_tracker/segmentation/multi_view_consistency.h"
+
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+#include <string>
+
+#include "sag_hand_tracker/util/types.h"
+
+namespace sag_hand_tracker {
+namespace {
+
+struct Ray {
+  Eigen::Vector3d origin;
+  Eigen::Vector3d direction;  // unit
+};
+
+Ray pixelRay(const Camera& camera, const Eigen::Vector2d& undistorted_pixel) {
+  const Eigen::Matrix3d to_world = camera.world_to_camera.linear().transpose();
+  const Eigen::Vector3d local =
+      camera.K.inverse() * Eigen::Vector3d(undistorted_pixel.x(), undistorted_pixel.y(), 1.0);
+  return Ray{camera.centre(), (to_world * local).normalized()};
+}
+
+// The midpoint of the shortest segment between two rays and its length; false for parallel rays.
+bool closestApproach(const Ray& a, const Ray& b, Eigen::Vector3d* midpoint, double* distance) {
+  const Eigen::Vector3d w = a.origin - b.origin;
+  const double ab = a.direction.dot(b.direction);
+  const double denominator = 1.0 - ab * ab;
+  if (denominator < 1e-9) return false;
+  const double da = a.direction.dot(w), db = b.direction.dot(w);
+  const double s = (ab * db - da) / denominator;
+  const double t = (db - ab * da) / denominator;
+  const Eigen::Vector3d pa = a.origin + s * a.direction, pb = b.origin + t * b.direction;
+  *midpoint = 0.5 * (pa + pb);
+  *distance = (pa - pb).norm();
+  return midpoint->allFinite();
+}
+
+// Least-squares point closest to all rays.
+bool triangulate(const std::vector<Ray>& rays, Eigen::Vector3d* point) {
+  if (rays.size() < 2) return false;
+  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  for (const Ray& ray : rays) {
+    const Eigen::Matrix3d projector =
+        Eigen::Matrix3d::Identity() - ray.direction * ray.direction.transpose();
+    A += projector;
+    b += projector * ray.origin;
+  }
+  const Eigen::FullPivLU<Eigen::Matrix3d> lu(A);
+  if (lu.rank() < 3) return false;
+  *point = lu.solve(b);
+  return point->allFinite();
+}
+
+bool inFrontOfAll(const std::vector<Camera>& cameras, const Eigen::Vector3d& point,
+                  double min_depth) {
+  for (const Camera& camera : cameras) {
+    if (!((camera.world_to_camera * point).z() >= min_depth)) return false;
+  }
+  return true;
+}
+
+// Per view, the candidate whose centroid is nearest the point's projection, within the support
+// radius; -1 for none.
+std::vector<int> support(const std::vector<Camera>& cameras,
+                         const std::vector<std::vector<Eigen::Vector2d>>& centroids,
+                         const Eigen::Vector3d& point, const MultiViewParams& params) {
+  std::vector<int> chosen(cameras.size(), -1);
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    const double depth = (cameras[c].world_to_camera * point).z();
+    Eigen::Vector2d pixel;
+    if (!cameras[c].project(point, &pixel)) continue;
+    const double radius = cameras[c].K(0, 0) * params.support_radius / depth;
+    double best = radius;
+    for (size_t j = 0; j < centroids[c].size(); ++j) {
+      const double d = (centroids[c][j] - pixel).norm();
+      if (d <= best) {
+        best = d;
+        chosen[c] = static_cast<int>(j);
+      }
+    }
+  }
+  return chosen;
+}
+
+}  // namespace
+
+void validate(const MultiViewParams& params) {
+  auto fail = [](const std::string& what) { throw InputError("multi-view consistency: " + what); };
+  if (params.max_candidates_per_view < 1) fail("max_candidates_per_view must be >= 1");
+  if (!(params.max_ray_distance > 0.0)) fail("max_ray_distance must be > 0");
+  if (!(params.support_radius > 0.0)) fail("support_radius must be > 0");
+  if (!(params.min_depth > 0.0)) fail("min_depth must be > 0");
+  if (params.min_views < 2) fail("min_views must be >= 2");
+  if (!(params.min_moving_share >= 0.0 && params.min_moving_share <= 1.0)) {
+    fail("min_moving_share must be in [0, 1]");
+  }
+  if (params.region_margin_cells < 0) fail("region_margin_cells must be >= 0");
+  if (params.recheck_interval < 0) fail("recheck_interval must be >= 0");
+  if (!(params.switch_distance > 0.0)) fail("switch_distance must be > 0");
+}
+
+MultiViewChoice chooseConsistentCandidates(
+    const std::vector<Camera>& cameras, const std::vector<std::vector<HandCandidate>>& candidates,
+    const MultiViewParams& params) {
+  if (cameras.size() != candidates.size()) {
+    throw InputError("chooseConsistentCandidates: " + std::to_string(cameras.size()) +
+                     " cameras but candidates of " + std::to_string(candidates.size()) + " views");
+  }
+  const size_t views = cameras.size();
+  std::vector<std::vector<Eigen::Vector2d>> centroids(views);
+  std::vector<std::vector<Ray>> rays(views);
+  std::vector<std::vector<bool>> moves(views);
+  for (size_t c = 0; c < views; ++c) {
+    const size_t n =
+        std::min(candidates[c].size(), static_cast<size_t>(params.max_candidates_per_view));
+    for (size_t j = 0; j < n; ++j) {
+      centroids[c].push_back(cameras[c].undistortPixel(candidates[c][j].centroid));
+      rays[c].push_back(pixelRay(cameras[c], centroids[c].back()));
+      const HandCandidate& candidate = candidates[c][j];
+      const double cells = static_cast<double>(candidate.cell_indices.size());
+      moves[c].push_back(
+          params.min_moving_share <= 0.0 ||
+          (candidate.moving > 0 && candidate.moving >= params.min_moving_share * cells));
+    }
+  }
+
+  MultiViewChoice best;
+  best.chosen.assign(views, -1);
+  for (size_t a = 0; a < views; ++a) {
+    for (size_t b = a + 1; b < views; ++b) {
+      for (size_t i = 0; i < rays[a].size(); ++i) {
+        if (!moves[a][i]) continue;
+        for (size_t j = 0; j < rays[b].size(); ++j) {
+          if (!moves[b][j]) continue;
+          Eigen::Vector3d point;
+          double distance;
+          if (!closestApproach(rays[a][i], rays[b][j], &point, &distance)) continue;
+          if (distance > params.max_ray_distance) continue;
+          if (!inFrontOfAll(cameras, point, params.min_depth)) continue;
+          std::vector<int> chosen = support(cameras, centroids, point, params);
+          // Re-triangulated from every supporting view, when that stays in front of the cameras.
+          std::vector<Ray> supporting;
+          for (size_t c = 0; c < views; ++c) {
+            if (chosen[c] >= 0) supporting.push_back(rays[c][chosen[c]]);
+          }
+          Eigen::Vector3d refined;
+          if (triangulate(supporting, &refined) &&
+              inFrontOfAll(cameras, refined, params.min_depth)) {
+            const std::vector<int> refined_chosen = support(cameras, centroids, refined, params);
+            int before = 0, after = 0;
+            for (size_t c = 0; c < views; ++c) {
+              before += chosen[c] >= 0;
+              after += refined_chosen[c] >= 0;
+            }
+            if (after >= before) {
+              point = refined;
+              chosen = refined_chosen;
+            }
+          }
+          int count = 0, moving = 0;
+          double score = 0.0;
+          for (size_t c = 0; c < views; ++c) {
+            if (chosen[c] < 0) continue;
+            ++count;
+            score += candidates[c][chosen[c]].score;
+            moving += candidates[c][chosen[c]].moving;
+          }
+          if (count < params.min_views) continue;
+          if (count > best.supporting_views ||
+              (count == best.supporting_views && score > best.score)) {
+            best.found = true;
+            best.point = point;
+            best.supporting_views = count;
+            best.score = score;
+            best.moving = moving;
+            best.chosen = chosen;
+          }
+        }
+      }
+    }
+  }
+  return best;
+}
+
+MultiViewChoice supportAt(const std::vector<Camera>& cameras,
+                          const std::vector<std::vector<HandCandidate>>& candidates,
+                          const Eigen::Vector3d& point, const MultiViewParams& params) {
+  if (cameras.size() != candidates.size()) {
+    throw InputError("supportAt: " + std::to_string(cameras.size()) +
+                     " cameras but candidates of " + std::to_string(candidates.size()) + " views");
+  }
+  std::vector<std::vector<Eigen::Vector2d>> centroids(cameras.size());
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    const size_t n =
+        std::min(candidates[c].size(), static_cast<size_t>(params.max_candidates_per_view));
+    for (size_t j = 0; j < n; ++j) {
+      centroids[c].push_back(cameras[c].undistortPixel(candidates[c][j].centroid));
+    }
+  }
+  MultiViewChoice result;
+  result.point = point;
+  result.chosen = support(cameras, centroids, point, params);
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    if (result.chosen[c] < 0) continue;
+    ++result.supporting_views;
+    result.score += candidates[c][result.chosen[c]].score;
+    result.moving += candidates[c][result.chosen[c]].moving;
+  }
+  return result;
+}
+
+bool replacesTrack(const MultiViewChoice& challenger, const MultiViewChoice& tracked,
+                   const MultiViewParams& params) {
+  return challenger.found && (challenger.point - tracked.point).norm() >= params.switch_distance &&
+         challenger.supporting_views > tracked.supporting_views &&
+         challenger.moving > 2 * tracked.moving;
+}
+
+cv::Mat candidateRegion(const HandCandidate* candidate, int width, int height, int margin_cells) {
+  cv::Mat region(height, width, CV_8UC1, cv::Scalar(0));
+  if (candidate == nullptr || candidate->cells_x <= 0) return region;
+  const int s = candidate->cell_size;
+  for (const int i : candidate->cell_indices) {
+    const int x = (i % candidate->cells_x) * s, y = (i / candidate->cells_x) * s;
+    const cv::Rect cell = cv::Rect(x - margin_cells * s, y - margin_cells * s,
+                                   (2 * margin_cells + 1) * s, (2 * margin_cells + 1) * s) &
+                          cv::Rect(0, 0, width, height);
+    region(cell).setTo(255);
+  }
+  return region;
+}
+
+}  // namespace sag_hand_tracker
