@@ -194,13 +194,20 @@ std::string describeCorruptRecords(const std::string& path, std::uint64_t size) 
 
 // A bag (format 2.0) starts with "#ROSBAG V2.0\n" and a header record whose field index_pos is
 // where the index (written last, on close) begins. Returns "" for a bag that looks complete, else
-// why it is not: truncated (the index lies beyond the end of the file) or never closed.
+// why it is not: not a bag of format 2.0, truncated (the index lies beyond the end of the file) or
+// never closed.
 std::string describeIncompleteBag(const std::string& path) {
   std::ifstream file(path, std::ios::binary);
   std::string head(4096, '\0');
   file.read(&head[0], static_cast<std::streamsize>(head.size()));
   head.resize(static_cast<std::size_t>(file.gcount()));
-  if (head.rfind("#ROSBAG V2.0\n", 0) != 0) return "";
+  // rosbag itself takes any "#ROS<word> V<major>.<minor>" line and then reads the records without
+  // checking their lengths (a fuzz find: "#ROSBA+ V2.0" read past a buffer), so only files with
+  // the exact first line are given to it, after the record walk below.
+  if (head.rfind("#ROSBAG V2.0\n", 0) != 0) {
+    return "cannot read the bag: it is not a ROS bag of format 2.0 (the file must begin with "
+           "'#ROSBAG V2.0')";
+  }
   const std::string field = "index_pos=";
   const std::size_t at = head.find(field);
   if (at == std::string::npos || at + field.size() + 8 > head.size()) {
