@@ -134,24 +134,19 @@ class BagRecordWalker {
       const std::uint64_t data_at = pos + 4 + header_len;
       if (end - data_at < 4 || !readU32(data_at, &data_len)) return corrupt(pos, "a cut record");
       if (data_len > end - data_at - 4) return corrupt(pos, "record data longer than the file");
-      std::string op, compression;
+      std::map<std::string, std::string> fields;
+      if (!parseFields(header, &fields)) return corrupt(pos, "a record header with a cut field");
+      const std::string op = fields["op"], compression = fields["compression"];
       std::uint32_t chunk_size = 0;
-      for (std::size_t at = 0; at < header.size();) {
-        if (header.size() - at < 4) return corrupt(pos, "a cut header field");
-        std::uint32_t field_len = 0;
-        std::memcpy(&field_len, &header[at], 4);
-        at += 4;
-        if (field_len > header.size() - at) return corrupt(pos, "a header field too long");
-        const std::string field = header.substr(at, field_len);
-        at += field_len;
-        const std::size_t equals = field.find('=');
-        if (equals == std::string::npos) return corrupt(pos, "a header field without '='");
-        const std::string name = field.substr(0, equals), value = field.substr(equals + 1);
-        if (name == "op") op = value;
-        if (name == "compression") compression = value;
-        if (name == "size" && value.size() == 4) std::memcpy(&chunk_size, value.data(), 4);
-      }
+      if (fields["size"].size() == 4) std::memcpy(&chunk_size, fields["size"].data(), 4);
       if (op.size() != 1) return corrupt(pos, "a record without its op field");
+      if (op[0] == 0x07) {  // connection: its data is a header too (topic, type, definition)
+        std::string data(data_len, '\0');
+        std::map<std::string, std::string> connection;
+        if (!read(data_at + 4, &data[0], data_len) || !parseFields(data, &connection)) {
+          return corrupt(pos, "a connection record with a cut field");
+        }
+      }
       if (op[0] == 0x05) {  // chunk
         if (inside_chunk) return corrupt(pos, "a chunk inside a chunk");
         if (chunk_size > kMaxChunkBytes) return corrupt(pos, "a chunk larger than 1 GiB");
@@ -168,6 +163,24 @@ class BagRecordWalker {
 
  private:
   static constexpr std::uint32_t kMaxChunkBytes = 1u << 30;
+
+  // A header: fields <len><name>=<value>, each within the header (rosbag copies whatever length
+  // a field claims: a fuzz find). False when one is cut or has no '='.
+  static bool parseFields(const std::string& header, std::map<std::string, std::string>* fields) {
+    for (std::size_t at = 0; at < header.size();) {
+      if (header.size() - at < 4) return false;
+      std::uint32_t field_len = 0;
+      std::memcpy(&field_len, &header[at], 4);
+      at += 4;
+      if (field_len > header.size() - at) return false;
+      const std::string field = header.substr(at, field_len);
+      at += field_len;
+      const std::size_t equals = field.find('=');
+      if (equals == std::string::npos) return false;
+      (*fields)[field.substr(0, equals)] = field.substr(equals + 1);
+    }
+    return true;
+  }
 
   bool read(std::uint64_t pos, char* out, std::size_t n) {
     file_.clear();
