@@ -117,8 +117,9 @@ struct BagReader::Impl {
 // rosbag allocates whatever a record's length fields say before it checks them against the file
 // (a flipped bit: gigabytes, or std::bad_alloc). So the record structure is walked first: every
 // record <header_len><header><data_len><data> must fit in the file (in its chunk for the records
-// of an uncompressed chunk), and a chunk's uncompressed size must be plausible. Returns "" or
-// what is wrong.
+// of an uncompressed chunk), header fields must fit in their header, a chunk's uncompressed size
+// must be plausible, and index entries and chunk infos must point at records. Returns "" or what
+// is wrong.
 class BagRecordWalker {
  public:
   BagRecordWalker(const std::string& path) : file_(path, std::ios::binary) {}
@@ -156,6 +157,25 @@ class BagRecordWalker {
           if (!inner.empty()) return inner;
         }
       }
+      if (inside_chunk) record_starts_.insert(pos);
+      if (op[0] == 0x05) {
+        chunk_starts_.insert(pos);
+        chunk_data_at_ = data_at + 4;
+        chunk_uncompressed_ = compression == "none";
+        chunk_end_ = chunk_data_at_ + chunk_size;
+      }
+      if (op[0] == 0x04 && !inside_chunk) {  // index of the chunk before: (time, offset) entries
+        const std::string problem = checkIndexOffsets(data_at + 4, data_len);
+        if (!problem.empty()) return corrupt(pos, problem);
+      }
+      if (op[0] == 0x06 && !inside_chunk) {  // chunk info: where its chunk record starts
+        std::uint64_t chunk_pos = 0;
+        if (fields["chunk_pos"].size() != 8) return corrupt(pos, "a chunk info without chunk_pos");
+        std::memcpy(&chunk_pos, fields["chunk_pos"].data(), 8);
+        if (!chunk_starts_.count(chunk_pos)) {
+          return corrupt(pos, "a chunk info pointing where no chunk starts");
+        }
+      }
       pos = data_at + 4 + data_len;
     }
     return "";
@@ -163,6 +183,29 @@ class BagRecordWalker {
 
  private:
   static constexpr std::uint32_t kMaxChunkBytes = 1u << 30;
+
+  // rosbag parses a message's record header wherever an index entry's offset points (a fuzz find:
+  // an offset into the middle of a record read past a buffer). In an uncompressed chunk it must be
+  // the start of one of its records; in a compressed one, within its uncompressed size.
+  std::string checkIndexOffsets(std::uint64_t data_at, std::uint32_t data_len) {
+    if (data_len % 12 != 0) return "an index record of cut entries";
+    std::string data(data_len, '\0');
+    if (!read(data_at, &data[0], data_len)) return "an unreadable index record";
+    for (std::size_t at = 0; at < data.size(); at += 12) {
+      std::uint32_t offset = 0;
+      std::memcpy(&offset, &data[at + 8], 4);
+      const bool valid = chunk_uncompressed_ ? record_starts_.count(chunk_data_at_ + offset) > 0
+                                             : chunk_data_at_ + offset < chunk_end_;
+      if (chunk_starts_.empty() || !valid) return "an index entry pointing where no record starts";
+    }
+    return "";
+  }
+
+  std::set<std::uint64_t> chunk_starts_;   // file positions of chunk records
+  std::set<std::uint64_t> record_starts_;  // file positions of records inside uncompressed chunks
+  std::uint64_t chunk_data_at_ = 0;        // the latest chunk's data
+  std::uint64_t chunk_end_ = 0;            // ... and its end when uncompressed
+  bool chunk_uncompressed_ = false;
 
   // A header: fields <len><name>=<value>, each within the header (rosbag copies whatever length
   // a field claims: a fuzz find). False when one is cut or has no '='.
