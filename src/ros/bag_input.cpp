@@ -117,8 +117,9 @@ struct BagReader::Impl {
 // rosbag allocates whatever a record's length fields say before it checks them against the file
 // (a flipped bit: gigabytes, or std::bad_alloc). So the record structure is walked first: every
 // record <header_len><header><data_len><data> must fit in the file (in its chunk for the records
-// of an uncompressed chunk), and a chunk's uncompressed size must be plausible. Returns "" or
-// what is wrong.
+// of an uncompressed chunk), header fields must fit in their header, a chunk's uncompressed size
+// must be plausible, and index entries and chunk infos must point at records. Returns "" or what
+// is wrong.
 class BagRecordWalker {
  public:
   BagRecordWalker(const std::string& path) : file_(path, std::ios::binary) {}
@@ -134,24 +135,19 @@ class BagRecordWalker {
       const std::uint64_t data_at = pos + 4 + header_len;
       if (end - data_at < 4 || !readU32(data_at, &data_len)) return corrupt(pos, "a cut record");
       if (data_len > end - data_at - 4) return corrupt(pos, "record data longer than the file");
-      std::string op, compression;
+      std::map<std::string, std::string> fields;
+      if (!parseFields(header, &fields)) return corrupt(pos, "a record header with a cut field");
+      const std::string op = fields["op"], compression = fields["compression"];
       std::uint32_t chunk_size = 0;
-      for (std::size_t at = 0; at < header.size();) {
-        if (header.size() - at < 4) return corrupt(pos, "a cut header field");
-        std::uint32_t field_len = 0;
-        std::memcpy(&field_len, &header[at], 4);
-        at += 4;
-        if (field_len > header.size() - at) return corrupt(pos, "a header field too long");
-        const std::string field = header.substr(at, field_len);
-        at += field_len;
-        const std::size_t equals = field.find('=');
-        if (equals == std::string::npos) return corrupt(pos, "a header field without '='");
-        const std::string name = field.substr(0, equals), value = field.substr(equals + 1);
-        if (name == "op") op = value;
-        if (name == "compression") compression = value;
-        if (name == "size" && value.size() == 4) std::memcpy(&chunk_size, value.data(), 4);
-      }
+      if (fields["size"].size() == 4) std::memcpy(&chunk_size, fields["size"].data(), 4);
       if (op.size() != 1) return corrupt(pos, "a record without its op field");
+      if (op[0] == 0x07) {  // connection: its data is a header too (topic, type, definition)
+        std::string data(data_len, '\0');
+        std::map<std::string, std::string> connection;
+        if (!read(data_at + 4, &data[0], data_len) || !parseFields(data, &connection)) {
+          return corrupt(pos, "a connection record with a cut field");
+        }
+      }
       if (op[0] == 0x05) {  // chunk
         if (inside_chunk) return corrupt(pos, "a chunk inside a chunk");
         if (chunk_size > kMaxChunkBytes) return corrupt(pos, "a chunk larger than 1 GiB");
@@ -161,6 +157,25 @@ class BagRecordWalker {
           if (!inner.empty()) return inner;
         }
       }
+      if (inside_chunk) record_starts_.insert(pos);
+      if (op[0] == 0x05) {
+        chunk_starts_.insert(pos);
+        chunk_data_at_ = data_at + 4;
+        chunk_uncompressed_ = compression == "none";
+        chunk_end_ = chunk_data_at_ + chunk_size;
+      }
+      if (op[0] == 0x04 && !inside_chunk) {  // index of the chunk before: (time, offset) entries
+        const std::string problem = checkIndexOffsets(data_at + 4, data_len);
+        if (!problem.empty()) return corrupt(pos, problem);
+      }
+      if (op[0] == 0x06 && !inside_chunk) {  // chunk info: where its chunk record starts
+        std::uint64_t chunk_pos = 0;
+        if (fields["chunk_pos"].size() != 8) return corrupt(pos, "a chunk info without chunk_pos");
+        std::memcpy(&chunk_pos, fields["chunk_pos"].data(), 8);
+        if (!chunk_starts_.count(chunk_pos)) {
+          return corrupt(pos, "a chunk info pointing where no chunk starts");
+        }
+      }
       pos = data_at + 4 + data_len;
     }
     return "";
@@ -168,6 +183,47 @@ class BagRecordWalker {
 
  private:
   static constexpr std::uint32_t kMaxChunkBytes = 1u << 30;
+
+  // rosbag parses a message's record header wherever an index entry's offset points (a fuzz find:
+  // an offset into the middle of a record read past a buffer). In an uncompressed chunk it must be
+  // the start of one of its records; in a compressed one, within its uncompressed size.
+  std::string checkIndexOffsets(std::uint64_t data_at, std::uint32_t data_len) {
+    if (data_len % 12 != 0) return "an index record of cut entries";
+    std::string data(data_len, '\0');
+    if (!read(data_at, &data[0], data_len)) return "an unreadable index record";
+    for (std::size_t at = 0; at < data.size(); at += 12) {
+      std::uint32_t offset = 0;
+      std::memcpy(&offset, &data[at + 8], 4);
+      const bool valid = chunk_uncompressed_ ? record_starts_.count(chunk_data_at_ + offset) > 0
+                                             : chunk_data_at_ + offset < chunk_end_;
+      if (chunk_starts_.empty() || !valid) return "an index entry pointing where no record starts";
+    }
+    return "";
+  }
+
+  std::set<std::uint64_t> chunk_starts_;   // file positions of chunk records
+  std::set<std::uint64_t> record_starts_;  // file positions of records inside uncompressed chunks
+  std::uint64_t chunk_data_at_ = 0;        // the latest chunk's data
+  std::uint64_t chunk_end_ = 0;            // ... and its end when uncompressed
+  bool chunk_uncompressed_ = false;
+
+  // A header: fields <len><name>=<value>, each within the header (rosbag copies whatever length
+  // a field claims: a fuzz find). False when one is cut or has no '='.
+  static bool parseFields(const std::string& header, std::map<std::string, std::string>* fields) {
+    for (std::size_t at = 0; at < header.size();) {
+      if (header.size() - at < 4) return false;
+      std::uint32_t field_len = 0;
+      std::memcpy(&field_len, &header[at], 4);
+      at += 4;
+      if (field_len > header.size() - at) return false;
+      const std::string field = header.substr(at, field_len);
+      at += field_len;
+      const std::size_t equals = field.find('=');
+      if (equals == std::string::npos) return false;
+      (*fields)[field.substr(0, equals)] = field.substr(equals + 1);
+    }
+    return true;
+  }
 
   bool read(std::uint64_t pos, char* out, std::size_t n) {
     file_.clear();
@@ -194,13 +250,20 @@ std::string describeCorruptRecords(const std::string& path, std::uint64_t size) 
 
 // A bag (format 2.0) starts with "#ROSBAG V2.0\n" and a header record whose field index_pos is
 // where the index (written last, on close) begins. Returns "" for a bag that looks complete, else
-// why it is not: truncated (the index lies beyond the end of the file) or never closed.
+// why it is not: not a bag of format 2.0, truncated (the index lies beyond the end of the file) or
+// never closed.
 std::string describeIncompleteBag(const std::string& path) {
   std::ifstream file(path, std::ios::binary);
   std::string head(4096, '\0');
   file.read(&head[0], static_cast<std::streamsize>(head.size()));
   head.resize(static_cast<std::size_t>(file.gcount()));
-  if (head.rfind("#ROSBAG V2.0\n", 0) != 0) return "";
+  // rosbag itself takes any "#ROS<word> V<major>.<minor>" line and then reads the records without
+  // checking their lengths (a fuzz find: "#ROSBA+ V2.0" read past a buffer), so only files with
+  // the exact first line are given to it, after the record walk below.
+  if (head.rfind("#ROSBAG V2.0\n", 0) != 0) {
+    return "cannot read the bag: it is not a ROS bag of format 2.0 (the file must begin with "
+           "'#ROSBAG V2.0')";
+  }
   const std::string field = "index_pos=";
   const std::size_t at = head.find(field);
   if (at == std::string::npos || at + field.size() + 8 > head.size()) {

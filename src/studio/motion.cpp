@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <random>
 #include <set>
@@ -120,13 +121,28 @@ Eigen::Matrix<double, kChannels, 1> channels(const MotionKeyframe& k) {
   return c;
 }
 
+// Only the keyframes around `time` matter: the segment [i, i+1] holding it and, for the PCHIP
+// tangents, one neighbour on each side. Interpolating over that window (which keeps the ends of
+// the motion as its ends) gives the same values as over all keyframes, in O(log n) instead of
+// O(n) per call (a motion may have 10 000 keyframes and is sampled at every frame).
 Eigen::Matrix<double, kChannels, 1> interpolate(const std::vector<MotionKeyframe>& keys, bool cubic,
                                                 double time) {
-  std::vector<double> t(keys.size()), y(keys.size());
-  for (size_t k = 0; k < keys.size(); ++k) t[k] = keys[k].time;
+  const auto after =
+      std::upper_bound(keys.begin(), keys.end(), time,
+                       [](double x, const MotionKeyframe& key) { return x < key.time; });
+  const std::size_t segment = after == keys.begin() ? 0 : (after - keys.begin()) - 1;
+  const std::size_t first = segment == 0 ? 0 : segment - 1;
+  const std::size_t last = std::min(keys.size() - 1, segment + 2);
+  const std::size_t count = last - first + 1;
+  std::vector<double> t(count), y(count);
+  std::vector<Eigen::Matrix<double, kChannels, 1>> values(count);
+  for (std::size_t k = 0; k < count; ++k) {
+    t[k] = keys[first + k].time;
+    values[k] = channels(keys[first + k]);
+  }
   Eigen::Matrix<double, kChannels, 1> out;
   for (int c = 0; c < kChannels; ++c) {
-    for (size_t k = 0; k < keys.size(); ++k) y[k] = channels(keys[k])[c];
+    for (std::size_t k = 0; k < count; ++k) y[k] = values[k][c];
     out[c] = cubic ? pchip(t, y, time) : linear(t, y, time);
   }
   return out;
@@ -175,6 +191,15 @@ Pose Motion::poseAt(double time) const {
 
 namespace {
 
+// True when a time in `times` lies less than `distance` from `t`. The nearest time on either
+// side decides (|b - t| only grows away from t), so this is a look-up, not a scan: up to 10 000
+// random keyframes are checked against each other.
+bool hasTimeNear(const std::multiset<double>& times, double t, double distance) {
+  const auto above = times.lower_bound(t);
+  if (above != times.end() && std::abs(*above - t) < distance) return true;
+  return above != times.begin() && std::abs(*std::prev(above) - t) < distance;
+}
+
 // Random keyframes (`random: keyframes:`), drawn around the explicit motion `base`.
 void drawRandomKeyframes(const YamlValue& blocks, const HandModel& model, Motion* motion,
                          std::mt19937_64* rng) {
@@ -188,6 +213,8 @@ void drawRandomKeyframes(const YamlValue& blocks, const HandModel& model, Motion
     gens.push_back(blocks);
   }
   const std::vector<MotionKeyframe> base = motion->keyframes;
+  std::multiset<double> base_times, drawn_times;
+  for (const MotionKeyframe& key : base) base_times.insert(key.time);
   std::vector<MotionKeyframe> drawn;
   for (const YamlValue& gen : gens) {
     gen.allowOnly({"from", "to", "interval", "position", "orientation", "joints"});
@@ -213,9 +240,8 @@ void drawRandomKeyframes(const YamlValue& blocks, const HandModel& model, Motion
     const double fraction = gen.has("joints") ? gen["joints"].number(0.0, 1.0) : 0.0;
     for (int i = 0; i < count; ++i) {
       const double t = from + i * interval;
-      bool near_other = false;
-      for (const auto& b : base) near_other |= std::abs(b.time - t) < 0.5 * interval;
-      for (const auto& d : drawn) near_other |= std::abs(d.time - t) < 0.5 * interval;
+      const bool near_other =
+          hasTimeNear(base_times, t, 0.5 * interval) || hasTimeNear(drawn_times, t, 0.5 * interval);
       // Draw even when skipping, so that the draws do not depend on the skips.
       MotionKeyframe key;
       key.time = t;
@@ -228,7 +254,10 @@ void drawRandomKeyframes(const YamlValue& blocks, const HandModel& model, Motion
         const double mid = 0.5 * (lo + hi), half = 0.5 * (hi - lo) * fraction;
         key.joints[j] = fraction > 0.0 ? mid + half * unit(*rng) : centre[6 + j];
       }
-      if (!near_other) drawn.push_back(key);
+      if (!near_other) {
+        drawn.push_back(key);
+        drawn_times.insert(t);
+      }
     }
   }
   motion->keyframes.insert(motion->keyframes.end(), drawn.begin(), drawn.end());

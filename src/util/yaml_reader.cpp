@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -25,6 +26,18 @@ std::string shortNumber(double value) {
   std::ostringstream text;
   text << value;
   return text.str();
+}
+
+// What has() asks of a member, on the member itself (no second look-up).
+bool isPresent(const YAML::Node& node) { return node.IsDefined() && !node.IsNull(); }
+
+// The member `key` of a map holding it, else nullopt: one look-up where has() + get() take two
+// (yaml-cpp searches a map linearly).
+std::optional<YamlValue> presentMember(const YamlValue& map, const std::string& key) {
+  if (!map.isMap()) return std::nullopt;
+  YamlValue child = map.get(key);
+  if (!isPresent(child.node())) return std::nullopt;
+  return child;
 }
 
 }  // namespace
@@ -106,7 +119,7 @@ YamlValue YamlValue::get(const std::string& key) const {
 
 YamlValue YamlValue::operator[](const std::string& key) const {
   YamlValue child = get(key);
-  if (!has(key)) child.fail("missing");
+  if (!isPresent(child.node())) child.fail("missing");
   return child;
 }
 
@@ -211,16 +224,19 @@ Eigen::Vector3d YamlValue::vector3() const {
 }
 
 double YamlValue::numberOr(const std::string& key, double fallback) const {
-  return has(key) ? get(key).number() : fallback;
+  const std::optional<YamlValue> child = presentMember(*this, key);
+  return child ? child->number() : fallback;
 }
 
 std::string YamlValue::textOr(const std::string& key, const std::string& fallback) const {
-  return has(key) ? get(key).text() : fallback;
+  const std::optional<YamlValue> child = presentMember(*this, key);
+  return child ? child->text() : fallback;
 }
 
 Eigen::Vector3d YamlValue::vector3Or(const std::string& key,
                                      const Eigen::Vector3d& fallback) const {
-  return has(key) ? get(key).vector3() : fallback;
+  const std::optional<YamlValue> child = presentMember(*this, key);
+  return child ? child->vector3() : fallback;
 }
 
 }  // namespace sag_hand_tracker

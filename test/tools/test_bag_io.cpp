@@ -341,6 +341,16 @@ TEST_F(BagFiles, BagErrorUnreadableBag) {
   const std::string message = readError(path("text.bag"));
   EXPECT_EQ(message.rfind(path("text.bag") + ": cannot read the bag: ", 0), 0u) << message;
   EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+  // rosbag would read these (any "#ROS<word> V<n>.<m>" line) without checking record lengths.
+  for (const std::string first_line : {"#ROSBA+ V2.0\n", "#ROSRECORD V1.2\n", "#ROSBAG V2.1\n"}) {
+    std::ofstream(path("lookalike.bag"), std::ios::binary)
+        << first_line << std::string("\x45\0\0\0\x04\0\0\0op=\x03", 12) << std::string(64, ' ');
+    EXPECT_EQ(readError(path("lookalike.bag")),
+              path("lookalike.bag") +
+                  ": cannot read the bag: it is not a ROS bag of format 2.0 (the file must begin "
+                  "with '#ROSBAG V2.0')")
+        << first_line;
+  }
 }
 
 TEST_F(BagFiles, BagErrorNoFrames) {

@@ -10,8 +10,8 @@
 
 #include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/model/hand_model.h"
-#include "sag_hand_tracker/util/input_limits.h"
 #include "sag_hand_tracker/studio/motion.h"
+#include "sag_hand_tracker/util/input_limits.h"
 #include "sag_hand_tracker/util/yaml_reader.h"
 #include "test_support/synthetic_scene.h"
 #include "test_support/temp_files.h"
@@ -189,6 +189,25 @@ TEST(InputValidation, MotionTinyIntervalIsRefusedWithoutSampling) {
   // 3.6 million keyframes are counted, not drawn.
   message = motionError("random: {keyframes: {from: 0, to: 3600, interval: 0.001}}\n");
   EXPECT_TRUE(contains(message, "more than the limit of 10000")) << message;
+}
+
+TEST(InputValidation, MotionAtTheKeyframeLimitIsDrawnAndSampled) {
+  // 10 000 keyframes (1 explicit + 9 999 drawn over an hour): at the limit, so they are drawn,
+  // spaced and sampled, and interpolation still passes through them (a 150-byte input that cost
+  // the motion fuzz target about 10^8 operations when spacing and poses scanned every keyframe).
+  const HandModel model = loadHandModel(sag_test::modelPath("sag"));
+  const studio::Motion motion = studio::parseMotion(
+      "keyframes:\n  - {time: 0, position: [0, 0, 0.15]}\nduration: 3600\n"
+      "random: {keyframes: {from: 0.36, to: 3599.64, interval: 0.36, position: [0.05, 0.05, "
+      "0.05], joints: 1}}\n",
+      "m.yaml", model, 1);
+  EXPECT_EQ(motion.keyframes.size(), 10000u);
+  for (std::size_t k = 0; k < motion.keyframes.size(); k += 997) {
+    const studio::MotionKeyframe& key = motion.keyframes[k];
+    const Pose pose = motion.poseAt(key.time);
+    EXPECT_NEAR((pose.translation - key.position).norm(), 0.0, 1e-12) << "keyframe " << k;
+    EXPECT_TRUE(pose.toVector().allFinite());
+  }
 }
 
 TEST(InputValidation, SafeNames) {
