@@ -1,5 +1,6 @@
 #include "sag_hand_tracker/camera/camera.h"
 
+#include <Eigen/LU>
 #include <cmath>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
@@ -120,6 +121,36 @@ void undistortImageSoG(const Camera& camera, ImageSoG* sog) {
       sog->arm_cells = 0;  // the sleeve's centroid cannot be placed: no forearm cue
     }
   }
+}
+
+Ray pixelRay(const Camera& camera, const Eigen::Vector2d& undistorted_pixel) {
+  const Eigen::Vector3d local =
+      camera.K.inverse() * Eigen::Vector3d(undistorted_pixel.x(), undistorted_pixel.y(), 1.0);
+  return Ray{camera.centre(), (camera.world_to_camera.linear().transpose() * local).normalized()};
+}
+
+bool triangulate(const std::vector<Ray>& rays, Eigen::Vector3d* point) {
+  if (rays.size() < 2) return false;
+  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  for (const Ray& ray : rays) {
+    const Eigen::Matrix3d projector =
+        Eigen::Matrix3d::Identity() - ray.direction * ray.direction.transpose();
+    A += projector;
+    b += projector * ray.origin;
+  }
+  const Eigen::FullPivLU<Eigen::Matrix3d> lu(A);
+  if (lu.rank() < 3) return false;
+  *point = lu.solve(b);
+  return point->allFinite();
+}
+
+bool isInFrontOfCameras(const Eigen::Vector3d& point, const std::vector<Camera>& cameras,
+                        double min_depth) {
+  for (const Camera& camera : cameras) {
+    if (!((camera.world_to_camera * point).z() >= min_depth)) return false;
+  }
+  return true;
 }
 
 }  // namespace sag_hand_tracker

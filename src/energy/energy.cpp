@@ -111,14 +111,6 @@ double PoseEnergy::modelWeight(size_t p) const {
   return model_.gaussians[p].weight * params_.model_weight;
 }
 
-bool isInFrontOfCameras(const Eigen::Vector3d& point, const std::vector<Camera>& cameras,
-                        double min_depth) {
-  for (const Camera& camera : cameras) {
-    if (!((camera.world_to_camera * point).z() >= min_depth)) return false;
-  }
-  return true;
-}
-
 bool isInFrontOfCameras(const Eigen::Vector3d& point,
                         const std::vector<CameraObservation>& observations, double min_depth) {
   for (const CameraObservation& observation : observations) {

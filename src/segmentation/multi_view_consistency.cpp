@@ -10,18 +10,6 @@
 namespace sag_hand_tracker {
 namespace {
 
-struct Ray {
-  Eigen::Vector3d origin;
-  Eigen::Vector3d direction;  // unit
-};
-
-Ray pixelRay(const Camera& camera, const Eigen::Vector2d& undistorted_pixel) {
-  const Eigen::Matrix3d to_world = camera.world_to_camera.linear().transpose();
-  const Eigen::Vector3d local =
-      camera.K.inverse() * Eigen::Vector3d(undistorted_pixel.x(), undistorted_pixel.y(), 1.0);
-  return Ray{camera.centre(), (to_world * local).normalized()};
-}
-
 // The midpoint of the shortest segment between two rays and its length; false for parallel rays.
 bool closestApproach(const Ray& a, const Ray& b, Eigen::Vector3d* midpoint, double* distance) {
   const Eigen::Vector3d w = a.origin - b.origin;
@@ -35,31 +23,6 @@ bool closestApproach(const Ray& a, const Ray& b, Eigen::Vector3d* midpoint, doub
   *midpoint = 0.5 * (pa + pb);
   *distance = (pa - pb).norm();
   return midpoint->allFinite();
-}
-
-// Least-squares point closest to all rays.
-bool triangulate(const std::vector<Ray>& rays, Eigen::Vector3d* point) {
-  if (rays.size() < 2) return false;
-  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d b = Eigen::Vector3d::Zero();
-  for (const Ray& ray : rays) {
-    const Eigen::Matrix3d projector =
-        Eigen::Matrix3d::Identity() - ray.direction * ray.direction.transpose();
-    A += projector;
-    b += projector * ray.origin;
-  }
-  const Eigen::FullPivLU<Eigen::Matrix3d> lu(A);
-  if (lu.rank() < 3) return false;
-  *point = lu.solve(b);
-  return point->allFinite();
-}
-
-bool inFrontOfAll(const std::vector<Camera>& cameras, const Eigen::Vector3d& point,
-                  double min_depth) {
-  for (const Camera& camera : cameras) {
-    if (!((camera.world_to_camera * point).z() >= min_depth)) return false;
-  }
-  return true;
 }
 
 // Per view, the candidate whose centroid is nearest the point's projection, within the support
@@ -139,7 +102,7 @@ MultiViewChoice chooseConsistentCandidates(
           double distance;
           if (!closestApproach(rays[a][i], rays[b][j], &point, &distance)) continue;
           if (distance > params.max_ray_distance) continue;
-          if (!inFrontOfAll(cameras, point, params.min_depth)) continue;
+          if (!isInFrontOfCameras(point, cameras, params.min_depth)) continue;
           std::vector<int> chosen = support(cameras, centroids, point, params);
           // Re-triangulated from every supporting view, when that stays in front of the cameras.
           std::vector<Ray> supporting;
@@ -148,7 +111,7 @@ MultiViewChoice chooseConsistentCandidates(
           }
           Eigen::Vector3d refined;
           if (triangulate(supporting, &refined) &&
-              inFrontOfAll(cameras, refined, params.min_depth)) {
+              isInFrontOfCameras(refined, cameras, params.min_depth)) {
             const std::vector<int> refined_chosen = support(cameras, centroids, refined, params);
             int before = 0, after = 0;
             for (size_t c = 0; c < views; ++c) {

@@ -1,6 +1,5 @@
 #include "sag_hand_tracker/tracking/tracker.h"
 
-#include <Eigen/LU>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -14,12 +13,6 @@ const Eigen::Vector3d kHandCentreInPalm(0.065, 0.0, 0.0);
 constexpr size_t kCoarseKept = 24;
 constexpr int kCoarseIterations = 8;
 constexpr size_t kHypothesesKept = 4;
-
-// The foreground centroid of one camera, as a ray in the root frame.
-struct Ray {
-  Eigen::Vector3d origin;
-  Eigen::Vector3d direction;
-};
 
 // Orientation hypotheses: the fingers along the 26 directions of a cube's faces, edges and
 // corners, each with 8 rolls of the palm about them (208 orientations, <= 45 degrees apart).
@@ -47,23 +40,6 @@ std::vector<Eigen::Matrix3d> orientationHypotheses() {
     }
   }
   return rotations;
-}
-
-// Least-squares point closest to all rays.
-bool triangulate(const std::vector<Ray>& rays, Eigen::Vector3d* point) {
-  if (rays.size() < 2) return false;
-  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d b = Eigen::Vector3d::Zero();
-  for (const Ray& ray : rays) {
-    const Eigen::Matrix3d projector =
-        Eigen::Matrix3d::Identity() - ray.direction * ray.direction.transpose();
-    A += projector;
-    b += projector * ray.origin;
-  }
-  const Eigen::FullPivLU<Eigen::Matrix3d> lu(A);
-  if (lu.rank() < 3) return false;
-  *point = lu.solve(b);
-  return point->allFinite();
 }
 
 // Pixel of a root-frame point in a camera; empty behind it.
@@ -367,11 +343,7 @@ std::vector<OptimizationResult> HandTracker::startFromHypotheses(
     const std::optional<Eigen::Vector2d> centroid =
         foregroundCentroid(observation.sog, params.min_foreground_gaussians);
     if (!centroid) continue;
-    const Eigen::Isometry3d camera_to_world = observation.camera.world_to_camera.inverse();
-    const Eigen::Vector3d direction_camera =
-        observation.camera.K.inverse() * Eigen::Vector3d(centroid->x(), centroid->y(), 1.0);
-    rays.push_back({camera_to_world.translation(),
-                    (camera_to_world.linear() * direction_camera).normalized()});
+    rays.push_back(pixelRay(observation.camera, *centroid));
     ray_cameras.push_back(&observation.camera);
   }
   Eigen::Vector3d centre;

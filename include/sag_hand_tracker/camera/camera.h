@@ -41,6 +41,23 @@ void checkDistortionCount(std::size_t count, const std::string& who);
 // camera_info), not per frame.
 void checkDistortionInvertible(const Camera& camera, const std::string& who);
 
+// A ray in the root frame: from a camera centre through a pixel.
+struct Ray {
+  Eigen::Vector3d origin;
+  Eigen::Vector3d direction;  // unit
+};
+
+// The ray through an undistorted (ideal pinhole) pixel.
+Ray pixelRay(const Camera& camera, const Eigen::Vector2d& undistorted_pixel);
+
+// Least-squares point closest to all rays; false for fewer than 2 rays or parallel ones.
+bool triangulate(const std::vector<Ray>& rays, Eigen::Vector3d* point);
+
+// Whether a root-frame point lies at least min_depth (metres) in front of every camera (along its
+// optical axis). A hand hypothesis behind a camera that sees the hand is no hypothesis.
+bool isInFrontOfCameras(const Eigen::Vector3d& point, const std::vector<Camera>& cameras,
+                        double min_depth = 0.05);
+
 // Moves every image Gaussian of `sog` to ideal pinhole coordinates (no-op without distortion);
 // one the distortion cannot place (non-finite) is dropped.
 void undistortImageSoG(const Camera& camera, ImageSoG* sog);

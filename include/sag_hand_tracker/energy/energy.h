@@ -114,10 +114,7 @@ class PoseEnergy {
   std::vector<FrameCamera> cameras_;
 };
 
-// Whether a root-frame point lies at least min_depth (metres) in front of every camera (along its
-// optical axis). A hand hypothesis behind a camera that sees the hand is no hypothesis.
-bool isInFrontOfCameras(const Eigen::Vector3d& point, const std::vector<Camera>& cameras,
-                        double min_depth = 0.05);
+// isInFrontOfCameras (camera.h) for the cameras of a frame's observations.
 bool isInFrontOfCameras(const Eigen::Vector3d& point,
                         const std::vector<CameraObservation>& observations,
                         double min_depth = 0.05);
