@@ -53,10 +53,8 @@ cv::Rect projectedHandBox(const HandModel& model, const Pose& pose, const Camera
   return cv::Rect(x0, y0, x1 - x0, y1 - y0) & cv::Rect(0, 0, camera.width, camera.height);
 }
 
-cv::Mat projectedHandMask(const HandModel& model, const Pose& pose, const Camera& camera,
-                          int margin_pixels) {
+cv::Mat projectedHandMask(const PosedHand& hand, const Camera& camera, int margin_pixels) {
   cv::Mat mask(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
-  const PosedHand hand = forwardKinematics(model, pose);
   for (const WorldGaussian& g : hand.gaussians) {
     const Eigen::Vector3d p = camera.world_to_camera * g.mean;
     if (p.z() < 0.02) return cv::Mat(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
@@ -195,13 +193,14 @@ ProcessedFrame TrackingPipeline::process(const FrameSet& set,
   if (params_.segmentation.room.enabled) {
     const FrameResult& result = processed.result;
     const bool tracked = result.has_pose && result.status != TrackStatus::kLost;
+    // Posed once for every camera's region and the centre.
+    const PosedHand hand = tracked ? forwardKinematics(tracker_.model(), result.pose) : PosedHand();
     for (size_t c = 0; c < segmenters_.size(); ++c) {
-      segmenters_[c].setRegionOfInterest(
-          tracked ? projectedHandMask(tracker_.model(), result.pose, cameras_[c]) : cv::Mat());
+      segmenters_[c].setRegionOfInterest(tracked ? projectedHandMask(hand, cameras_[c])
+                                                 : cv::Mat());
     }
     tracked_regions_ = tracked;
     if (tracked) {
-      const PosedHand hand = forwardKinematics(tracker_.model(), result.pose);
       tracked_centre_.setZero();
       for (const WorldGaussian& g : hand.gaussians) tracked_centre_ += g.mean;
       tracked_centre_ /= static_cast<double>(std::max<size_t>(hand.gaussians.size(), 1));

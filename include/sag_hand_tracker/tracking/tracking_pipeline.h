@@ -53,8 +53,7 @@ cv::Rect projectedHandBox(const HandModel& model, const Pose& pose, const Camera
 // every model Gaussian whose centre is in front of the camera drawn as a disc of radius
 // 2.5 sqrt(trace Sigma) projected, plus margin_pixels. All zero when the hand is at or behind
 // the camera.
-cv::Mat projectedHandMask(const HandModel& model, const Pose& pose, const Camera& camera,
-                          int margin_pixels = 10);
+cv::Mat projectedHandMask(const PosedHand& hand, const Camera& camera, int margin_pixels = 10);
 
 class TrackingPipeline {
  public:
