@@ -10,19 +10,21 @@
 // Private parameters: num_cameras (5), root_frame (world), model ("sag", "sog" or a path),
 //   handedness (right|left), camera_timeout (0.5 s), time_jump_threshold (1.0 s),
 //   calibration_max_frames (16) and calibration_rounds (2): the live fit's HandFitParams
-//   max_frames and rounds, asynchronous_search (true: the start and re-detection searches run on
-//   a worker thread, off the frame path; false: on the set that needs them, as track_bag does,
-//   so that a replay gives track_bag's poses exactly), catch_up_seconds (0.25; with
-//   asynchronous_search: the sets of up to this many seconds that arrive without a pose while a
-//   search runs are tracked once it has finished and published late, below), plus the
-//   dynamic_reconfigure parameters of cfg/Tracker.cfg.
+//   max_frames and rounds, asynchronous_search (true: a set that needs the start or re-detection
+//   search is handed to a worker thread, which tracks it and the sets after it synchronously
+//   until it has caught up, off the frame path; false: the search runs on the set that needs it,
+//   as track_bag does, so that a replay gives track_bag's poses exactly), catch_up_seconds (0.25;
+//   with asynchronous_search: the worker keeps the sets of up to this many seconds; those that
+//   got no pose on the frame path meanwhile are published late, below), worker_niceness (10: the
+//   worker's nice value above the frame path's; 0-19), plus the dynamic_reconfigure parameters of
+//   cfg/Tracker.cfg.
 //
-// Late results (catch-up, TrackerParams::catch_up_seconds): a set that got no pose while a start
-// or re-detection search ran was published with a status without pose; the set that collects the
-// finished search first publishes those sets' poses (joint_states, tf, fingertips, markers and a
-// second status with has_pose and late true), each with its own image stamp, oldest first, then
-// its own. Sets beyond the bound stay lost. Late sets get no overlay images and are not collected
-// by a running ~calibrate.
+// Late results (catch-up, TrackerParams::catch_up_seconds): a set that got no pose while the
+// worker had the search (no track, or it was lost) was published with a status without pose; the
+// next set first publishes the poses the worker has found for such sets since (joint_states, tf,
+// fingertips, markers and a second status with has_pose and late true), each with its own image
+// stamp, oldest first, then its own. Sets beyond the bound stay lost. Late sets get no overlay
+// images and are not collected by a running ~calibrate.
 //
 // Live calibration (~calibrate, srv/Calibrate.srv, doc/calibration.md "Live"): the call collects
 // the sets of the next `duration` seconds (image stamps) as CalibrationFrames (the observations
@@ -149,6 +151,11 @@ class TrackerNodelet : public nodelet::Nodelet {
       NODELET_ERROR("catch_up_seconds must be in [0, 10] (got %g); using 0.25", catch_up_seconds_);
       catch_up_seconds_ = 0.25;
     }
+    worker_niceness_ = pnh.param("worker_niceness", worker_niceness_);
+    if (!(worker_niceness_ >= 0 && worker_niceness_ <= 19)) {
+      NODELET_ERROR("worker_niceness must be in [0, 19] (got %d); using 10", worker_niceness_);
+      worker_niceness_ = 10;
+    }
     const std::string model_name = pnh.param<std::string>("model", "sag");
     const std::string handedness = pnh.param<std::string>("handedness", "right");
     try {
@@ -230,6 +237,7 @@ class TrackerNodelet : public nodelet::Nodelet {
     TrackerParams params;
     params.asynchronous_search = asynchronous_search_;
     params.catch_up_seconds = catch_up_seconds_;
+    params.worker_niceness = worker_niceness_;
     return params;
   }
 
@@ -810,6 +818,7 @@ class TrackerNodelet : public nodelet::Nodelet {
   HandModel model_;
   bool asynchronous_search_ = true;
   double catch_up_seconds_ = 0.25;
+  int worker_niceness_ = 10;
   std::unique_ptr<HandTracker> tracker_;
   std::string model_label_;  // for the status: the model parameter, or the saved file
   std::optional<CalibrationRecording> recording_;  // while a ~calibrate call collects

@@ -12,6 +12,8 @@
 //   duration (60 s of wall time from the first camera set; 0 = until the studio says "done")
 //   settle (1.0 s): after the end, how long to wait for the outputs of the sets still in flight
 //   summary_file (""): also write the figures there, as YAML
+//   sets_file (""): also write one CSV row per camera set (stamp, sequence, tracker status, late,
+//     latency, the tracker's work, fingertip error), to see which sets make the latency's tail
 //   end_launch (false): after the summary, SIGINT the parent process when it is roslaunch (else,
 //     and 10 s after the signal if still running, the node shuts itself down)
 // Latency: ros::WallTime::now() when the joint state arrives minus its header stamp (the image
@@ -121,6 +123,7 @@ class DemoSummary {
     settle_ = pnh_.param("settle", 1.0);
     end_launch_ = pnh_.param("end_launch", false);
     summary_file_ = pnh_.param<std::string>("summary_file", "");
+    sets_file_ = pnh_.param<std::string>("sets_file", "");
     for (int i = 0; i < num_cameras_; ++i) {
       subs_.push_back(nh_.subscribe<sensor_msgs::CameraInfo>(
           "cam" + std::to_string(i) + "/camera_info", 20,
@@ -379,6 +382,22 @@ class DemoSummary {
       }
       if (!file) ROS_ERROR("cannot write the summary to %s", summary_file_.c_str());
     }
+    if (!sets_file_.empty()) writeSets();
+  }
+
+  void writeSets() const {
+    std::ofstream file(sets_file_);
+    file << "stamp,sequence,cameras,status,has_joint_state,late,latency_ms,tracker_work_ms,"
+            "fingertip_error_mm\n";
+    char row[256];
+    for (const auto& [stamp, set] : sets_) {
+      std::snprintf(row, sizeof row, "%.6f,%s,%d,%s,%d,%d,%.3f,%.3f,%.2f\n", stamp.toSec(),
+                    set.sequence.c_str(), set.cameras,
+                    set.status ? set.status_text.c_str() : "none", set.joint_state ? 1 : 0,
+                    set.late ? 1 : 0, set.latency * 1000.0, set.work * 1000.0, set.error);
+      file << row;
+    }
+    if (!file) ROS_ERROR("cannot write the sets to %s", sets_file_.c_str());
   }
 
   ros::NodeHandle nh_, pnh_;
@@ -386,7 +405,7 @@ class DemoSummary {
   double duration_ = 60.0, settle_ = 1.0;
   bool end_launch_ = false;
   ros::WallTime launch_signalled_;
-  std::string summary_file_;
+  std::string summary_file_, sets_file_;
   std::vector<ros::Subscriber> subs_;
   ros::WallTimer timer_;
 

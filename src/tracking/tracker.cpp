@@ -3,7 +3,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
+#include <deque>
+#include <exception>
+#include <mutex>
 #include <optional>
+#include <utility>
+
+#include "sag_hand_tracker/util/thread_priority.h"
 
 namespace sag_hand_tracker {
 namespace {
@@ -198,20 +205,98 @@ std::string toString(TrackStatus status) {
   return "unknown";
 }
 
+// A set the frame path has stepped, for the worker.
+struct HandTracker::HandedFrame {
+  std::vector<CameraObservation> observations;
+  double stamp = 0.0;
+  std::int64_t frame_id = 0;
+  bool reported_pose = false;  // the frame path's own result for it had a pose
+};
+
+// The worker of asynchronous_search: a synchronous tracker on its own thread that tracks the sets
+// handed to it, in order, and then waits for more, until the frame path adopts it (`finish`, only
+// when it is idle) or drops it (`cancelled`).
+struct HandTracker::Worker {
+  std::unique_ptr<HandTracker> tracker;
+  mutable std::mutex mutex;
+  mutable std::condition_variable changed;
+  std::deque<HandedFrame> queue;                      // handed, not tracked yet
+  std::vector<std::pair<bool, FrameResult>> results;  // (reported_pose, the worker's result)
+  bool busy = false;
+  bool finish = false;
+  bool cancelled = false;
+  std::exception_ptr error;  // what ended it early; rethrown by the update that adopts it
+  std::future<void> done;
+
+  bool idle() const { return (queue.empty() && !busy) || error; }  // with `mutex` held
+
+  // Dropped (reset, another model, the tracker's end): stops after the set it is tracking.
+  ~Worker() {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      cancelled = true;
+      changed.notify_all();
+    }
+    if (done.valid()) done.wait();
+  }
+
+  void run(const std::shared_future<void>& gate, int niceness) {
+    lowerCurrentThreadPriority(niceness);  // best effort: a worker at full priority still works
+    if (gate.valid()) gate.wait();
+    std::unique_lock<std::mutex> lock(mutex);
+    for (;;) {
+      changed.wait(lock, [this] { return cancelled || finish || !queue.empty(); });
+      if (cancelled || queue.empty()) return;
+      HandedFrame frame = std::move(queue.front());
+      queue.pop_front();
+      busy = true;
+      lock.unlock();
+      std::optional<FrameResult> result;
+      std::exception_ptr failure;
+      try {
+        result = tracker->update(frame.observations, frame.stamp, frame.frame_id);
+      } catch (...) {
+        failure = std::current_exception();
+      }
+      lock.lock();
+      busy = false;
+      changed.notify_all();
+      if (failure) {
+        error = failure;
+        return;
+      }
+      results.emplace_back(frame.reported_pose, std::move(*result));
+    }
+  }
+};
+
 HandTracker::HandTracker(const HandModel& model, const TrackerParams& params)
     : model_(model), params_(params), energy_(model, params.energy) {}
 
+HandTracker::~HandTracker() = default;
+HandTracker::HandTracker(HandTracker&&) noexcept = default;
+HandTracker& HandTracker::operator=(HandTracker&&) noexcept = default;
+
 void HandTracker::reset() {
-  search_.reset();
-  kept_.clear();
+  stopWorker();
   late_results_.clear();
-  previous_.reset();
-  current_.reset();
-  lost_ = false;
-  typical_similarity_ = 0.0;
-  frames_since_start_ = 0;
-  alternative_.reset();
-  arm_reversed_streak_ = 0;
+  setTrackState(TrackState());
+}
+
+HandTracker::TrackState HandTracker::trackState() const {
+  return {
+      previous_,           current_, lost_, typical_similarity_, frames_since_start_, alternative_,
+      arm_reversed_streak_};
+}
+
+void HandTracker::setTrackState(const TrackState& state) {
+  previous_ = state.previous;
+  current_ = state.current;
+  lost_ = state.lost;
+  typical_similarity_ = state.typical_similarity;
+  frames_since_start_ = state.frames_since_start;
+  alternative_ = state.alternative;
+  arm_reversed_streak_ = state.arm_reversed_streak;
 }
 
 bool HandTracker::looksLost(double similarity) const {
@@ -220,8 +305,7 @@ bool HandTracker::looksLost(double similarity) const {
 }
 
 void HandTracker::setModel(const HandModel& model) {
-  search_.reset();
-  kept_.clear();
+  stopWorker();
   model_ = model;
   energy_ = PoseEnergy(model_, params_.energy);
   if (current_) clampToLimits(model_, &*current_);
@@ -282,37 +366,11 @@ bool HandTracker::plausible(const Pose& pose,
 std::optional<std::vector<OptimizationResult>> HandTracker::hypothesisSearch(
     const PoseEnergy& energy, const std::vector<CameraObservation>& observations) {
   if (!params_.asynchronous_search) {
-    search_.reset();
     return startFromHypotheses(model_, params_, energy, observations, current_);
   }
-  if (!search_) {
-    // Everything the worker reads is copied: the tracker goes on with the next frames.
-    search_sequence_ = step_sequence_;
-    search_ = std::make_shared<std::future<std::vector<OptimizationResult>>>(
-        std::async(std::launch::async, [model = model_, params = params_, observations,
-                                        current = current_, gate = search_gate_]() {
-          if (gate.valid()) gate.wait();
-          PoseEnergy search_energy(model, params.energy);
-          search_energy.setFrame(observations);
-          return startFromHypotheses(model, params, search_energy, observations, current);
-        }));
-    return std::nullopt;
-  }
-  if (!kept_.empty() || search_->wait_for(std::chrono::seconds(0)) != std::future_status::ready) {
-    return std::nullopt;
-  }
-  std::vector<OptimizationResult> candidates = search_->get();
-  search_.reset();
-  // The catch-up gave the search its own set back: the candidates are final, as synchronously.
-  if (search_sequence_ == step_sequence_) return candidates;
-  // Found on an earlier frame: the best ones are refined on this one and judged again.
-  candidates.resize(std::min(candidates.size(),
-                             static_cast<size_t>(std::max(params_.async_refined_candidates, 1))));
-  for (OptimizationResult& candidate : candidates) {
-    candidate = optimizePose(energy, candidate.pose, params_.optimizer);
-  }
-  rankCandidates(params_, observations, &candidates);
-  return candidates;
+  // A worker takes this set over after the step (update); none while one is still running.
+  if (!worker_) search_wanted_ = true;
+  return std::nullopt;
 }
 
 Pose HandTracker::predictedPose(const std::optional<Pose>& previous, const Pose& current) const {
@@ -407,39 +465,97 @@ std::vector<OptimizationResult> HandTracker::startFromHypotheses(
 FrameResult HandTracker::update(const std::vector<CameraObservation>& observations, double stamp,
                                 std::int64_t frame_id) {
   late_results_.clear();
-  if (!search_) kept_.clear();  // nothing will be adopted for them (reset, model or params)
-  if (!kept_.empty() && search_->wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
-    // Catch-up: the kept sets, oldest first, tracked from the finished search as they would have
-    // been synchronously; one that asks for a new search is kept again (with those after it).
-    std::deque<KeptFrame> frames;
-    frames.swap(kept_);
-    for (KeptFrame& frame : frames) {
-      step_sequence_ = frame.sequence;
-      FrameResult result = step(frame.observations, frame.stamp);
-      result.frame_id = frame.frame_id;
-      if (result.has_pose) {
-        result.late = true;
-        late_results_.push_back(std::move(result));
-      } else {
-        keepForCatchUp(std::move(frame));
-      }
-    }
+  if (retired_ && retired_->done.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
+    retired_.reset();
   }
-  step_sequence_ = sequence_++;
+  if (worker_) {
+    bool idle = false;
+    {
+      std::lock_guard<std::mutex> lock(worker_->mutex);
+      idle = worker_->idle();
+    }
+    collectWorker(idle);
+  }
+  // The state before this set: where a worker starts when this set asks for a search.
+  const TrackState before = worker_ ? TrackState() : trackState();
+  search_wanted_ = false;
   FrameResult result = step(observations, stamp);
   result.frame_id = frame_id;
-  if (!result.has_pose && search_) keepForCatchUp({observations, stamp, frame_id, step_sequence_});
+  HandedFrame frame{observations, stamp, frame_id, result.has_pose};
+  if (worker_) {
+    handToWorker(std::move(frame));
+  } else if (search_wanted_) {
+    startWorker(before, std::move(frame));
+  }
+  search_wanted_ = false;
   return result;
 }
 
-void HandTracker::keepForCatchUp(KeptFrame frame) {
-  if (!search_ || !params_.asynchronous_search || !(params_.catch_up_seconds > 0.0)) return;
-  kept_.push_back(std::move(frame));
-  // Beyond the bounds the oldest stay lost, as they were reported.
-  while (static_cast<int>(kept_.size()) > kMaxCatchUpFrames ||
-         kept_.back().stamp - kept_.front().stamp > params_.catch_up_seconds) {
-    kept_.pop_front();
+void HandTracker::startWorker(const TrackState& state, HandedFrame frame) {
+  TrackerParams synchronous = params_;
+  synchronous.asynchronous_search = false;
+  auto worker = std::make_unique<Worker>();
+  worker->tracker = std::make_unique<HandTracker>(model_, synchronous);
+  worker->tracker->setTrackState(state);
+  worker->queue.push_back(std::move(frame));
+  Worker* running = worker.get();
+  worker->done = std::async(std::launch::async,
+                            [running, gate = search_gate_, niceness = params_.worker_niceness]() {
+                              running->run(gate, niceness);
+                            });
+  worker_ = std::move(worker);
+}
+
+void HandTracker::handToWorker(HandedFrame frame) {
+  std::lock_guard<std::mutex> lock(worker_->mutex);
+  std::deque<HandedFrame>& queue = worker_->queue;
+  queue.push_back(std::move(frame));
+  // Beyond the bounds the oldest are skipped; they stay as they were reported.
+  const double window = std::max(params_.catch_up_seconds, 0.0);
+  while (queue.size() > 1 && (static_cast<int>(queue.size()) > kMaxCatchUpFrames ||
+                              queue.back().stamp - queue.front().stamp > window)) {
+    queue.pop_front();
   }
+  worker_->changed.notify_all();
+}
+
+void HandTracker::collectWorker(bool adopt) {
+  std::vector<std::pair<bool, FrameResult>> results;
+  std::exception_ptr error;
+  TrackState adopted;
+  {
+    std::lock_guard<std::mutex> lock(worker_->mutex);
+    results.swap(worker_->results);
+    if (adopt) {
+      // Idle: it touches its tracker no more, so its state is read here, without waiting for its
+      // thread (at a lower priority it may take a while to be scheduled and end).
+      error = worker_->error;
+      if (!error) adopted = worker_->tracker->trackState();
+      worker_->finish = true;
+      worker_->changed.notify_all();
+    }
+  }
+  for (auto& [reported_pose, result] : results) {
+    if (reported_pose || !result.has_pose || !(params_.catch_up_seconds > 0.0)) continue;
+    result.late = true;
+    late_results_.push_back(std::move(result));
+  }
+  if (!adopt) return;
+  // Its thread ends by itself; it is joined once it has (or by the next adoption, reset, end).
+  retired_ = std::move(worker_);
+  if (error) std::rethrow_exception(error);
+  setTrackState(adopted);
+}
+
+void HandTracker::stopWorker() {
+  worker_.reset();
+  retired_.reset();
+}
+
+int HandTracker::keptFrames() const {
+  if (!worker_) return 0;
+  std::lock_guard<std::mutex> lock(worker_->mutex);
+  return static_cast<int>(worker_->queue.size());
 }
 
 std::vector<FrameResult> HandTracker::takeLateResults() {
@@ -449,7 +565,9 @@ std::vector<FrameResult> HandTracker::takeLateResults() {
 }
 
 void HandTracker::waitForSearch() const {
-  if (search_) search_->wait();
+  if (!worker_) return;
+  std::unique_lock<std::mutex> lock(worker_->mutex);
+  worker_->changed.wait(lock, [this] { return worker_->idle(); });
 }
 
 FrameResult HandTracker::step(const std::vector<CameraObservation>& observations, double stamp) {
@@ -501,9 +619,10 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
         !plausible(optimized->pose, observations) ||
         (params_.arm_reversed_frames > 0 && arm_reversed_streak_ >= params_.arm_reversed_frames);
     const bool lost = !flipped && (looksLost(terms.similarity) || implausible);
-    if (lost || redetect || search_) {
-      // Try the start routine on this frame (or, asynchronously, collect the one that an earlier
-      // frame launched). When the track is lost its best result replaces the track. A periodic
+    if (lost || redetect) {
+      // Try the start routine on this frame (asynchronously: hand the set to a worker, which
+      // does this on its copy of the tracker). When the track is lost its best result replaces
+      // the track. A periodic
       // re-detection replaces it only with a clearly better pose of about the same orientation
       // (so that the track does not jitter between near-equal poses); a better flipped pose only
       // becomes the carried alternative, which must then prove itself.
@@ -512,7 +631,7 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
       const std::vector<OptimizationResult> restart =
           search ? *search : std::vector<OptimizationResult>();
       if (!search) {
-        // Still searching: this frame keeps the warm-started pose (reported lost when lost).
+        // A worker searches: this frame keeps the warm-started pose (reported lost when lost).
       } else if (lost) {
         if (!restart.empty() && (implausible || restart.front().energy > optimized->energy)) {
           optimized = restart.front();

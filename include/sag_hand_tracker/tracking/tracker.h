@@ -86,20 +86,25 @@ struct TrackerParams {
   // never reported (the frame is lost).
   double min_camera_depth = 0.05;
   // Live graphs (issue 12): the start and re-detection searches (the hypotheses above) take tens of
-  // milliseconds, which on the frame path is a latency spike. With asynchronous_search they run
-  // on a worker thread with a copy of the frame that asked for them, and the frames meanwhile are
-  // tracked as usual (or, without a track, reported without a pose and kept for the catch-up
-  // below); a later frame collects the result, refines its best `async_refined_candidates`
-  // candidates on itself and decides as the synchronous search would have. Offline tools keep it
-  // off: their results then do not depend on thread timing.
+  // milliseconds, which on the frame path is a latency spike. With asynchronous_search the set
+  // that needs one hands the tracking over to a worker thread: a copy of the tracker, as it was
+  // before that set, tracks it synchronously (search included) and then every set that arrives
+  // meanwhile, in order, until it has caught up; the update that finds it idle adopts its state,
+  // which is then exactly the synchronous tracker's. The frame path meanwhile only tracks as
+  // usual (a set without a live track is reported without a pose) and never searches, so its
+  // work per set is one ordinary step. Offline tools keep it off: their results then do not
+  // depend on thread timing.
   bool asynchronous_search = false;
-  int async_refined_candidates = 2;
-  // Catch-up (issue 12): with asynchronous_search, the sets that get no pose while a search runs
-  // (no track yet, or the track was lost) are kept, those of the last `catch_up_seconds` (by
-  // stamp; at most kMaxCatchUpFrames). The update that finds the search finished first tracks
-  // them in order from its result, as the synchronous search would have (the set that launched
-  // it takes its best candidate, the next ones the ordinary per-frame step), and returns their
-  // results as late results (HandTracker::takeLateResults); older sets stay lost. 0: none kept.
+  // The worker's nice value above the frame path's: on a machine with as many busy threads as
+  // cores (five segmentations, the tracker, a renderer or drivers), an equal-priority worker's
+  // search delays the frame path by its whole length; lowered, it runs in what is left. 0: equal.
+  int worker_niceness = 10;
+  // Catch-up (issue 12): with asynchronous_search, the sets the worker has not tracked yet are
+  // kept for it only while they are within `catch_up_seconds` (by stamp) of the newest set (at
+  // most kMaxCatchUpFrames; older ones are skipped, as a synchronous tracker skips a camera set
+  // that never came). A set that the frame path reported without a pose and the worker tracked
+  // comes back as a late result (HandTracker::takeLateResults). 0: only the newest set is kept,
+  // and no late results.
   double catch_up_seconds = 0.25;
 };
 // The most sets the catch-up keeps, whatever their stamps say.
@@ -154,7 +159,7 @@ struct FrameResult {
   double stamp = 0.0;
   std::int64_t frame_id = 0;  // update's frame_id: the caller's identity of the set
   // A catch-up result (TrackerParams::catch_up_seconds): an earlier update reported this set
-  // without a pose while a search ran; this is its pose, tracked once the search had finished.
+  // without a pose while a worker had the search; this is the worker's pose for it.
   bool late = false;
   TrackStatus status = TrackStatus::kWaiting;
   bool has_pose = false;  // false while waiting: pose and fingertips are then meaningless
@@ -169,14 +174,19 @@ struct FrameResult {
 class HandTracker {
  public:
   HandTracker(const HandModel& model, const TrackerParams& params);
+  // A pending worker (TrackerParams::asynchronous_search) is stopped after its current set; a
+  // moved tracker takes its worker along.
+  ~HandTracker();
+  HandTracker(HandTracker&&) noexcept;
+  HandTracker& operator=(HandTracker&&) noexcept;
 
   // One synchronized set: the cameras that delivered, each with its foreground image SoG
   // (undistorted pixels). Missing cameras are simply absent. `frame_id` identifies the set in the
   // results (FrameResult::frame_id; the live graph passes its stamp in ns).
   FrameResult update(const std::vector<CameraObservation>& observations, double stamp,
                      std::int64_t frame_id = 0);
-  // The late results of the last update (TrackerParams::catch_up_seconds), oldest first, all of
-  // sets before that update's own; moved out (the next update replaces them).
+  // The late results collected by the last update (TrackerParams::catch_up_seconds), oldest
+  // first, all of sets before that update's own; moved out (the next update replaces them).
   std::vector<FrameResult> takeLateResults();
 
   void reset();
@@ -184,15 +194,15 @@ class HandTracker {
   // the current pose (joints clamped to the new limits); a pending search, the carried
   // alternative and the similarity reference are dropped, since they belong to the old model.
   void setModel(const HandModel& model);
-  // A search launched on a worker thread (TrackerParams::asynchronous_search) is still pending.
-  bool searching() const { return search_ != nullptr; }
-  // Blocks until the pending search (if any) has finished; the next update collects it.
+  // The worker (TrackerParams::asynchronous_search) has not been adopted yet.
+  bool searching() const { return worker_ != nullptr; }
+  // Blocks until the worker (if any) has tracked every set handed to it; the next update adopts it.
   void waitForSearch() const;
-  // Tests: every search launched from now on waits for `gate` before it starts, so that a test
+  // Tests: every worker started from now on waits for `gate` before it starts, so that a test
   // decides how many sets arrive while it runs.
   void holdSearchesUntil(std::shared_future<void> gate) { search_gate_ = std::move(gate); }
-  // Sets kept for the catch-up (no pose yet, a search running).
-  int keptFrames() const { return static_cast<int>(kept_.size()); }
+  // Sets handed to the worker that it has not tracked yet.
+  int keptFrames() const;
   const HandModel& model() const { return model_; }
   const TrackerParams& params() const { return params_; }
   void setParams(const TrackerParams& params);
@@ -202,27 +212,16 @@ class HandTracker {
   // refine the best few. Returns the refined candidates, best first (plausible ones only, and
   // none that the forearm cue calls reversed); empty when too few cameras see the hand or the
   // foreground cannot be triangulated in front of them.
-  // `current`: the tracked pose, also refined as a candidate. Reads only its arguments, so that
-  // it can run on a worker thread.
+  // `current`: the tracked pose, also refined as a candidate.
   static std::vector<OptimizationResult> startFromHypotheses(
       const HandModel& model, const TrackerParams& params, const PoseEnergy& energy,
       const std::vector<CameraObservation>& observations, const std::optional<Pose>& current);
-  // The search for this frame: the candidates, best first; or, with asynchronous_search, empty
-  // while it runs (a search is launched when none is pending) and the candidates of a finished
-  // one refined on this frame (as they are when this is the set that launched it, in the
-  // catch-up). While sets are kept for the catch-up, only the oldest of them collects it.
+  // The search for this frame: the candidates, best first; or, with asynchronous_search, none
+  // (the set is handed to a worker after this step, see update).
   std::optional<std::vector<OptimizationResult>> hypothesisSearch(
       const PoseEnergy& energy, const std::vector<CameraObservation>& observations);
-  // The tracking of one set (update without the catch-up).
+  // The tracking of one set (update without the worker).
   FrameResult step(const std::vector<CameraObservation>& observations, double stamp);
-  // A set that got no pose while a search runs: kept for the catch-up, within its bounds.
-  struct KeptFrame {
-    std::vector<CameraObservation> observations;
-    double stamp = 0.0;
-    std::int64_t frame_id = 0;
-    long sequence = 0;
-  };
-  void keepForCatchUp(KeptFrame frame);
   bool armSaysReversed(const Pose& pose, const std::vector<CameraObservation>& observations) const;
   bool plausible(const Pose& pose, const std::vector<CameraObservation>& observations) const;
   // The pose the optimiser starts from: `current` moved on at the velocity from `previous`
@@ -232,6 +231,39 @@ class HandTracker {
   // and max_rotation_per_frame from the current one (re-scored when it moved).
   void boundRotation(const PoseEnergy& energy, const Pose& current, const Pose& predicted,
                      OptimizationResult* result) const;
+  bool looksLost(double similarity) const;
+
+  // The flip hypothesis being carried (see TrackerParams::flip_margin) and its own history.
+  struct Alternative {
+    std::optional<Pose> previous;
+    Pose current;
+    int wins = 0;
+  };
+  // Everything step() carries from one set to the next: what the worker starts from and what the
+  // frame path adopts from it.
+  struct TrackState {
+    std::optional<Pose> previous;
+    std::optional<Pose> current;
+    bool lost = false;
+    double typical_similarity = 0.0;
+    int frames_since_start = 0;
+    std::optional<Alternative> alternative;
+    int arm_reversed_streak = 0;
+  };
+  TrackState trackState() const;
+  void setTrackState(const TrackState& state);
+
+  // The worker of asynchronous_search (defined in tracker.cpp).
+  struct Worker;
+  // Starts a worker from `state` (the state before `frame`'s step) with `frame` as its first set.
+  struct HandedFrame;
+  void startWorker(const TrackState& state, HandedFrame frame);
+  // Hands a set the frame path has stepped to the worker, within the catch-up's bounds.
+  void handToWorker(HandedFrame frame);
+  // Moves the worker's results for sets the frame path reported without a pose into the late
+  // results; with `adopt` (the worker is idle), also takes its state and ends it.
+  void collectWorker(bool adopt);
+  void stopWorker();
 
   HandModel model_;
   TrackerParams params_;
@@ -241,26 +273,14 @@ class HandTracker {
   bool lost_ = false;
   double typical_similarity_ = 0.0;  // running average while tracking (0: none yet)
   int frames_since_start_ = 0;
-  // The flip hypothesis being carried (see TrackerParams::flip_margin) and its own history.
-  struct Alternative {
-    std::optional<Pose> previous;
-    Pose current;
-    int wins = 0;
-  };
   std::optional<Alternative> alternative_;
   int arm_reversed_streak_ = 0;
-  // The search running on a worker thread (asynchronous_search); shared so that the tracker stays
-  // copyable.
-  std::shared_ptr<std::future<std::vector<OptimizationResult>>> search_;
-  // The catch-up: update calls so far (their sequence numbers), the set being stepped and the one
-  // the pending search was launched for, the kept sets (oldest first) and the late results.
-  long sequence_ = 0;
-  long step_sequence_ = 0;
-  long search_sequence_ = -1;
-  std::deque<KeptFrame> kept_;
+  // asynchronous_search: step() asked for a search; update then hands the set to a worker.
+  bool search_wanted_ = false;
+  std::unique_ptr<Worker> worker_;
+  std::unique_ptr<Worker> retired_;  // adopted, its thread still ending
   std::vector<FrameResult> late_results_;
   std::shared_future<void> search_gate_;
-  bool looksLost(double similarity) const;
 };
 
 }  // namespace sag_hand_tracker
