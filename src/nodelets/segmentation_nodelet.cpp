@@ -4,6 +4,8 @@
 // Topics (relative to the nodelet's namespace, e.g. /cam0):
 //   in:  image_raw (rgb8 or bgr8) with camera_info, paired by image_transport::CameraSubscriber
 //   out: sog (sag_hand_tracker/SumOfGaussians, header = the image's header, means in raw pixels)
+//        foreground (sensor_msgs/Image mono8, 255 = kept; only while it has subscribers: the
+//        foreground the SoG was made of, for overlays and the graph tests' precision)
 //   in (room_cues only): hand_region (sag_hand_tracker/HandRegion, from the tracker's
 //        cam<i>/hand_region: the tracked hand in this camera's frame)
 // Lazy: the camera is subscribed only while `sog` has subscribers, so the plate too is learned
@@ -89,6 +91,7 @@ class SegmentationNodelet : public nodelet::Nodelet {
     loadBackgroundFile();
 
     sog_pub_ = nh.advertise<SumOfGaussians>("sog", 5);
+    foreground_pub_ = nh.advertise<sensor_msgs::Image>("foreground", 5);
     // Lazy: the camera is subscribed while `sog` has subscribers. The count is polled (10 Hz)
     // rather than followed with connect/disconnect callbacks: with those, the manager crashed
     // inside roscpp's Publication::peerDisconnect during bag replay.
@@ -216,6 +219,11 @@ class SegmentationNodelet : public nodelet::Nodelet {
       msg.region = region;
       msg.candidates = candidatesToMsg(candidates);
       sog_pub_.publish(msg);
+      if (foreground_pub_.getNumSubscribers() > 0) {
+        foreground_pub_.publish(
+            cv_bridge::CvImage(image->header, "mono8", segmenter_.lastForegroundMask())
+                .toImageMsg());
+      }
     } catch (const std::exception& e) {
       // E.g. the image size changed and no longer matches the learned plate.
       warn(std::string("segmentation failed, image skipped: ") + e.what());
@@ -277,6 +285,7 @@ class SegmentationNodelet : public nodelet::Nodelet {
   std::unique_ptr<image_transport::ImageTransport> it_;
   image_transport::CameraSubscriber camera_sub_;
   ros::Publisher sog_pub_;
+  ros::Publisher foreground_pub_;
   boost::recursive_mutex reconfigure_mutex_;
   std::unique_ptr<dynamic_reconfigure::Server<SegmentationConfig>> reconfigure_;
 };

@@ -1,0 +1,162 @@
+// gtest checker of the segmentation's foreground in the graph (rostest helper; room_graph.test):
+// listens to every camera's cam<i>/foreground (the segmentation's kept pixels), cam<i>/sog (the
+// region it was segmented with) and the bag's cam<i>/hand_mask (render_bag --hand-masks: 255 on
+// the tracked hand's pixels), matched by stamp, and measures the foreground precision and recall
+// as the benchmark's rooms do (pixels kept that belong to the hand; hand pixels kept), over the
+// images with the hand.
+// Private parameters: num_cameras (5), duration (s, wall, 60), idle_timeout (s: stop early when
+//   no foreground arrived for this long after some did; 0 = never), min_images (images with the
+//   hand segmented inside the tracked hand's region, SoG region TRACKED), min_precision (over
+//   those images), and prepare_bag.h's (the bag is rendered once the subscribers are up).
+// Prints the precision over all images with the hand and over those segmented inside the tracked
+// hand's region.
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+#include <sensor_msgs/Image.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "prepare_bag.h"
+#include "sag_hand_tracker/SumOfGaussians.h"
+
+namespace {
+
+using sag_hand_tracker::SumOfGaussians;
+
+struct Counts {
+  long long kept = 0, kept_hand = 0, hand = 0;
+  int images = 0;
+  double precision() const { return kept > 0 ? static_cast<double>(kept_hand) / kept : 0.0; }
+  double recall() const { return hand > 0 ? static_cast<double>(kept_hand) / hand : 0.0; }
+};
+
+class ForegroundChecker : public ::testing::Test {
+ protected:
+  struct Camera {
+    std::map<long long, int> regions;  // SumOfGaussians::region by stamp
+    std::map<long long, sensor_msgs::Image::ConstPtr> foregrounds, masks;
+  };
+
+  static long long key(const ros::Time& stamp) { return static_cast<long long>(stamp.toNSec()); }
+
+  // Adds one matched image to the counts (of its region).
+  void count(int region, const sensor_msgs::Image& foreground, const sensor_msgs::Image& mask) {
+    if (mask.encoding != "mono8" || foreground.encoding != "mono8" ||
+        mask.width != foreground.width || mask.height != foreground.height) {
+      ++mismatched_;
+      return;
+    }
+    Counts frame;
+    frame.images = 1;
+    for (size_t r = 0; r < mask.height; ++r) {
+      for (size_t c = 0; c < mask.width; ++c) {
+        const bool hand = mask.data[r * mask.step + c] != 0;
+        const bool kept = foreground.data[r * foreground.step + c] != 0;
+        frame.hand += hand;
+        frame.kept += kept;
+        frame.kept_hand += hand && kept;
+      }
+    }
+    if (frame.hand == 0) return;  // an image without the hand: precision is not defined
+    for (Counts* total : {&all_, region == SumOfGaussians::REGION_TRACKED ? &tracked_ : nullptr}) {
+      if (total == nullptr) continue;
+      total->images += frame.images;
+      total->hand += frame.hand;
+      total->kept += frame.kept;
+      total->kept_hand += frame.kept_hand;
+    }
+  }
+
+  // Matches what can be matched and forgets it. Caller holds mutex_.
+  void match(Camera* camera) {
+    for (auto it = camera->foregrounds.begin(); it != camera->foregrounds.end();) {
+      const auto mask = camera->masks.find(it->first);
+      const auto region = camera->regions.find(it->first);
+      if (mask == camera->masks.end() || region == camera->regions.end()) {
+        ++it;
+        continue;
+      }
+      count(region->second, *it->second, *mask->second);
+      camera->masks.erase(mask);
+      camera->regions.erase(region);
+      it = camera->foregrounds.erase(it);
+    }
+  }
+
+  std::mutex mutex_;
+  std::vector<Camera> cameras_;
+  Counts all_, tracked_;
+  int mismatched_ = 0;
+  ros::WallTime last_foreground_;
+  bool any_foreground_ = false;
+};
+
+TEST_F(ForegroundChecker, PrecisionInsideTheTrackedRegion) {
+  ros::NodeHandle nh, pnh("~");
+  const int num_cameras = pnh.param("num_cameras", 5);
+  const double duration = pnh.param("duration", 60.0);
+  const double idle_timeout = pnh.param("idle_timeout", 0.0);
+  cameras_.resize(num_cameras);
+  std::vector<ros::Subscriber> subscribers;
+  for (int i = 0; i < num_cameras; ++i) {
+    const std::string cam = "cam" + std::to_string(i);
+    subscribers.push_back(nh.subscribe<SumOfGaussians>(
+        cam + "/sog", 20, [this, i](const SumOfGaussians::ConstPtr& msg) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          cameras_[i].regions[key(msg->header.stamp)] = msg->region;
+          match(&cameras_[i]);
+        }));
+    subscribers.push_back(nh.subscribe<sensor_msgs::Image>(
+        cam + "/foreground", 20, [this, i](const sensor_msgs::Image::ConstPtr& msg) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          cameras_[i].foregrounds[key(msg->header.stamp)] = msg;
+          last_foreground_ = ros::WallTime::now();
+          any_foreground_ = true;
+          match(&cameras_[i]);
+        }));
+    subscribers.push_back(nh.subscribe<sensor_msgs::Image>(
+        cam + "/hand_mask", 20, [this, i](const sensor_msgs::Image::ConstPtr& msg) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          cameras_[i].masks[key(msg->header.stamp)] = msg;
+          match(&cameras_[i]);
+        }));
+  }
+  ros::AsyncSpinner spinner(2);
+  spinner.start();
+  ASSERT_NO_FATAL_FAILURE(graph_test::prepareBag());
+  const ros::WallTime start = ros::WallTime::now();
+  while (ros::ok() && (ros::WallTime::now() - start).toSec() < duration) {
+    ros::WallDuration(0.1).sleep();
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (idle_timeout > 0 && any_foreground_ &&
+        (ros::WallTime::now() - last_foreground_).toSec() > idle_timeout) {
+      ROS_INFO("foreground_checker: no foreground for %.1f s, done", idle_timeout);
+      break;
+    }
+  }
+  spinner.stop();
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::printf(
+      "foreground_checker: %d images with the hand: precision %.1f %%, recall %.1f %%; inside the "
+      "tracked hand's region: %d images, precision %.1f %%, recall %.1f %%\n",
+      all_.images, 100.0 * all_.precision(), 100.0 * all_.recall(), tracked_.images,
+      100.0 * tracked_.precision(), 100.0 * tracked_.recall());
+  EXPECT_EQ(mismatched_, 0) << "hand masks whose size or encoding does not match the foreground";
+  EXPECT_GE(tracked_.images, pnh.param("min_images", 100));
+  EXPECT_GE(tracked_.precision(), pnh.param("min_precision", 0.8));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ::testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "foreground_checker");
+  ros::NodeHandle nh;
+  return RUN_ALL_TESTS();
+}
