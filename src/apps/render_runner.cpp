@@ -223,7 +223,11 @@ RenderBagOptions parseRenderBagArguments(const std::vector<std::string>& args) {
       }
     } else if (a == "--room") {
       options.room = value(&i);
-      studio::builtinRoom(options.room);  // throws InputError naming the known rooms
+      try {
+        studio::builtinRoom(options.room);
+      } catch (const InputError& e) {
+        throw UsageError(std::string("--room: ") + e.what());  // names the known rooms
+      }
     } else if (a == "--hand-masks") {
       options.hand_masks = true;
     } else if (a == "--quiet") {
