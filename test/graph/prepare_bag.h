@@ -52,4 +52,10 @@ inline void prepareBag() {
   std::ofstream(ready) << "ready\n";
 }
 
+// Removes this launch's ready file (the player has started from it), so that none piles up.
+inline void removeReadyFile() {
+  const std::string ready = ros::NodeHandle("~").param<std::string>("ready_file", "");
+  if (!ready.empty()) std::filesystem::remove(ready);
+}
+
 }  // namespace graph_test
