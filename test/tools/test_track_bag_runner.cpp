@@ -95,26 +95,10 @@ ProcessedFrame standIn(const FrameSet& set) {
 }  // namespace
 
 TEST(TrackBagArguments, TrackBagParsesEveryOption) {
-  const TrackBagOptions options = parseTrackBagArguments({"--bag",
-                                                          "in.bag",
-                                                          "--out",
-                                                          "out.csv",
-                                                          "--model",
-                                                          "sog",
-                                                          "--iterations",
-                                                          "25",
-                                                          "--cameras",
-                                                          "0,2,4",
-                                                          "--background-frames",
-                                                          "0",
-                                                          "--hand",
-                                                          "left",
-                                                          "--step-control",
-                                                          "fixed",
-                                                          "--root-frame",
-                                                          "table",
-                                                          "--room-cues",
-                                                          "--quiet"});
+  const TrackBagOptions options = parseTrackBagArguments(
+      {"--bag", "in.bag", "--out", "out.csv", "--model", "sog", "--iterations", "25", "--cameras",
+       "0,2,4", "--background-frames", "0", "--hand", "left", "--step-control", "fixed",
+       "--root-frame", "table", "--room-cues", "--quiet"});
   EXPECT_EQ(options.bag, "in.bag");
   EXPECT_EQ(options.out, "out.csv");
   EXPECT_EQ(options.model, "sog");
