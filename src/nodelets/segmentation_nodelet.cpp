@@ -217,6 +217,8 @@ class SegmentationNodelet : public nodelet::Nodelet {
       SumOfGaussians msg = sogToMsg(sog);
       msg.header = image->header;
       msg.region = region;
+      if (region == SumOfGaussians::REGION_TRACKED)
+        msg.region_stamp = applied_region_->header.stamp;
       msg.candidates = candidatesToMsg(candidates);
       sog_pub_.publish(msg);
       if (foreground_pub_.getNumSubscribers() > 0) {
