@@ -17,7 +17,8 @@
 //   cfg/Segmentation.cfg (mode, quad-tree thresholds, background_frames, relearn_background).
 // Room cues (issue 11; ros/live_room_cues.h, doc/segmentation.md "The live graph"): with a fresh
 //   tracked hand_region (stamped within region_timeout of the image) the foreground is kept inside
-//   its projected silhouette (projectedHandMask with this camera_info; SoG region TRACKED; with
+//   its projected silhouette (projectedHandMask with this camera_info; SoG region TRACKED and
+//   region_stamp the hand_region's stamp; with
 //   candidates_wanted the whole image's hand candidates are attached for the tracker's re-check);
 //   without one it is kept inside the union of the image's hand candidates, which are attached
 //   (region CANDIDATES) for the tracker's multi-view check. Turn room_cues on together with the
