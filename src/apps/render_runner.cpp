@@ -16,15 +16,17 @@
 #include <string>
 #include <vector>
 
-#include "sag_hand_tracker/camera/calibration.h"
+#include <cv_bridge/cv_bridge.h>
 #include "sag_hand_tracker/apps/csv.h"
+#include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/model/hand_model.h"
-#include "sag_hand_tracker/util/atomic_output.h"
 #include "sag_hand_tracker/ros/conversions.h"
 #include "sag_hand_tracker/studio/hand_shapes.h"
 #include "sag_hand_tracker/studio/motion.h"
 #include "sag_hand_tracker/studio/renderer.h"
+#include "sag_hand_tracker/studio/room.h"
 #include "sag_hand_tracker/studio/sequence.h"
+#include "sag_hand_tracker/util/atomic_output.h"
 #include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
@@ -103,6 +105,11 @@ std::string renderBagUsage() {
          "  --preview-frame N  the frame of the contact sheet (default: the middle one)\n"
          "  --start-stamp T    stamp of the first frame in seconds (default 1400000000)\n"
          "  --compression C    bag compression: none (default), lz4 or bz2\n"
+         "  --room R           a studio room (office, kitchen, daylight; doc/segmentation.md):\n"
+         "                     photographs, props, changing light; kitchen has no frames without\n"
+         "                     the hand\n"
+         "  --hand-masks       also write /cam<i>/hand_mask (mono8, 255 on the tracked hand's\n"
+         "                     pixels: palm, fingers, bare wrist), for foreground precision\n"
          "  --config-dir DIR   where the built-in motions, rigs and models are (default: the\n"
          "                     package's config/)\n"
          "  --quiet            no progress bar\n"
@@ -214,6 +221,15 @@ RenderBagOptions parseRenderBagArguments(const std::vector<std::string>& args) {
       } else {
         throw UsageError("--compression must be none, lz4 or bz2, not '" + mode + "'");
       }
+    } else if (a == "--room") {
+      options.room = value(&i);
+      try {
+        studio::builtinRoom(options.room);
+      } catch (const InputError& e) {
+        throw UsageError(std::string("--room: ") + e.what());  // names the known rooms
+      }
+    } else if (a == "--hand-masks") {
+      options.hand_masks = true;
     } else if (a == "--quiet") {
       options.quiet = true;
     } else if (a == "--help" || a == "-h") {
@@ -264,7 +280,18 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
   params.shape.palm_width *= options.palm_width;
   for (int f = 0; f < kNumFingers; ++f) params.shape.finger_length[f] *= options.finger_length[f];
   params.shape.thickness *= options.thickness;
+  studio::RoomParams room_params;
+  if (!options.room.empty()) {
+    room_params = studio::builtinRoom(options.room);
+    if (!room_params.hand_free_frames) params.empty_frames = 0;
+  }
   const studio::StudioSequence sequence(model, std::move(motion), params);
+  std::unique_ptr<studio::StudioRoom> room;
+  studio::StudioSceneParams scene;
+  if (!options.room.empty()) {
+    room = std::make_unique<studio::StudioRoom>(room_params, sequence.shapedModel(), config);
+    scene = room->scene(scene);
+  }
   const int frames = sequence.frameCount();
   const int preview_frame = options.preview.empty()
                                 ? -1
@@ -277,7 +304,7 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
   sensor.noise_sigma = options.noise;
 
   const auto setup_start = std::chrono::steady_clock::now();
-  const studio::StudioRenderer renderer(rig.cameras, studio::StudioSceneParams(), sensor);
+  const studio::StudioRenderer renderer(rig.cameras, scene, sensor);
   const double setup_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - setup_start).count();
 
@@ -298,11 +325,28 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
     const ros::Time stamp = frameStamp(options.start_stamp, k, options.fps);
     const StudioFrame frame = sequence.frame(k);
     const auto render_start = std::chrono::steady_clock::now();
-    const auto images = renderer.render(sequence.surfaces(k), sequence.noiseSeed(k));
+    auto subframes = sequence.surfaces(k);
+    double light_gain = 1.0;
+    if (room) {
+      room->addProps(&subframes, frame.time);
+      light_gain = room->lightGain(frame.time);
+    }
+    const auto images = renderer.render(subframes, sequence.noiseSeed(k), light_gain);
     render_seconds +=
         std::chrono::duration<double>(std::chrono::steady_clock::now() - render_start).count();
     for (size_t c = 0; c < images.size(); ++c) {
       bag.writeCameraImage(rig.cameras[c], images[c].rgb, stamp);
+      if (options.hand_masks) {
+        cv::Mat mask(images[c].labels.size(), CV_8UC1);
+        for (size_t i = 0; i < mask.total(); ++i) {
+          mask.data[i] = studio::isTrackedHandLabel(images[c].labels.data[i]) ? 255 : 0;
+        }
+        std_msgs::Header header;
+        header.stamp = stamp;
+        header.frame_id = rig.cameras[c].name + "_optical_frame";
+        bag.write("/" + rig.cameras[c].name + "/hand_mask", stamp,
+                  *cv_bridge::CvImage(header, "mono8", mask).toImageMsg());
+      }
     }
     if (frame.hand_present) {
       std_msgs::Header header;

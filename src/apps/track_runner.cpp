@@ -68,6 +68,9 @@ Options:
   --background-frames N    first N frames show no hand: learn the background plates (10);
                            0 = no plate, a skin-colour gate instead
   --root-frame FRAME       express the output in this tf frame (the root of the bag's tf tree)
+  --room-cues              the room cues: region of interest around the tracked hand, the
+                           multi-view check before the start and its re-check
+                           (doc/segmentation.md; the live graph's room_cues)
   --quiet                  no progress bar
   --help                   this text
 )";
@@ -91,6 +94,8 @@ TrackBagOptions parseTrackBagArguments(const std::vector<std::string>& args) {
       options.cameras = parseCameraList(value());
     } else if (arg == "--root-frame") {
       options.root_frame = value();
+    } else if (arg == "--room-cues") {
+      options.room_cues = true;
     } else {
       throw UsageError("unknown argument '" + arg + "'");
     }
@@ -250,6 +255,7 @@ PipelineParams trackBagPipelineParams(const TrackBagOptions& options) {
   params.tracker.optimizer.iterations = options.iterations;
   params.tracker.optimizer.step_control = parseStepControl(options.step_control);
   params.background_frames = options.background_frames;
+  params.segmentation.room.enabled = options.room_cues;
   return params;
 }
 

@@ -4,13 +4,28 @@
 // Topics (relative to the nodelet's namespace, e.g. /cam0):
 //   in:  image_raw (rgb8 or bgr8) with camera_info, paired by image_transport::CameraSubscriber
 //   out: sog (sag_hand_tracker/SumOfGaussians, header = the image's header, means in raw pixels)
+//        foreground (sensor_msgs/Image mono8, 255 = kept; only while it has subscribers: the
+//        foreground the SoG was made of, for overlays and the graph tests' precision)
+//   in (room_cues only): hand_region (sag_hand_tracker/HandRegion, from the tracker's
+//        cam<i>/hand_region: the tracked hand in this camera's frame)
 // Lazy: the camera is subscribed only while `sog` has subscribers, so the plate too is learned
 // only then.
 // Private parameters: background_file (load the plate from it when it exists; "" = learn),
-//   save_background (true: after learning, write the plate to background_file), plus
+//   save_background (true: after learning, write the plate to background_file), room_cues (false:
+//   SegmentationParams::room.enabled, below), region_timeout (0.5 s), max_candidates (4) and
+//   region_margin_cells (2) (MultiViewParams' max_candidates_per_view, region_margin_cells), plus
 //   cfg/Segmentation.cfg (mode, quad-tree thresholds, background_frames, relearn_background).
+// Room cues (issue 11; ros/live_room_cues.h, doc/segmentation.md "The live graph"): with a fresh
+//   tracked hand_region (stamped within region_timeout of the image) the foreground is kept inside
+//   its projected silhouette (projectedHandMask with this camera_info; SoG region TRACKED and
+//   region_stamp the hand_region's stamp; with
+//   candidates_wanted the whole image's hand candidates are attached for the tracker's re-check);
+//   without one it is kept inside the union of the image's hand candidates, which are attached
+//   (region CANDIDATES) for the tracker's multi-view check. Turn room_cues on together with the
+//   tracker's (graph.launch's room_cues argument does).
 // The plate is learned from the first background_frames images (the hand must be out of view);
 // nothing is published for those images.
+#include "sag_hand_tracker/HandRegion.h"
 #include "sag_hand_tracker/SumOfGaussians.h"
 
 #include <cv_bridge/cv_bridge.h>
@@ -27,6 +42,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include "sag_hand_tracker/SegmentationConfig.h"
+#include "sag_hand_tracker/ros/conversions.h"
+#include "sag_hand_tracker/ros/live_room_cues.h"
 #include "sag_hand_tracker/ros/sog_conversions.h"
 #include "sag_hand_tracker/ros/throttled_warnings.h"
 #include "sag_hand_tracker/segmentation/quadtree_segmentation.h"
@@ -40,7 +57,33 @@ class SegmentationNodelet : public nodelet::Nodelet {
     ros::NodeHandle& pnh = getPrivateNodeHandle();
     background_file_ = pnh.param<std::string>("background_file", "");
     save_background_ = pnh.param("save_background", false);
+    room_cues_ = pnh.param("room_cues", false);
+    region_timeout_ = pnh.param("region_timeout", region_timeout_);
+    max_candidates_ = pnh.param("max_candidates", max_candidates_);
+    region_margin_cells_ = pnh.param("region_margin_cells", region_margin_cells_);
+    if (!(region_timeout_ > 0.0) || max_candidates_ < 1 || max_candidates_ > kMaxHandCandidates ||
+        region_margin_cells_ < 0) {
+      NODELET_ERROR(
+          "region_timeout must be > 0, max_candidates in [1, %d], region_margin_cells >= 0 (got "
+          "%g, %d, %d); using 0.5, 4, 2",
+          kMaxHandCandidates, region_timeout_, max_candidates_, region_margin_cells_);
+      region_timeout_ = 0.5;
+      max_candidates_ = 4;
+      region_margin_cells_ = 2;
+    }
+    {
+      SegmentationParams params = segmenter_.params();
+      params.room.enabled = room_cues_;
+      segmenter_.setParams(params);
+    }
     it_ = std::make_unique<image_transport::ImageTransport>(nh);
+    if (room_cues_) {
+      region_sub_ =
+          nh.subscribe<HandRegion>("hand_region", 2, [this](const HandRegion::ConstPtr& msg) {
+            std::lock_guard<std::mutex> lock(mutex_);
+            region_ = msg;
+          });
+    }
 
     reconfigure_ =
         std::make_unique<dynamic_reconfigure::Server<SegmentationConfig>>(reconfigure_mutex_, pnh);
@@ -49,6 +92,7 @@ class SegmentationNodelet : public nodelet::Nodelet {
     loadBackgroundFile();
 
     sog_pub_ = nh.advertise<SumOfGaussians>("sog", 5);
+    foreground_pub_ = nh.advertise<sensor_msgs::Image>("foreground", 5);
     // Lazy: the camera is subscribed while `sog` has subscribers. The count is polled (10 Hz)
     // rather than followed with connect/disconnect callbacks: with those, the manager crashed
     // inside roscpp's Publication::peerDisconnect during bag replay.
@@ -167,14 +211,54 @@ class SegmentationNodelet : public nodelet::Nodelet {
         }
         return;
       }
+      std::vector<HandCandidate> candidates;
+      std::uint8_t region = SumOfGaussians::REGION_NONE;
+      if (room_cues_) region = setRoomRegion(rgb, *image, *info, &candidates);
       const ImageSoG sog = segmenter_.segmentFrame(rgb);
       SumOfGaussians msg = sogToMsg(sog);
       msg.header = image->header;
+      msg.region = region;
+      if (region == SumOfGaussians::REGION_TRACKED)
+        msg.region_stamp = applied_region_->header.stamp;
+      msg.candidates = candidatesToMsg(candidates);
       sog_pub_.publish(msg);
+      if (foreground_pub_.getNumSubscribers() > 0) {
+        foreground_pub_.publish(
+            cv_bridge::CvImage(image->header, "mono8", segmenter_.lastForegroundMask())
+                .toImageMsg());
+      }
     } catch (const std::exception& e) {
       // E.g. the image size changed and no longer matches the learned plate.
       warn(std::string("segmentation failed, image skipped: ") + e.what());
     }
+  }
+
+  // The room cues' region of interest for this image (see the header comment); fills the
+  // candidates to attach and returns the SoG's region. Caller holds mutex_.
+  std::uint8_t setRoomRegion(const cv::Mat& rgb, const sensor_msgs::Image& image,
+                             const sensor_msgs::CameraInfo& info,
+                             std::vector<HandCandidate>* candidates) {
+    if (region_ && region_->tracked &&
+        regionIsFresh(region_->header.stamp.toSec(), image.header.stamp.toSec(), region_timeout_)) {
+      try {
+        if (region_ != applied_region_) {
+          segmenter_.setRegionOfInterest(trackedRegionMask(*region_, fromCameraInfo(info)),
+                                         RegionSource::kTrack);
+          applied_region_ = region_;
+        }
+        if (region_->candidates_wanted)
+          *candidates = segmenter_.handCandidates(rgb, max_candidates_);
+        return SumOfGaussians::REGION_TRACKED;
+      } catch (const std::exception& e) {
+        warn(std::string("hand_region ignored: ") + e.what());
+      }
+    }
+    applied_region_.reset();
+    *candidates = segmenter_.handCandidates(rgb, max_candidates_);
+    segmenter_.setRegionOfInterest(
+        candidatesRegionMask(*candidates, rgb.cols, rgb.rows, region_margin_cells_),
+        RegionSource::kCandidates);
+    return SumOfGaussians::REGION_CANDIDATES;
   }
 
   // Throttled per kind of problem, so that one does not hide another.
@@ -187,6 +271,13 @@ class SegmentationNodelet : public nodelet::Nodelet {
 
   std::string background_file_;
   bool save_background_ = false;
+  bool room_cues_ = false;
+  double region_timeout_ = 0.5;
+  int max_candidates_ = 4;
+  int region_margin_cells_ = 2;
+  ros::Subscriber region_sub_;
+  HandRegion::ConstPtr region_;          // the latest hand_region (guarded by mutex_)
+  HandRegion::ConstPtr applied_region_;  // the one the segmenter's region comes from
   bool learned_logged_ = false;
   std::mutex mutex_;  // guards segmenter_
   std::mutex warnings_mutex_;
@@ -197,6 +288,7 @@ class SegmentationNodelet : public nodelet::Nodelet {
   std::unique_ptr<image_transport::ImageTransport> it_;
   image_transport::CameraSubscriber camera_sub_;
   ros::Publisher sog_pub_;
+  ros::Publisher foreground_pub_;
   boost::recursive_mutex reconfigure_mutex_;
   std::unique_ptr<dynamic_reconfigure::Server<SegmentationConfig>> reconfigure_;
 };

@@ -5,7 +5,8 @@
 // Topics (relative to the nodelet's namespace), i = 0..num_cameras-1:
 //   in:  cam<i>/sog (sag_hand_tracker/SumOfGaussians), cam<i>/camera_info,
 //        cam<i>/image_raw (only while cam<i>/overlay has subscribers)
-//   out: joint_states, markers, fingertips, status, cam<i>/overlay, /tf, /diagnostics
+//   out: joint_states, markers, fingertips, status, cam<i>/overlay, /tf, /diagnostics,
+//        cam<i>/hand_region (sag_hand_tracker/HandRegion; room_cues only)
 //   service: ~calibrate (sag_hand_tracker/Calibrate, below)
 // Private parameters: num_cameras (5), root_frame (world), model ("sag", "sog" or a path),
 //   handedness (right|left), camera_timeout (0.5 s), time_jump_threshold (1.0 s),
@@ -16,8 +17,18 @@
 //   as track_bag does, so that a replay gives track_bag's poses exactly), catch_up_seconds (0.25;
 //   with asynchronous_search: the worker keeps the sets of up to this many seconds; those that
 //   got no pose on the frame path meanwhile are published late, below), worker_niceness (10: the
-//   worker's nice value above the frame path's; 0-19), plus the dynamic_reconfigure parameters of
-//   cfg/Tracker.cfg.
+//   worker's nice value above the frame path's; 0-19), room_cues (false), multi_view (true) and
+//   recheck_interval (5) (below), plus the dynamic_reconfigure parameters of cfg/Tracker.cfg.
+//
+// Room cues (issue 11; ros/live_room_cues.h, doc/segmentation.md "The live graph"; the segmentation
+// nodelets' room_cues must be on too): after every set the tracked hand is published to each
+// camera's segmentation on cam<i>/hand_region (the posed model in that camera's optical frame,
+// stamped with the set; tracked false when there is none), which keeps its next images'
+// foreground inside the hand's projected silhouette. Without a tracked hand the segmentations
+// attach their hand candidates, and the multi-view check (MultiViewParams, `multi_view` =
+// MultiViewParams::enabled) keeps in every camera only the Gaussians of the candidate that
+// triangulates with the other views, or none; every recheck_interval sets the tracked hand is
+// checked against the same choice and the track is reset when the choice replaces it.
 //
 // Late results (catch-up, TrackerParams::catch_up_seconds): a set that got no pose while the
 // worker had the search (no track, or it was lost) was published with a status without pose; the
@@ -82,6 +93,7 @@
 #include "sag_hand_tracker/fitting/hand_fit.h"
 #include "sag_hand_tracker/model/kinematics.h"
 #include "sag_hand_tracker/ros/conversions.h"
+#include "sag_hand_tracker/ros/live_room_cues.h"
 #include "sag_hand_tracker/ros/sog_conversions.h"
 #include "sag_hand_tracker/ros/throttled_warnings.h"
 #include "sag_hand_tracker/ros/visualization.h"
@@ -127,6 +139,7 @@ class TrackerNodelet : public nodelet::Nodelet {
     ros::Subscriber info_sub;
     sensor_msgs::CameraInfo::ConstPtr info;
     image_transport::Publisher overlay_pub;
+    ros::Publisher region_pub;  // cam<i>/hand_region (room_cues only)
     image_transport::Subscriber image_sub;
     std::deque<sensor_msgs::ImageConstPtr> images;  // recent images, for the overlay
   };
@@ -155,6 +168,18 @@ class TrackerNodelet : public nodelet::Nodelet {
     if (!(worker_niceness_ >= 0 && worker_niceness_ <= 19)) {
       NODELET_ERROR("worker_niceness must be in [0, 19] (got %d); using 10", worker_niceness_);
       worker_niceness_ = 10;
+    }
+    room_cues_ = pnh.param("room_cues", false);
+    {
+      MultiViewParams multi_view;
+      multi_view.enabled = pnh.param("multi_view", multi_view.enabled);
+      multi_view.recheck_interval = pnh.param("recheck_interval", multi_view.recheck_interval);
+      if (multi_view.recheck_interval < 0) {
+        NODELET_ERROR("recheck_interval must be >= 0 (got %d); using 5",
+                      multi_view.recheck_interval);
+        multi_view.recheck_interval = 5;
+      }
+      room_ = LiveRoomCues(multi_view);
     }
     const std::string model_name = pnh.param<std::string>("model", "sag");
     const std::string handedness = pnh.param<std::string>("handedness", "right");
@@ -199,6 +224,7 @@ class TrackerNodelet : public nodelet::Nodelet {
           });
       // No connect callbacks: the timer below polls the subscriber count (see onTimer).
       cameras_[i].overlay_pub = it_->advertise(cam + "/overlay", 1);
+      if (room_cues_) cameras_[i].region_pub = nh.advertise<HandRegion>(cam + "/hand_region", 2);
     }
 
     diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
@@ -266,6 +292,7 @@ class TrackerNodelet : public nodelet::Nodelet {
     if (config.reset) {
       NODELET_INFO("tracker reset requested");
       tracker_->reset();
+      room_.reset();
       config.reset = false;
     }
   }
@@ -319,6 +346,7 @@ class TrackerNodelet : public nodelet::Nodelet {
               "buffers",
               event.seconds);
           tracker_->reset();
+          room_.reset();
           for (CameraInput& input : cameras_) input.images.clear();
           tf_buffer_->clear();
           if (recording_ && !recording_->complete) {
@@ -345,17 +373,34 @@ class TrackerNodelet : public nodelet::Nodelet {
     stamp.fromNSec(static_cast<std::uint64_t>(set.stamp_ns));
     std::vector<CameraObservation> observations;
     std::vector<int> observation_camera;
+    std::vector<LiveView> views;  // room_cues: the observations' candidates
     for (int i = 0; i < num_cameras_; ++i) {
       if (!set.messages[i]) continue;
       std::string problem;
       CameraObservation observation;
-      if (makeObservation(i, **set.messages[i], &observation, &problem)) {
+      LiveView view;
+      bool ok = makeObservation(i, **set.messages[i], &observation, &problem);
+      if (ok && room_cues_) {
+        try {
+          view.region = (*set.messages[i])->region;
+          view.candidates = candidatesFromMsg(**set.messages[i]);
+        } catch (const std::exception& e) {
+          problem = e.what();
+          ok = false;
+        }
+      }
+      if (ok) {
+        if (room_cues_) views.push_back(std::move(view));
         observations.push_back(std::move(observation));
         observation_camera.push_back(i);
       } else {
         warnCamera(i, "skipped: " + problem);
         ++skipped_inputs_;
       }
+    }
+    if (room_cues_) applyRoomCues(&observations, &views);
+    for (CameraObservation& observation : observations) {
+      undistortImageSoG(observation.camera, &observation.sog);
     }
     FrameResult result;
     std::vector<FrameResult> late_results;
@@ -365,6 +410,7 @@ class TrackerNodelet : public nodelet::Nodelet {
     } catch (const std::exception& e) {
       NODELET_ERROR_THROTTLE(2.0, "tracker failed on the set at %.3f: %s", stamp.toSec(), e.what());
       tracker_->reset();
+      room_.reset();
       return;
     }
     const double seconds = secondsSince(start);
@@ -386,7 +432,50 @@ class TrackerNodelet : public nodelet::Nodelet {
       publishPose(stamp, result, hand);
       publishOverlays(stamp, observations, observation_camera, hand);
     }
+    if (room_cues_) {
+      room_.afterUpdate(pose_ok && result.status != TrackStatus::kLost ? &hand : nullptr);
+      publishRegions(stamp, observations, observation_camera, hand);
+    }
     publishStatus(stamp, result, pose_ok, seconds);
+  }
+
+  // Before the tracker's update: the multi-view check and the re-check narrow the views' SoGs
+  // (raw pixels) down to the hand; a re-check that replaces the track resets it. Caller holds
+  // mutex_.
+  void applyRoomCues(std::vector<CameraObservation>* observations, std::vector<LiveView>* views) {
+    for (size_t v = 0; v < views->size(); ++v) {
+      (*views)[v].camera = (*observations)[v].camera;
+      (*views)[v].sog = std::move((*observations)[v].sog);
+    }
+    if (room_.beforeUpdate(views)) {
+      NODELET_INFO("room cues: a hand that more views agree on replaces the track; restarting");
+      tracker_->reset();
+    }
+    for (size_t v = 0; v < views->size(); ++v) {
+      (*observations)[v].sog = std::move((*views)[v].sog);
+    }
+  }
+
+  // cam<i>/hand_region after a set: the tracked hand in each camera of the set, or "no tracked
+  // hand" to every camera. Caller holds mutex_.
+  void publishRegions(const ros::Time& stamp, const std::vector<CameraObservation>& observations,
+                      const std::vector<int>& observation_camera, const PosedHand& hand) {
+    if (!room_.tracking()) {
+      HandRegion none;
+      none.header.stamp = stamp;
+      for (int i = 0; i < num_cameras_; ++i) {
+        none.header.frame_id = "cam" + std::to_string(i) + "_optical_frame";
+        cameras_[i].region_pub.publish(none);
+      }
+      return;
+    }
+    for (size_t o = 0; o < observations.size(); ++o) {
+      HandRegion region = handRegionMsg(hand, observations[o].camera);
+      region.header.stamp = stamp;
+      region.header.frame_id = observations[o].camera.name + "_optical_frame";
+      region.candidates_wanted = room_.candidatesWanted();
+      cameras_[observation_camera[o]].region_pub.publish(region);
+    }
   }
 
   // A late result of the catch-up (see the header comment): its stamp is its frame_id (the set's
@@ -703,8 +792,7 @@ class TrackerNodelet : public nodelet::Nodelet {
       // tf gives the pose of the optical frame in the root frame; the camera wants root -> camera.
       observation->camera.world_to_camera = toIsometry(transform.transform).inverse();
       validateCamera(observation->camera);
-      observation->sog = sogFromMsg(msg);
-      undistortImageSoG(observation->camera, &observation->sog);
+      observation->sog = sogFromMsg(msg);  // raw pixels: processSet undistorts
     } catch (const std::exception& e) {
       *problem = e.what();
       return false;
@@ -805,6 +893,10 @@ class TrackerNodelet : public nodelet::Nodelet {
     stat.add("late results (catch-up)", late_results_);
     stat.add("resets (time jumped back)", sync.resets);
     stat.add("model", model_label_);
+    if (room_cues_) {
+      stat.add("room cues: re-checks", room_.rechecks());
+      stat.add("room cues: track switches", room_.switches());
+    }
     stat.add("calibration", calibrationState());
   }
 
@@ -817,6 +909,8 @@ class TrackerNodelet : public nodelet::Nodelet {
   // The model and the tracker; replaced together by a live calibration.
   HandModel model_;
   bool asynchronous_search_ = true;
+  bool room_cues_ = false;
+  LiveRoomCues room_;  // room_cues: the multi-view check and the tracked hand's regions
   double catch_up_seconds_ = 0.25;
   int worker_niceness_ = 10;
   std::unique_ptr<HandTracker> tracker_;

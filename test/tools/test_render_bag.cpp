@@ -6,12 +6,15 @@
 
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
+#include <sensor_msgs/Image.h>
 #include <sensor_msgs/JointState.h>
 #include <sys/wait.h>
 #include "test_support/temp_files.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <random>
 #include <sstream>
@@ -160,6 +163,7 @@ TEST_F(RenderBagTool, BadInputGetsAOneLineErrorAndNonZeroExit) {
       {"--sequence pinch --fps 0" + out, 2, "--fps must be in (0, 1000]"},
       {"--sequence pinch --frames two" + out, 2, "--frames needs a number, not 'two'"},
       {"--sequence pinch --colour red" + out, 2, "unknown argument '--colour'"},
+      {"--sequence pinch --room attic" + out, 2, "--room: unknown studio room 'attic' (known: "},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.arguments);
@@ -173,13 +177,55 @@ TEST_F(RenderBagTool, BadInputGetsAOneLineErrorAndNonZeroExit) {
   }
 }
 
+TEST_F(RenderBagTool, RendersAStudioRoomWithTheHandsMasks) {
+  // The office (portraits, a head, wooden props) and the tracked hand's pixels per camera: the
+  // bag of room_graph.test.
+  const ToolRun room = renderBag(
+      "--sequence pinch --frames 12 --room office --hand-masks --quiet "
+      "--out '" +
+      path("office.bag") + "'");
+  ASSERT_EQ(room.status, 0) << room.err;
+  const ToolRun clean =
+      renderBag("--sequence pinch --frames 12 --quiet --out '" + path("clean.bag") + "'");
+  ASSERT_EQ(clean.status, 0) << clean.err;
+  BagReader office_reader(path("office.bag")), clean_reader(path("clean.bag"));
+  FrameSet office_set, clean_set;
+  ASSERT_TRUE(office_reader.next(&office_set));
+  ASSERT_TRUE(clean_reader.next(&clean_set));
+  ASSERT_EQ(office_set.images.size(), clean_set.images.size());
+  // The room is in the images (the empty studio's first frame differs everywhere it shows).
+  EXPECT_GT(cv::norm(office_set.images[0].rgb, clean_set.images[0].rgb, cv::NORM_L1) /
+                office_set.images[0].rgb.total(),
+            20.0);
+  rosbag::Bag bag(path("office.bag"));
+  std::map<std::string, std::vector<int>> hand_pixels;  // per camera, per frame
+  for (const rosbag::MessageInstance& m : rosbag::View(bag)) {
+    if (m.getTopic().find("/hand_mask") == std::string::npos) continue;
+    const auto mask = m.instantiate<sensor_msgs::Image>();
+    ASSERT_TRUE(mask);
+    EXPECT_EQ(mask->encoding, "mono8");
+    EXPECT_EQ(mask->width, 320u);
+    EXPECT_EQ(mask->height, 240u);
+    EXPECT_EQ(m.getTime(), mask->header.stamp);
+    hand_pixels[m.getTopic()].push_back(static_cast<int>(
+        std::count_if(mask->data.begin(), mask->data.end(), [](uint8_t v) { return v != 0; })));
+  }
+  ASSERT_EQ(hand_pixels.size(), 5u);
+  int with_hand = 0;
+  for (const auto& [topic, counts] : hand_pixels) {
+    ASSERT_EQ(counts.size(), 12u) << topic;
+    for (int k = 0; k < 10; ++k) EXPECT_EQ(counts[k], 0) << topic << " frame " << k;
+    with_hand += counts[10] > 200;
+  }
+  EXPECT_GE(with_hand, 4);  // the hand is in (almost) every view once it has come in
+}
+
 TEST_F(RenderBagTool, RendersAnotherHandWithABareForearm) {
   // The same motion on the default hand and on `stocky` with a bare forearm: the same poses, other
   // fingertips (the ground truth follows the shaped hand), and the summary names the hand.
   const std::string common = "--sequence pinch --frames 12 --quiet --out ";
   ASSERT_EQ(renderBag(common + "'" + path("d.bag") + "'").status, 0);
-  const ToolRun run =
-      renderBag(common + "'" + path("s.bag") + "' --shape stocky --bare-forearm");
+  const ToolRun run = renderBag(common + "'" + path("s.bag") + "' --shape stocky --bare-forearm");
   ASSERT_EQ(run.status, 0) << run.err;
   EXPECT_NE(run.err.find("pinch on the hand 'stocky' (bare forearm)"), std::string::npos)
       << run.err;

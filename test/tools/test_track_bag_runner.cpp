@@ -98,7 +98,7 @@ TEST(TrackBagArguments, TrackBagParsesEveryOption) {
   const TrackBagOptions options = parseTrackBagArguments(
       {"--bag", "in.bag", "--out", "out.csv", "--model", "sog", "--iterations", "25", "--cameras",
        "0,2,4", "--background-frames", "0", "--hand", "left", "--step-control", "fixed",
-       "--root-frame", "table", "--quiet"});
+       "--root-frame", "table", "--room-cues", "--quiet"});
   EXPECT_EQ(options.bag, "in.bag");
   EXPECT_EQ(options.out, "out.csv");
   EXPECT_EQ(options.model, "sog");
@@ -108,6 +108,8 @@ TEST(TrackBagArguments, TrackBagParsesEveryOption) {
   EXPECT_EQ(options.hand, Handedness::kLeft);
   EXPECT_EQ(options.step_control, "fixed");
   EXPECT_EQ(options.root_frame, "table");
+  EXPECT_TRUE(options.room_cues);
+  EXPECT_TRUE(trackBagPipelineParams(options).segmentation.room.enabled);
   EXPECT_TRUE(options.quiet);
 
   const TrackBagOptions defaults = parseTrackBagArguments({"--out", "o.csv", "--bag", "b.bag"});
@@ -117,6 +119,8 @@ TEST(TrackBagArguments, TrackBagParsesEveryOption) {
   EXPECT_EQ(defaults.hand, Handedness::kRight);
   EXPECT_TRUE(defaults.cameras.empty());
   EXPECT_FALSE(defaults.quiet);
+  EXPECT_FALSE(defaults.room_cues);
+  EXPECT_FALSE(trackBagPipelineParams(defaults).segmentation.room.enabled);
   EXPECT_TRUE(parseTrackBagArguments({"--help"}).help);
 }
 

@@ -40,6 +40,8 @@ struct RenderBagOptions {
   int preview_frame = -1;             // --preview-frame N (default: the middle frame)
   double start_stamp = 1400000000.0;  // --start-stamp SECONDS of the first frame
   BagCompression compression = BagCompression::kNone;  // --compression none|lz4|bz2
+  std::string room;                   // --room office|kitchen|daylight ("" = the clean studio)
+  bool hand_masks = false;            // --hand-masks: /cam<i>/hand_mask, the tracked hand's pixels
   bool quiet = false;
   bool help = false;
 };

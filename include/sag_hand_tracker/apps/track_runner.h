@@ -31,6 +31,7 @@ struct TrackBagOptions {
   std::vector<int> cameras;              // --cameras 0,2,4 (empty: all)
   int background_frames = 10;            // --background-frames N (>= 0)
   Handedness hand = Handedness::kRight;  // --hand left|right
+  bool room_cues = false;  // --room-cues: SegmentationParams::room.enabled (doc/segmentation.md)
   std::string root_frame;  // --root-frame FRAME (empty: the root of the bag's tf tree)
   bool quiet = false;      // --quiet: no progress bar
   bool help = false;       // --help

@@ -1,0 +1,110 @@
+// The room cues in the live graph (issue 11; doc/segmentation.md, "The live graph"). The
+// segmentation nodelets run per camera and the tracker nodelet sees every camera, so the work of
+// TrackingPipeline's room cues is split between them, with the same core functions:
+//   - the tracker publishes the tracked hand per camera (cam<i>/hand_region, HandRegion: the posed
+//     model's Gaussians in that camera's optical frame, stamped with the set); each segmentation
+//     nodelet projects it with its own camera_info (projectedHandMask) into its region of
+//     interest (RegionSource::kTrack) and ignores a region older than its timeout;
+//   - without a tracked hand a segmentation nodelet segments inside the union of its image's hand
+//     candidates (handCandidates, each grown by region_margin_cells) and attaches the candidates
+//     to its SumOfGaussians (region CANDIDATES); the tracker runs the multi-view check
+//     (chooseConsistentCandidates) on the set and keeps, per camera, only the image Gaussians
+//     inside the chosen candidate's region (candidateRegion), or none;
+//   - the re-check (MultiViewParams::recheck_interval): the tracker asks (candidates_wanted) for
+//     the whole image's candidates on the next set and resets the track when the choice replaces
+//     it (replacesTrack); the segmenters then get no region and the next set starts again.
+// Differences from TrackingPipeline, by construction: a region reaches a camera's next image only
+// when the tracker has finished the set (one set later, or more when the tracker lags), and after
+// a re-check switch the new start comes one set later (the switching set's images were segmented
+// with the old region).
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "sag_hand_tracker/HandRegion.h"
+#include "sag_hand_tracker/SumOfGaussians.h"
+#include "sag_hand_tracker/camera/camera.h"
+#include "sag_hand_tracker/model/kinematics.h"
+#include "sag_hand_tracker/segmentation/multi_view_consistency.h"
+#include "sag_hand_tracker/segmentation/quadtree_segmentation.h"
+#include "sag_hand_tracker/util/types.h"
+
+namespace sag_hand_tracker {
+
+// ---- messages ----
+std::vector<sag_hand_tracker::ImageCandidate> candidatesToMsg(
+    const std::vector<HandCandidate>& candidates);
+// The candidates of a SoG message. Throws InputError naming the candidate and the problem: a
+// non-finite score or centroid, a cell size < 1, cells_x that does not cover the image's width, a
+// cell index outside the image, more candidates than kMaxHandCandidates.
+std::vector<HandCandidate> candidatesFromMsg(const sag_hand_tracker::SumOfGaussians& msg);
+constexpr int kMaxHandCandidates = 64;
+
+// The tracked hand for one camera: `hand`'s Gaussians in `camera`'s optical frame.
+sag_hand_tracker::HandRegion handRegionMsg(const PosedHand& hand, const Camera& camera);
+// The hand of a HandRegion (Gaussians in the camera's frame). Throws InputError for a non-finite
+// value, a covariance that is not positive definite, or more than kMaxRegionGaussians Gaussians.
+constexpr int kMaxRegionGaussians = 1024;
+PosedHand handFromRegionMsg(const sag_hand_tracker::HandRegion& msg);
+
+// ---- segmentation nodelet ----
+// The region of interest of a HandRegion in its camera (projectedHandMask with the camera at the
+// origin: the Gaussians are in its frame). Same errors as handFromRegionMsg.
+cv::Mat trackedRegionMask(const sag_hand_tracker::HandRegion& msg, const Camera& camera);
+// The union of the candidates' regions (candidateRegion, each grown by margin_cells); all zero
+// without candidates (nothing kept: no blob of this view can be the hand).
+cv::Mat candidatesRegionMask(const std::vector<HandCandidate>& candidates, int width, int height,
+                             int margin_cells);
+// Whether a region stamped `region_stamp` may be used for an image stamped `image_stamp`
+// (seconds): not older than `timeout`, and not from the future by more than it (a replayed bag
+// looping back).
+bool regionIsFresh(double region_stamp, double image_stamp, double timeout);
+
+// ---- tracker nodelet ----
+// Keeps the Gaussians whose mean (raw pixels) lies inside `region` (CV_8UC1 at the SoG's size);
+// the forearm evidence is kept.
+ImageSoG keepInsideRegion(const ImageSoG& sog, const cv::Mat& region);
+
+// One camera's input of a set, as the tracker nodelet has it before undistortion.
+struct LiveView {
+  Camera camera;
+  ImageSoG sog;    // raw pixels
+  int region = 0;  // SumOfGaussians::REGION_*
+  std::vector<HandCandidate> candidates;
+};
+
+// The tracker side of the live room cues: the multi-view check and the re-check on the set's
+// views, and the regions it publishes. Not thread-safe (the tracker nodelet holds its mutex).
+class LiveRoomCues {
+ public:
+  explicit LiveRoomCues(const MultiViewParams& params = MultiViewParams());
+  const MultiViewParams& params() const { return params_; }
+
+  // Before the tracker's update of a set: narrows each view's SoG down to the hand (see the file
+  // comment). Without a tracked hand: views segmented with the candidates keep the multi-view
+  // choice (with multi_view off: their best candidate), views still segmented with an old
+  // track's region keep nothing. With a tracked hand: views without a region keep the candidate
+  // at the tracked hand; on a re-check set, a choice that replaces the track clears every view
+  // and returns true: the caller resets the tracker.
+  bool beforeUpdate(std::vector<LiveView>* views);
+  // After the update: the tracked hand (nullptr: none, lost, or no pose).
+  void afterUpdate(const PosedHand* hand);
+  // Forgets the track (the tracker was reset).
+  void reset();
+
+  bool tracking() const { return tracking_; }
+  // The regions published after the last set should ask for the candidates (re-check next set).
+  bool candidatesWanted() const;
+  int rechecks() const { return rechecks_; }
+  int switches() const { return switches_; }
+
+ private:
+  MultiViewParams params_;
+  bool tracking_ = false;
+  Eigen::Vector3d tracked_centre_ = Eigen::Vector3d::Zero();
+  int sets_since_recheck_ = 0;
+  int rechecks_ = 0, switches_ = 0;
+};
+
+}  // namespace sag_hand_tracker

@@ -1,0 +1,258 @@
+// The room cues in the live graph: see live_room_cues.h.
+#include "sag_hand_tracker/ros/live_room_cues.h"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "sag_hand_tracker/tracking/tracking_pipeline.h"
+
+namespace sag_hand_tracker {
+
+std::vector<sag_hand_tracker::ImageCandidate> candidatesToMsg(
+    const std::vector<HandCandidate>& candidates) {
+  std::vector<sag_hand_tracker::ImageCandidate> msgs(candidates.size());
+  for (size_t i = 0; i < candidates.size(); ++i) {
+    const HandCandidate& c = candidates[i];
+    sag_hand_tracker::ImageCandidate& m = msgs[i];
+    m.score = static_cast<float>(c.score);
+    m.centroid_x = static_cast<float>(c.centroid.x());
+    m.centroid_y = static_cast<float>(c.centroid.y());
+    m.box_x = c.box.x;
+    m.box_y = c.box.y;
+    m.box_width = c.box.width;
+    m.box_height = c.box.height;
+    m.moving = c.moving;
+    m.cell_size = static_cast<uint32_t>(std::max(c.cell_size, 0));
+    m.cells_x = static_cast<uint32_t>(std::max(c.cells_x, 0));
+    m.cell_indices.assign(c.cell_indices.begin(), c.cell_indices.end());
+  }
+  return msgs;
+}
+
+std::vector<HandCandidate> candidatesFromMsg(const sag_hand_tracker::SumOfGaussians& msg) {
+  if (msg.candidates.size() > static_cast<size_t>(kMaxHandCandidates)) {
+    throw InputError("the SoG carries " + std::to_string(msg.candidates.size()) +
+                     " hand candidates, more than the limit of " +
+                     std::to_string(kMaxHandCandidates));
+  }
+  std::vector<HandCandidate> candidates;
+  candidates.reserve(msg.candidates.size());
+  for (size_t i = 0; i < msg.candidates.size(); ++i) {
+    const sag_hand_tracker::ImageCandidate& m = msg.candidates[i];
+    const std::string which = "hand candidate " + std::to_string(i);
+    if (!std::isfinite(m.score) || !std::isfinite(m.centroid_x) || !std::isfinite(m.centroid_y)) {
+      throw InputError(which + ": score or centroid not finite");
+    }
+    if (m.cell_size < 1 || m.cell_size > msg.width || m.cell_size > msg.height) {
+      throw InputError(which + ": cell_size " + std::to_string(m.cell_size) +
+                       " does not fit the image");
+    }
+    const uint32_t cells_x = (msg.width + m.cell_size - 1) / m.cell_size;
+    const uint32_t cells_y = (msg.height + m.cell_size - 1) / m.cell_size;
+    if (m.cells_x != cells_x) {
+      throw InputError(which + ": cells_x " + std::to_string(m.cells_x) + " but a " +
+                       std::to_string(msg.width) + " pixel wide image has " +
+                       std::to_string(cells_x) + " cells of " + std::to_string(m.cell_size));
+    }
+    HandCandidate c;
+    c.score = m.score;
+    c.centroid = Eigen::Vector2d(m.centroid_x, m.centroid_y);
+    c.box = cv::Rect(m.box_x, m.box_y, m.box_width, m.box_height);
+    c.moving = m.moving;
+    c.cell_size = static_cast<int>(m.cell_size);
+    c.cells_x = static_cast<int>(m.cells_x);
+    c.cell_indices.reserve(m.cell_indices.size());
+    for (const uint32_t index : m.cell_indices) {
+      if (index >= cells_x * cells_y) {
+        throw InputError(which + ": cell index " + std::to_string(index) + " outside the " +
+                         std::to_string(cells_x) + "x" + std::to_string(cells_y) + " cells");
+      }
+      c.cell_indices.push_back(static_cast<int>(index));
+    }
+    candidates.push_back(std::move(c));
+  }
+  return candidates;
+}
+
+sag_hand_tracker::HandRegion handRegionMsg(const PosedHand& hand, const Camera& camera) {
+  sag_hand_tracker::HandRegion msg;
+  msg.tracked = true;
+  msg.gaussians.reserve(hand.gaussians.size());
+  const Eigen::Matrix3d rotation = camera.world_to_camera.linear();
+  for (const WorldGaussian& g : hand.gaussians) {
+    const Eigen::Vector3d mean = camera.world_to_camera * g.mean;
+    const Eigen::Matrix3d cov = rotation * g.cov * rotation.transpose();
+    sag_hand_tracker::Gaussian3D m;
+    m.x = mean.x();
+    m.y = mean.y();
+    m.z = mean.z();
+    m.cxx = cov(0, 0);
+    m.cxy = cov(0, 1);
+    m.cxz = cov(0, 2);
+    m.cyy = cov(1, 1);
+    m.cyz = cov(1, 2);
+    m.czz = cov(2, 2);
+    msg.gaussians.push_back(m);
+  }
+  return msg;
+}
+
+PosedHand handFromRegionMsg(const sag_hand_tracker::HandRegion& msg) {
+  if (msg.gaussians.size() > static_cast<size_t>(kMaxRegionGaussians)) {
+    throw InputError("hand region with " + std::to_string(msg.gaussians.size()) +
+                     " Gaussians, more than the limit of " + std::to_string(kMaxRegionGaussians));
+  }
+  PosedHand hand;
+  hand.gaussians.reserve(msg.gaussians.size());
+  for (size_t i = 0; i < msg.gaussians.size(); ++i) {
+    const sag_hand_tracker::Gaussian3D& m = msg.gaussians[i];
+    WorldGaussian g;
+    g.mean = Eigen::Vector3d(m.x, m.y, m.z);
+    g.cov << m.cxx, m.cxy, m.cxz, m.cxy, m.cyy, m.cyz, m.cxz, m.cyz, m.czz;
+    if (!g.mean.allFinite() || !g.cov.allFinite()) {
+      throw InputError("hand region Gaussian " + std::to_string(i) + " is not finite");
+    }
+    if (Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(g.cov, Eigen::EigenvaluesOnly)
+            .eigenvalues()
+            .minCoeff() <= 0.0) {
+      throw InputError("hand region Gaussian " + std::to_string(i) +
+                       ": covariance not positive definite");
+    }
+    hand.gaussians.push_back(g);
+  }
+  return hand;
+}
+
+cv::Mat trackedRegionMask(const sag_hand_tracker::HandRegion& msg, const Camera& camera) {
+  Camera at_origin = camera;
+  at_origin.world_to_camera = Eigen::Isometry3d::Identity();  // the Gaussians are in its frame
+  return projectedHandMask(handFromRegionMsg(msg), at_origin);
+}
+
+cv::Mat candidatesRegionMask(const std::vector<HandCandidate>& candidates, int width, int height,
+                             int margin_cells) {
+  cv::Mat region(height, width, CV_8UC1, cv::Scalar(0));
+  for (const HandCandidate& candidate : candidates) {
+    region |= candidateRegion(&candidate, width, height, margin_cells);
+  }
+  return region;
+}
+
+bool regionIsFresh(double region_stamp, double image_stamp, double timeout) {
+  return std::fabs(image_stamp - region_stamp) <= timeout;
+}
+
+ImageSoG keepInsideRegion(const ImageSoG& sog, const cv::Mat& region) {
+  if (region.type() != CV_8UC1 || region.cols != sog.width || region.rows != sog.height) {
+    throw InputError("keepInsideRegion: the region is not a CV_8UC1 mask of the SoG's size " +
+                     std::to_string(sog.width) + "x" + std::to_string(sog.height));
+  }
+  ImageSoG kept = sog;
+  kept.gaussians.clear();
+  for (const ImageGaussian& g : sog.gaussians) {
+    const int x = static_cast<int>(std::floor(g.mean.x()));
+    const int y = static_cast<int>(std::floor(g.mean.y()));
+    if (x >= 0 && y >= 0 && x < region.cols && y < region.rows && region.at<uint8_t>(y, x) != 0) {
+      kept.gaussians.push_back(g);
+    }
+  }
+  return kept;
+}
+
+LiveRoomCues::LiveRoomCues(const MultiViewParams& params) : params_(params) { validate(params_); }
+
+void LiveRoomCues::reset() {
+  tracking_ = false;
+  sets_since_recheck_ = 0;
+}
+
+bool LiveRoomCues::candidatesWanted() const {
+  return tracking_ && params_.enabled && params_.recheck_interval > 0 &&
+         sets_since_recheck_ + 1 >= params_.recheck_interval;
+}
+
+bool LiveRoomCues::beforeUpdate(std::vector<LiveView>* views_in) {
+  std::vector<LiveView>& views = *views_in;
+  using Msg = sag_hand_tracker::SumOfGaussians;
+  auto keepCandidate = [this](LiveView* view, int index) {
+    const HandCandidate* chosen = index >= 0 ? &view->candidates.at(index) : nullptr;
+    view->sog = keepInsideRegion(
+        view->sog,
+        candidateRegion(chosen, view->sog.width, view->sog.height, params_.region_margin_cells));
+  };
+  std::vector<Camera> cameras;
+  for (const LiveView& view : views) cameras.push_back(view.camera);
+
+  if (!tracking_) {
+    if (!params_.enabled) {
+      // As ImageSegmenter::segmentFrame without a region: each view's best candidate.
+      for (LiveView& view : views) {
+        if (view.region == Msg::REGION_TRACKED) {
+          view.sog.gaussians.clear();
+        } else if (view.region == Msg::REGION_CANDIDATES) {
+          keepCandidate(&view, view.candidates.empty() ? -1 : 0);
+        }
+      }
+      return false;
+    }
+    std::vector<std::vector<HandCandidate>> candidates(views.size());
+    for (size_t v = 0; v < views.size(); ++v) {
+      if (views[v].region == Msg::REGION_CANDIDATES) candidates[v] = views[v].candidates;
+    }
+    const MultiViewChoice choice = chooseConsistentCandidates(cameras, candidates, params_);
+    for (size_t v = 0; v < views.size(); ++v) {
+      // A view still segmented with an old track's region (its hand_region had not yet said
+      // "lost") keeps nothing: that region may hold anything.
+      if (views[v].region == Msg::REGION_TRACKED) views[v].sog.gaussians.clear();
+      if (views[v].region != Msg::REGION_CANDIDATES) continue;
+      keepCandidate(&views[v], choice.found ? choice.chosen[v] : -1);
+    }
+    return false;
+  }
+
+  // Tracking: a view without a region (its hand_region late or missing) keeps the candidate at
+  // the tracked hand.
+  std::vector<std::vector<HandCandidate>> candidates(views.size());
+  for (size_t v = 0; v < views.size(); ++v) candidates[v] = views[v].candidates;
+  const MultiViewChoice at_track = supportAt(cameras, candidates, tracked_centre_, params_);
+  bool recheck = false;
+  if (params_.enabled && params_.recheck_interval > 0 &&
+      ++sets_since_recheck_ >= params_.recheck_interval) {
+    sets_since_recheck_ = 0;
+    int views_with_candidates = 0;
+    for (const auto& c : candidates) views_with_candidates += !c.empty();
+    recheck = views_with_candidates >= params_.min_views;
+  }
+  if (recheck) {
+    ++rechecks_;
+    const MultiViewChoice choice = chooseConsistentCandidates(cameras, candidates, params_);
+    if (replacesTrack(choice, at_track, params_)) {
+      // The set's images were segmented with the old track's region: nothing of them is kept;
+      // the segmenters get no region and the next set starts at the new choice.
+      ++switches_;
+      for (LiveView& view : views) view.sog.gaussians.clear();
+      reset();
+      return true;
+    }
+  }
+  for (size_t v = 0; v < views.size(); ++v) {
+    if (views[v].region == Msg::REGION_CANDIDATES) keepCandidate(&views[v], at_track.chosen[v]);
+  }
+  return false;
+}
+
+void LiveRoomCues::afterUpdate(const PosedHand* hand) {
+  if (hand == nullptr || hand->gaussians.empty()) {
+    reset();
+    return;
+  }
+  if (!tracking_) sets_since_recheck_ = 0;
+  tracking_ = true;
+  tracked_centre_.setZero();
+  for (const WorldGaussian& g : hand->gaussians) tracked_centre_ += g.mean;
+  tracked_centre_ /= static_cast<double>(hand->gaussians.size());
+}
+
+}  // namespace sag_hand_tracker

@@ -1,0 +1,312 @@
+// The live graph's room cues adapter (ros/live_room_cues.h): the messages between the tracker and
+// the segmentation nodelets, and the tracker side's multi-view check and re-check.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <opencv2/imgproc.hpp>
+
+#include "sag_hand_tracker/camera/calibration.h"
+#include "sag_hand_tracker/model/hand_model.h"
+#include "sag_hand_tracker/model/kinematics.h"
+#include "sag_hand_tracker/ros/live_room_cues.h"
+#include "sag_hand_tracker/studio/motion.h"
+#include "sag_hand_tracker/tracking/tracking_pipeline.h"
+
+using namespace sag_hand_tracker;
+
+namespace {
+
+const std::string kConfigDir = std::string(SAG_SOURCE_DIR) + "/config";
+
+const HandModel& sagModel() {
+  static const HandModel model = loadHandModel(resolveModelPath("sag", kConfigDir));
+  return model;
+}
+
+const std::vector<Camera>& dexter5() {
+  static const std::vector<Camera> cameras =
+      loadCameraRig(kConfigDir + "/rigs/dexter5/rig.yaml").cameras;
+  return cameras;
+}
+
+// The hand of the pinch motion at 2 s, posed.
+PosedHand studioHand(const Eigen::Vector3d& shift = Eigen::Vector3d::Zero()) {
+  Pose pose =
+      studio::loadMotion(studio::resolveMotionPath("pinch", kConfigDir), sagModel(), 1).poseAt(2.0);
+  pose.translation += shift;
+  return forwardKinematics(sagModel(), pose);
+}
+
+Eigen::Vector3d centre(const PosedHand& hand) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (const WorldGaussian& g : hand.gaussians) sum += g.mean;
+  return sum / static_cast<double>(hand.gaussians.size());
+}
+
+constexpr int kCell = 4;
+
+// A candidate of 5x5 cells centred at a root-frame point's projection in `camera`, `moving` of
+// them moving.
+HandCandidate candidateAt(const Camera& camera, const Eigen::Vector3d& point, double score,
+                          int moving) {
+  Eigen::Vector2d pixel;
+  EXPECT_TRUE(camera.project(point, &pixel));
+  HandCandidate candidate;
+  candidate.cell_size = kCell;
+  candidate.cells_x = (camera.width + kCell - 1) / kCell;
+  const int cx = static_cast<int>(pixel.x()) / kCell, cy = static_cast<int>(pixel.y()) / kCell;
+  for (int y = cy - 2; y <= cy + 2; ++y) {
+    for (int x = cx - 2; x <= cx + 2; ++x) {
+      if (x >= 0 && y >= 0 && x < candidate.cells_x && y * kCell < camera.height) {
+        candidate.cell_indices.push_back(y * candidate.cells_x + x);
+      }
+    }
+  }
+  candidate.centroid = pixel;
+  candidate.score = score;
+  candidate.moving = moving;
+  candidate.box = cv::Rect((cx - 2) * kCell, (cy - 2) * kCell, 5 * kCell, 5 * kCell);
+  return candidate;
+}
+
+ImageGaussian gaussianAt(const Eigen::Vector2d& pixel) {
+  ImageGaussian g;
+  g.mean = pixel;
+  g.sigma = 2.0;
+  g.hsv = Hsv(20.0, 0.4, 0.7);
+  return g;
+}
+
+// One view per dexter5 camera segmented with the candidates (region CANDIDATES): the hand at
+// `hand` (moving) and a still head at `head` where the camera sees it, each a candidate with one
+// image Gaussian at its centroid.
+std::vector<LiveView> candidateViews(const Eigen::Vector3d& hand, const Eigen::Vector3d* head,
+                                     int hand_moving = 20) {
+  std::vector<LiveView> views;
+  for (const Camera& camera : dexter5()) {
+    LiveView view;
+    view.camera = camera;
+    view.region = sag_hand_tracker::SumOfGaussians::REGION_CANDIDATES;
+    view.sog.width = camera.width;
+    view.sog.height = camera.height;
+    Eigen::Vector2d pixel;
+    if (head != nullptr && camera.project(*head, &pixel) && pixel.x() > 10 && pixel.y() > 10 &&
+        pixel.x() < camera.width - 10 && pixel.y() < camera.height - 10) {
+      view.candidates.push_back(candidateAt(camera, *head, 400.0, 0));
+      view.sog.gaussians.push_back(gaussianAt(pixel));
+    }
+    view.candidates.push_back(candidateAt(camera, hand, 100.0, hand_moving));
+    view.sog.gaussians.push_back(gaussianAt(view.candidates.back().centroid));
+    views.push_back(std::move(view));
+  }
+  return views;
+}
+
+}  // namespace
+
+TEST(LiveRoomCues, CandidatesSurviveTheMessage) {
+  const Camera& camera = dexter5()[0];
+  const std::vector<HandCandidate> candidates = {
+      candidateAt(camera, centre(studioHand()), 123.5, 7)};
+  sag_hand_tracker::SumOfGaussians msg;
+  msg.width = camera.width;
+  msg.height = camera.height;
+  msg.candidates = candidatesToMsg(candidates);
+  const std::vector<HandCandidate> back = candidatesFromMsg(msg);
+  ASSERT_EQ(back.size(), 1u);
+  EXPECT_NEAR(back[0].score, 123.5, 1e-4);
+  EXPECT_NEAR((back[0].centroid - candidates[0].centroid).norm(), 0.0, 1e-3);
+  EXPECT_EQ(back[0].box, candidates[0].box);
+  EXPECT_EQ(back[0].moving, 7);
+  EXPECT_EQ(back[0].cell_indices, candidates[0].cell_indices);
+  // The regions they give are the same.
+  EXPECT_EQ(cv::countNonZero(candidateRegion(&back[0], camera.width, camera.height, 2) !=
+                             candidateRegion(&candidates[0], camera.width, camera.height, 2)),
+            0);
+}
+
+TEST(LiveRoomCues, BadCandidatesAreNamed) {
+  const Camera& camera = dexter5()[0];
+  sag_hand_tracker::SumOfGaussians msg;
+  msg.width = camera.width;
+  msg.height = camera.height;
+  msg.candidates = candidatesToMsg({candidateAt(camera, centre(studioHand()), 1.0, 0)});
+  auto expectError = [&msg](const std::string& words) {
+    try {
+      candidatesFromMsg(msg);
+      ADD_FAILURE() << "no error; expected one with '" << words << "'";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("hand candidate 0"), std::string::npos) << e.what();
+    }
+  };
+  const auto good = msg.candidates[0];
+  msg.candidates[0].cell_indices.push_back(1000000);
+  expectError("cell index 1000000");
+  msg.candidates[0] = good;
+  msg.candidates[0].cells_x += 1;
+  expectError("cells_x");
+  msg.candidates[0] = good;
+  msg.candidates[0].cell_size = 0;
+  expectError("cell_size 0");
+  msg.candidates[0] = good;
+  msg.candidates[0].score = std::numeric_limits<float>::quiet_NaN();
+  expectError("not finite");
+  msg.candidates.assign(kMaxHandCandidates + 1, good);
+  EXPECT_THROW(candidatesFromMsg(msg), InputError);
+}
+
+TEST(LiveRoomCues, TheRegionProjectedByTheSegmenterIsThePipelines) {
+  const PosedHand hand = studioHand();
+  for (const Camera& camera : dexter5()) {
+    const cv::Mat live = trackedRegionMask(handRegionMsg(hand, camera), camera);
+    const cv::Mat offline = projectedHandMask(hand, camera);
+    ASSERT_EQ(live.size(), offline.size());
+    EXPECT_GT(cv::countNonZero(offline), 500) << camera.name;
+    EXPECT_EQ(cv::countNonZero(live != offline), 0) << camera.name;
+  }
+}
+
+TEST(LiveRoomCues, BadRegionsAreRefused) {
+  const Camera& camera = dexter5()[0];
+  sag_hand_tracker::HandRegion msg = handRegionMsg(studioHand(), camera);
+  msg.gaussians[3].y = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(trackedRegionMask(msg, camera), InputError);
+  msg = handRegionMsg(studioHand(), camera);
+  msg.gaussians[2].cxx = -1.0;
+  try {
+    handFromRegionMsg(msg);
+    ADD_FAILURE() << "a covariance that is not positive definite was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("Gaussian 2"), std::string::npos) << e.what();
+  }
+  msg.gaussians.resize(kMaxRegionGaussians + 1, msg.gaussians[0]);
+  EXPECT_THROW(handFromRegionMsg(msg), InputError);
+}
+
+TEST(LiveRoomCues, StaleRegionsAreIgnored) {
+  EXPECT_TRUE(regionIsFresh(10.0, 10.04, 0.5));
+  EXPECT_TRUE(regionIsFresh(10.0, 10.5, 0.5));
+  EXPECT_FALSE(regionIsFresh(10.0, 10.6, 0.5));
+  EXPECT_FALSE(regionIsFresh(10.0, 3.0, 0.5));  // a bag looping back
+}
+
+TEST(LiveRoomCues, KeepInsideRegionKeepsTheGaussiansInside) {
+  ImageSoG sog;
+  sog.width = 40;
+  sog.height = 30;
+  sog.arm_cells = 5;
+  sog.gaussians = {gaussianAt({5.5, 5.5}), gaussianAt({30.0, 20.0}), gaussianAt({-3.0, 5.0})};
+  cv::Mat region(30, 40, CV_8UC1, cv::Scalar(0));
+  region(cv::Rect(0, 0, 10, 10)).setTo(255);
+  const ImageSoG kept = keepInsideRegion(sog, region);
+  ASSERT_EQ(kept.gaussians.size(), 1u);
+  EXPECT_EQ(kept.gaussians[0].mean, Eigen::Vector2d(5.5, 5.5));
+  EXPECT_EQ(kept.arm_cells, 5);
+  EXPECT_THROW(keepInsideRegion(sog, cv::Mat(10, 10, CV_8UC1, cv::Scalar(0))), InputError);
+}
+
+TEST(LiveRoomCues, BeforeTheStartOnlyTheBlobsThatAgreeAcrossTheViewsAreKept) {
+  const Eigen::Vector3d hand = centre(studioHand());
+  // A still head 25 cm to the side of the hand (along camera 3's x axis): a larger, better scored
+  // blob in the views that see it.
+  const Eigen::Vector3d head =
+      hand + 0.25 * dexter5()[3].world_to_camera.linear().row(0).transpose();
+  LiveRoomCues cues;
+  std::vector<LiveView> views = candidateViews(hand, &head);
+  int heads_seen = 0;
+  for (const LiveView& view : views) heads_seen += view.candidates.size() == 2;
+  ASSERT_GE(heads_seen, 1) << "no view sees the head";
+  EXPECT_FALSE(cues.beforeUpdate(&views));
+  for (const LiveView& view : views) {
+    // Only the hand's Gaussian is left, in every view.
+    ASSERT_EQ(view.sog.gaussians.size(), 1u) << view.camera.name;
+    EXPECT_LT((view.sog.gaussians[0].mean - view.candidates.back().centroid).norm(), 1e-9);
+  }
+
+  // A still hand (nothing moves) cannot start the track: nothing is kept anywhere.
+  views = candidateViews(hand, &head, /*hand_moving=*/0);
+  cues.beforeUpdate(&views);
+  for (const LiveView& view : views) EXPECT_TRUE(view.sog.gaussians.empty()) << view.camera.name;
+
+  // A view still segmented with an old track's region keeps nothing before the start.
+  views = candidateViews(hand, nullptr);
+  views[2].region = sag_hand_tracker::SumOfGaussians::REGION_TRACKED;
+  cues.beforeUpdate(&views);
+  EXPECT_TRUE(views[2].sog.gaussians.empty());
+  EXPECT_EQ(views[0].sog.gaussians.size(), 1u);
+
+  // Without the multi-view check each view keeps its best candidate (segmentFrame's choice):
+  // the head where a view sees it.
+  MultiViewParams alone;
+  alone.enabled = false;
+  LiveRoomCues single(alone);
+  views = candidateViews(hand, &head);
+  single.beforeUpdate(&views);
+  for (const LiveView& view : views) {
+    ASSERT_EQ(view.sog.gaussians.size(), 1u);
+    EXPECT_LT((view.sog.gaussians[0].mean - view.candidates.front().centroid).norm(), 1e-9);
+  }
+}
+
+TEST(LiveRoomCues, TheTrackAsksForCandidatesAndSwitchesToAHandThatMoreViewsAgreeOn) {
+  const PosedHand other_arm = studioHand(Eigen::Vector3d(0.35, -0.1, -0.1));
+  const Eigen::Vector3d hand = centre(studioHand());
+  LiveRoomCues cues;  // re-check every 5 sets
+  EXPECT_FALSE(cues.tracking());
+  cues.afterUpdate(&other_arm);
+  ASSERT_TRUE(cues.tracking());
+  // Sets 1..4 after the start are plain; the regions published after set 4 ask for candidates.
+  for (int set = 1; set <= 4; ++set) {
+    EXPECT_FALSE(cues.candidatesWanted()) << set;
+    std::vector<LiveView> views = candidateViews(hand, nullptr, 100);
+    for (LiveView& view : views) {
+      view.region = sag_hand_tracker::SumOfGaussians::REGION_TRACKED;
+      view.candidates.clear();
+    }
+    EXPECT_FALSE(cues.beforeUpdate(&views));
+    EXPECT_EQ(views[0].sog.gaussians.size(), 1u);  // segmented with the track's region: kept
+    cues.afterUpdate(&other_arm);
+  }
+  EXPECT_TRUE(cues.candidatesWanted());
+  // The re-check set: the hand has come into view in all five cameras, moving; the tracked arm has
+  // no candidate. The choice replaces the track: nothing of this set is kept, the track is gone.
+  std::vector<LiveView> views = candidateViews(hand, nullptr, 100);
+  for (LiveView& view : views) view.region = sag_hand_tracker::SumOfGaussians::REGION_TRACKED;
+  EXPECT_TRUE(cues.beforeUpdate(&views));
+  for (const LiveView& view : views) EXPECT_TRUE(view.sog.gaussians.empty());
+  EXPECT_FALSE(cues.tracking());
+  EXPECT_EQ(cues.rechecks(), 1);
+  EXPECT_EQ(cues.switches(), 1);
+  cues.afterUpdate(nullptr);
+  EXPECT_FALSE(cues.candidatesWanted());
+
+  // A track on the hand itself is kept by the re-check.
+  const PosedHand on_hand = studioHand();
+  cues.afterUpdate(&on_hand);
+  for (int set = 1; set <= 5; ++set) {
+    views = candidateViews(hand, nullptr, 100);
+    for (LiveView& view : views) view.region = sag_hand_tracker::SumOfGaussians::REGION_TRACKED;
+    EXPECT_FALSE(cues.beforeUpdate(&views)) << set;
+    cues.afterUpdate(&on_hand);
+  }
+  EXPECT_EQ(cues.rechecks(), 2);
+  EXPECT_EQ(cues.switches(), 1);
+  EXPECT_TRUE(cues.tracking());
+}
+
+TEST(LiveRoomCues, WhileTrackingAViewWithoutARegionKeepsTheCandidateAtTheHand) {
+  const PosedHand tracked = studioHand();
+  const Eigen::Vector3d hand = centre(tracked);
+  const Eigen::Vector3d head =
+      hand + 0.25 * dexter5()[3].world_to_camera.linear().row(0).transpose();
+  LiveRoomCues cues;
+  cues.afterUpdate(&tracked);
+  std::vector<LiveView> views = candidateViews(hand, &head);
+  EXPECT_FALSE(cues.beforeUpdate(&views));
+  for (const LiveView& view : views) {
+    ASSERT_EQ(view.sog.gaussians.size(), 1u) << view.camera.name;
+    EXPECT_LT((view.sog.gaussians[0].mean - view.candidates.back().centroid).norm(), 1e-9);
+  }
+}
