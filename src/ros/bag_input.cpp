@@ -22,6 +22,7 @@
 
 #include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/ros/conversions.h"
+#include "sag_hand_tracker/ros/message_bounds.h"
 #include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
@@ -101,6 +102,18 @@ struct BagReader::Impl {
 
   [[noreturn]] void fail(const std::string& problem) const {
     throw InputError(path + ": " + problem);
+  }
+
+  // The message as an M (null when its connection has another type), its length prefixes checked
+  // against its bytes before roscpp allocates what they declare (ros/message_bounds.h).
+  template <class M>
+  boost::shared_ptr<M> read(const rosbag::MessageInstance& message) const {
+    try {
+      return instantiateChecked<M>(message);
+    } catch (const std::runtime_error& error) {
+      fail(message.getTopic() + " at " + formatStamp(message.getTime().toNSec()) + ": " +
+           error.what());
+    }
   }
 
   void open();
@@ -375,7 +388,7 @@ void BagReader::Impl::readCameraInfo() {
   [[maybe_unused]] std::size_t missing = ids.size();
   for (const rosbag::MessageInstance& message : infos) {
     const int camera = info_to_camera.at(message.getTopic());
-    const sensor_msgs::CameraInfo::ConstPtr info = message.instantiate<sensor_msgs::CameraInfo>();
+    const sensor_msgs::CameraInfo::ConstPtr info = read<sensor_msgs::CameraInfo>(message);
     if (!info) fail(message.getTopic() + " does not hold sensor_msgs/CameraInfo");
     if (have[camera]) {
       // One calibration per camera: a driver that changes resolution mid-bag is refused.
@@ -418,7 +431,7 @@ void BagReader::Impl::readExtrinsics() {
   }
   const bool has_tf_static = tf_view.size() > 0;
   for (const rosbag::MessageInstance& message : tf_view) {
-    const tf2_msgs::TFMessage::ConstPtr tf = message.instantiate<tf2_msgs::TFMessage>();
+    const tf2_msgs::TFMessage::ConstPtr tf = read<tf2_msgs::TFMessage>(message);
     if (!tf) fail(std::string(kTfStaticTopic) + " does not hold tf2_msgs/TFMessage");
     for (const geometry_msgs::TransformStamped& transform : tf->transforms) {
       const std::string parent = stripSlash(transform.header.frame_id);
@@ -494,7 +507,7 @@ void BagReader::Impl::checkFirstImages() {
     rosbag::View first(bag, rosbag::TopicQuery(imageTopic(ids[i])));
     const auto message = first.begin();
     if (message == first.end()) continue;  // this camera delivers nothing; the others do
-    const sensor_msgs::Image::ConstPtr image = message->instantiate<sensor_msgs::Image>();
+    const sensor_msgs::Image::ConstPtr image = read<sensor_msgs::Image>(*message);
     if (!image) fail(imageTopic(ids[i]) + " does not hold sensor_msgs/Image");
     decode(*image, static_cast<int>(i), imageTopic(ids[i]));
   }
@@ -556,7 +569,7 @@ bool BagReader::Impl::step(FrameSet* set) {
 
     const rosbag::MessageInstance& message = *it;
     const std::string topic = message.getTopic();
-    const sensor_msgs::Image::ConstPtr image = message.instantiate<sensor_msgs::Image>();
+    const sensor_msgs::Image::ConstPtr image = read<sensor_msgs::Image>(message);
     ++it;
     if (!image) fail(topic + " does not hold sensor_msgs/Image");
     ++stats.images_read;

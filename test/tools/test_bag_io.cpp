@@ -8,6 +8,7 @@
 #include <tf2_msgs/TFMessage.h>
 #include "test_support/temp_files.h"
 
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -17,6 +18,7 @@
 #include "sag_hand_tracker/ros/bag_input.h"
 #include "sag_hand_tracker/ros/bag_output.h"
 #include "sag_hand_tracker/ros/conversions.h"
+#include "sag_hand_tracker/ros/message_bounds.h"
 #include "sag_hand_tracker/ros/sog_conversions.h"
 #include "sag_hand_tracker/util/types.h"
 
@@ -693,4 +695,105 @@ TEST(SogConversions, ForearmEvidenceRoundTripsAndIsValidated) {
   msg = sogToMsg(sog);
   msg.arm_x = std::numeric_limits<float>::quiet_NaN();
   EXPECT_EQ(sogFromMsg(msg).arm_cells, 0);
+}
+
+// Length prefixes checked before roscpp allocates what they declare (ros/message_bounds.h).
+namespace {
+
+template <class M>
+std::vector<std::uint8_t> serialized(const M& message) {
+  std::vector<std::uint8_t> bytes(ros::serialization::serializationLength(message));
+  ros::serialization::OStream stream(bytes.data(), static_cast<std::uint32_t>(bytes.size()));
+  ros::serialization::serialize(stream, message);
+  return bytes;
+}
+
+template <class M>
+std::string check(const std::vector<std::uint8_t>& bytes) {
+  return checkSerializedMessage(ros::message_traits::datatype<M>(),
+                                ros::message_traits::definition<M>(), bytes.data(), bytes.size());
+}
+
+void writeUint32(std::vector<std::uint8_t>* bytes, std::size_t offset, std::uint32_t value) {
+  std::memcpy(bytes->data() + offset, &value, 4);
+}
+
+}  // namespace
+
+TEST(MessageBounds, WellFormedMessagesPass) {
+  sensor_msgs::CameraInfo info;
+  info.header.frame_id = "cam0_optical";
+  info.distortion_model = "plumb_bob";
+  info.D = {0.1, 0.0, 0.0, 0.0, 0.0};
+  EXPECT_EQ(check<sensor_msgs::CameraInfo>(serialized(info)), "");
+  sensor_msgs::Image image;
+  image.encoding = "rgb8";
+  image.data.assign(12, 7);
+  EXPECT_EQ(check<sensor_msgs::Image>(serialized(image)), "");
+  tf2_msgs::TFMessage tf;
+  tf.transforms.resize(2);
+  tf.transforms[1].child_frame_id = "cam1";
+  EXPECT_EQ(check<tf2_msgs::TFMessage>(serialized(tf)), "");
+}
+
+TEST(MessageBounds, AnArrayLongerThanTheMessageIsNamed) {
+  sensor_msgs::CameraInfo info;
+  info.header.frame_id = "f";
+  info.distortion_model = "plumb_bob";
+  info.D = {0.1, 0.0, 0.0, 0.0, 0.0};
+  std::vector<std::uint8_t> bytes = serialized(info);
+  // header: seq, stamp (8), frame_id (4 + 1); height, width; distortion_model (4 + 9); then D.
+  const std::size_t d_offset = 4 + 8 + 4 + 1 + 4 + 4 + 4 + 9;
+  std::uint32_t declared = 0;
+  std::memcpy(&declared, bytes.data() + d_offset, 4);
+  ASSERT_EQ(declared, 5u);
+  writeUint32(&bytes, d_offset, 1800000000u);
+  const std::string problem = check<sensor_msgs::CameraInfo>(bytes);
+  EXPECT_NE(problem.find("D: 1800000000 elements of 8 bytes declared"), std::string::npos)
+      << problem;
+
+  sensor_msgs::Image image;
+  image.encoding = "rgb8";
+  image.data.assign(12, 7);
+  std::vector<std::uint8_t> image_bytes = serialized(image);
+  writeUint32(&image_bytes, image_bytes.size() - 12 - 4, 0xFFFFFFF0u);
+  EXPECT_NE(check<sensor_msgs::Image>(image_bytes).find("data:"), std::string::npos);
+
+  tf2_msgs::TFMessage tf;
+  tf.transforms.resize(1);
+  std::vector<std::uint8_t> tf_bytes = serialized(tf);
+  writeUint32(&tf_bytes, 0, 100000000u);
+  EXPECT_NE(check<tf2_msgs::TFMessage>(tf_bytes).find("transforms: 100000000 elements"),
+            std::string::npos);
+}
+
+TEST(MessageBounds, TruncatedAndOverlongMessagesAreRefused) {
+  sensor_msgs::CameraInfo info;
+  info.D = {0.1, 0.0, 0.0, 0.0, 0.0};
+  std::vector<std::uint8_t> bytes = serialized(info);
+  std::vector<std::uint8_t> truncated(bytes.begin(), bytes.end() - 3);
+  EXPECT_NE(check<sensor_msgs::CameraInfo>(truncated), "");
+  std::vector<std::uint8_t> overlong = bytes;
+  overlong.push_back(0);
+  EXPECT_NE(check<sensor_msgs::CameraInfo>(overlong).find("1 bytes left over"), std::string::npos);
+  EXPECT_NE(checkSerializedMessage("pkg/Unknown", "Other x\n", bytes.data(), bytes.size())
+                .find("unknown type pkg/Other"),
+            std::string::npos);
+}
+
+// The fuzzer's finding: a bag whose camera_info declares 1.8e9 distortion coefficients made roscpp
+// allocate 14.7 GB; it is now refused with the topic and the field.
+TEST(MessageBounds, TheBagWithAHugeDeclaredArrayIsRefusedWithoutAllocatingIt) {
+  const std::string bag =
+      std::string(SAG_SOURCE_DIR) + "/test/fuzz/corpus/bag/crash_camera_info_huge_array_length";
+  try {
+    BagReader reader(bag);
+    FAIL() << "the bag was accepted";
+  } catch (const InputError& error) {
+    const std::string message = error.what();
+    EXPECT_NE(message.find("/cam1/camera_info"), std::string::npos) << message;
+    EXPECT_NE(message.find("malformed sensor_msgs/CameraInfo message (D: 1836412016 elements"),
+              std::string::npos)
+        << message;
+  }
 }
