@@ -80,9 +80,7 @@ class FingertipChecker : public ::testing::Test {
     }
     // The bag is prepared (and the player released) only once the subscribers are up.
     ASSERT_NO_FATAL_FAILURE(graph_test::prepareBag());
-    struct RemoveReadyFile {
-      ~RemoveReadyFile() { graph_test::removeReadyFile(); }
-    } remove_ready_file;
+    graph_test::ReadyFileRemover remove_ready_file;
     const ros::WallTime start = ros::WallTime::now();
     while (ros::ok() && (ros::WallTime::now() - start).toSec() < duration) {
       ros::WallDuration(0.1).sleep();

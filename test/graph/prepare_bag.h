@@ -58,4 +58,9 @@ inline void removeReadyFile() {
   if (!ready.empty()) std::filesystem::remove(ready);
 }
 
+// Removes the ready file when the checker's test ends (however it ends).
+struct ReadyFileRemover {
+  ~ReadyFileRemover() { removeReadyFile(); }
+};
+
 }  // namespace graph_test
