@@ -16,9 +16,10 @@
 //   until it has caught up, off the frame path; false: the search runs on the set that needs it,
 //   as track_bag does, so that a replay gives track_bag's poses exactly), catch_up_seconds (0.25;
 //   with asynchronous_search: the worker keeps the sets of up to this many seconds; those that
-//   got no pose on the frame path meanwhile are published late, below), worker_niceness (10: the
-//   worker's nice value above the frame path's; 0-19), room_cues (false), multi_view (true) and
-//   recheck_interval (5) (below), plus the dynamic_reconfigure parameters of cfg/Tracker.cfg.
+//   got no pose on the frame path meanwhile are published late, below), worker_niceness (10: a
+//   re-detecting worker's nice value above the frame path's; 0-19), room_cues (false), multi_view
+//   (true) and recheck_interval (5) (below), plus the dynamic_reconfigure parameters of
+//   cfg/Tracker.cfg.
 //
 // Room cues (issue 11; ros/live_room_cues.h, doc/segmentation.md "The live graph"; the segmentation
 // nodelets' room_cues must be on too): after every set the tracked hand is published to each

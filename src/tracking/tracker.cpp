@@ -485,13 +485,15 @@ FrameResult HandTracker::update(const std::vector<CameraObservation>& observatio
   if (worker_) {
     handToWorker(std::move(frame));
   } else if (search_wanted_) {
-    startWorker(before, std::move(frame));
+    // Without a pose for this set the sets wait for the worker: it keeps the frame path's priority.
+    const int niceness = frame.reported_pose ? params_.worker_niceness : 0;
+    startWorker(before, std::move(frame), niceness);
   }
   search_wanted_ = false;
   return result;
 }
 
-void HandTracker::startWorker(const TrackState& state, HandedFrame frame) {
+void HandTracker::startWorker(const TrackState& state, HandedFrame frame, int niceness) {
   TrackerParams synchronous = params_;
   synchronous.asynchronous_search = false;
   auto worker = std::make_unique<Worker>();
@@ -499,10 +501,9 @@ void HandTracker::startWorker(const TrackState& state, HandedFrame frame) {
   worker->tracker->setTrackState(state);
   worker->queue.push_back(std::move(frame));
   Worker* running = worker.get();
-  worker->done = std::async(std::launch::async,
-                            [running, gate = search_gate_, niceness = params_.worker_niceness]() {
-                              running->run(gate, niceness);
-                            });
+  worker->done = std::async(std::launch::async, [running, gate = search_gate_, niceness]() {
+    running->run(gate, niceness);
+  });
   worker_ = std::move(worker);
 }
 

@@ -95,9 +95,12 @@ struct TrackerParams {
   // work per set is one ordinary step. Offline tools keep it off: their results then do not
   // depend on thread timing.
   bool asynchronous_search = false;
-  // The worker's nice value above the frame path's: on a machine with as many busy threads as
-  // cores (five segmentations, the tracker, a renderer or drivers), an equal-priority worker's
-  // search delays the frame path by its whole length; lowered, it runs in what is left. 0: equal.
+  // The nice value above the frame path's of a worker that re-detects while the frame path has a
+  // live track: on a machine with as many busy threads as cores (five segmentations, the tracker, a
+  // renderer or drivers), an equal-priority worker's search delays the frame path by its whole
+  // length; lowered, it runs in what is left. A worker started for a set without a pose (no track,
+  // or lost) keeps the frame path's priority: the sets wait for it, and the frame path has little
+  // to do meanwhile. 0: equal.
   int worker_niceness = 10;
   // Catch-up (issue 12): with asynchronous_search, the sets the worker has not tracked yet are
   // kept for it only while they are within `catch_up_seconds` (by stamp) of the newest set (at
@@ -255,9 +258,10 @@ class HandTracker {
 
   // The worker of asynchronous_search (defined in tracker.cpp).
   struct Worker;
-  // Starts a worker from `state` (the state before `frame`'s step) with `frame` as its first set.
+  // Starts a worker from `state` (the state before `frame`'s step) with `frame` as its first set,
+  // its thread's nice value raised by `niceness`.
   struct HandedFrame;
-  void startWorker(const TrackState& state, HandedFrame frame);
+  void startWorker(const TrackState& state, HandedFrame frame, int niceness);
   // Hands a set the frame path has stepped to the worker, within the catch-up's bounds.
   void handToWorker(HandedFrame frame);
   // Moves the worker's results for sets the frame path reported without a pose into the late
