@@ -497,6 +497,31 @@ std::optional<std::vector<OptimizationResult>> HandTracker::searchWithForearm(
   return candidates;
 }
 
+void HandTracker::startWithForearmIfItIsBare(PoseEnergy& energy,
+                                             const std::vector<CameraObservation>& observations,
+                                             std::vector<OptimizationResult>* candidates) {
+  // Only a synchronous search can be repeated on this frame.
+  if (params_.energy.forearm_gaussians <= 0 || params_.asynchronous_search) return;
+  forearm_present_ = true;
+  energy.setForearmPresent(true);
+  std::optional<std::vector<OptimizationResult>> with_forearm =
+      searchWithForearm(energy, observations);
+  bool bare = false;
+  if (with_forearm && !with_forearm->empty()) {
+    const OptimizationResult& best = with_forearm->front();
+    energy.setForearmPresent(false);
+    const double hand_only = energy.evaluate(best.pose);
+    energy.setForearmPresent(true);
+    bare = best.energy - hand_only > params_.forearm_min_gain;
+  }
+  if (bare) {
+    *candidates = std::move(*with_forearm);
+  } else {
+    forearm_present_ = false;
+    energy.setForearmPresent(false);
+  }
+}
+
 Eigen::Vector3d HandTracker::fitForearm(const PoseEnergy& energy, OptimizationResult* result,
                                         const std::optional<Eigen::Vector3d>& from) const {
   const Eigen::Vector3d start = from ? *from : Eigen::Vector3d(-result->pose.rotation.col(0));
@@ -609,8 +634,8 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
       if (redetect) frames_since_start_ = 0;
     }
   } else {
-    const std::optional<std::vector<OptimizationResult>> start =
-        searchWithForearm(energy, observations);
+    std::optional<std::vector<OptimizationResult>> start = searchWithForearm(energy, observations);
+    if (start && !forearm_present_) startWithForearmIfItIsBare(energy, observations, &*start);
     if (start && !start->empty()) {
       optimized = start->front();
       forearm = fitForearm(energy, &*optimized, std::nullopt);

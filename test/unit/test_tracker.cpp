@@ -457,8 +457,8 @@ TEST(TrackerOrientation, ForearmUndoesAReversedTrackWithinTheRotationBound) {
 namespace {
 
 struct ForearmRun {
-  double worst_error = 0.0;          // fingertips, metres, frames 2..
-  double min_similarity_gain = 1e9;  // reported similarity minus the hand's alone, frames 3..
+  double worst_error = 0.0;          // fingertips, metres
+  double min_similarity_gain = 1e9;  // reported similarity minus the hand's alone
   double max_similarity_gain = -1e9;
 };
 
@@ -486,12 +486,9 @@ ForearmRun trackFlexingWrist(const TrackerParams& params, bool bare) {
       run.worst_error = 1.0;
       continue;
     }
-    // The forearm is judged on the first frame's pose: it is in the energy from the third on.
-    if (frame >= 2) {
-      run.worst_error = std::max(run.worst_error,
-                                 meanFingertipError(result.fingertips, fingertips(model, truth)));
-    }
-    if (frame >= 3) {
+    run.worst_error =
+        std::max(run.worst_error, meanFingertipError(result.fingertips, fingertips(model, truth)));
+    {
       hand_only.setFrame(observations);
       EnergyTerms terms;
       hand_only.evaluate(result.pose, nullptr, &terms);
@@ -505,14 +502,16 @@ ForearmRun trackFlexingWrist(const TrackerParams& params, bool bare) {
 
 }  // namespace
 
-// A bare forearm switches the energy's forearm on (the reported similarity then counts it) and the
-// hand stays on the hand (13.5 mm worst, against 49 mm without the forearm); a sleeved one leaves
-// the energy the hand's alone.
+// A bare forearm switches the energy's forearm on from the first start (the reported similarity
+// then counts it) and the hand stays on the hand (49 mm worst without the forearm; 28 mm at the
+// start when the first start was made without it); a sleeved one leaves the energy the hand's
+// alone.
 TEST(TrackerForearm, IsUsedForABareForearmOnly) {
   const TrackerParams params;
   const ForearmRun bare = trackFlexingWrist(params, true);
   EXPECT_GT(bare.min_similarity_gain, params.forearm_min_gain);
-  EXPECT_LT(bare.worst_error, 0.015) << bare.worst_error * 1000 << " mm";
+  // 7.4 mm at the start, 16.8 mm at the largest flexion when this was written (sleeved: 10.5).
+  EXPECT_LT(bare.worst_error, 0.02) << bare.worst_error * 1000 << " mm";
   const ForearmRun sleeved = trackFlexingWrist(params, false);
   EXPECT_EQ(sleeved.min_similarity_gain, 0.0);
   EXPECT_EQ(sleeved.max_similarity_gain, 0.0);

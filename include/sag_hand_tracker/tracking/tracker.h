@@ -269,6 +269,14 @@ class HandTracker {
   // cue while the forearm is in the energy.
   std::optional<std::vector<OptimizationResult>> searchWithForearm(
       PoseEnergy& energy, const std::vector<CameraObservation>& observations);
+  // A start without a track and without the forearm (a synchronous search): the search is run
+  // again with the forearm, and its candidates replace `candidates` (and the forearm stays on)
+  // when its best one gains more than forearm_min_gain by it. The first start on a bare forearm
+  // otherwise has only the hand-only energy and the sleeve cue, which on a flexed wrist can pick
+  // a reversed hand that the forearm's gain at that pose never corrects.
+  void startWithForearmIfItIsBare(PoseEnergy& energy,
+                                  const std::vector<CameraObservation>& observations,
+                                  std::vector<OptimizationResult>* candidates);
   // Decides forearm_present_ for the next frame from the reported pose (its energy `energy_now`
   // with the frame's forearm state) (TrackerParams::forearm_min_gain).
   void updateForearmPresence(PoseEnergy& energy, const Pose& pose,
