@@ -101,6 +101,20 @@ PoseEnergy::PoseEnergy(const HandModel& model, const EnergyParams& params)
     throw InputError("energy: max_colour_gain must be a finite number >= 1, got " +
                      std::to_string(params_.max_colour_gain));
   }
+  const bool forearm_ok = params_.forearm_gaussians >= 0 && params_.forearm_gaussians <= 64 &&
+                          params_.forearm_length > 0.0 && std::isfinite(params_.forearm_length) &&
+                          params_.forearm_gap >= 0.0 && std::isfinite(params_.forearm_gap) &&
+                          params_.forearm_sigma > 0.0 && std::isfinite(params_.forearm_sigma) &&
+                          params_.forearm_weight >= 0.0 && std::isfinite(params_.forearm_weight);
+  if (params_.forearm_gaussians != 0 && !forearm_ok) {
+    throw InputError(
+        "energy: the forearm needs 0..64 Gaussians, a finite length and sigma > 0, a finite gap "
+        "and weight >= 0; got " +
+        std::to_string(params_.forearm_gaussians) + " Gaussians, length " +
+        std::to_string(params_.forearm_length) + ", gap " + std::to_string(params_.forearm_gap) +
+        ", sigma " + std::to_string(params_.forearm_sigma) + ", weight " +
+        std::to_string(params_.forearm_weight));
+  }
   if (!(params_.model_area_weight >= 0.0) || !std::isfinite(params_.model_area_weight)) {
     throw InputError("energy: model_area_weight must be a finite number >= 0, got " +
                      std::to_string(params_.model_area_weight));
@@ -108,7 +122,32 @@ PoseEnergy::PoseEnergy(const HandModel& model, const EnergyParams& params)
 }
 
 double PoseEnergy::modelWeight(size_t p) const {
+  if (p >= model_.gaussians.size()) return params_.forearm_weight * params_.model_weight;
   return model_.gaussians[p].weight * params_.model_weight;
+}
+
+size_t PoseEnergy::numGaussians() const {
+  return model_.gaussians.size() + static_cast<size_t>(params_.forearm_gaussians);
+}
+
+void PoseEnergy::setForearmDirection(const std::optional<Eigen::Vector3d>& direction) {
+  forearm_direction_.reset();
+  if (direction && direction->allFinite() && direction->norm() > 1e-9) {
+    forearm_direction_ = direction->normalized();
+  }
+}
+
+Eigen::Vector3d PoseEnergy::forearmDirectionFor(const Pose& pose) const {
+  return forearm_direction_ ? *forearm_direction_ : Eigen::Vector3d(-pose.rotation.col(0));
+}
+
+double PoseEnergy::evaluateWithForearm(const Pose& pose,
+                                       const Eigen::Vector3d& forearm_direction) const {
+  if (!forearm_direction.allFinite() || !(forearm_direction.norm() > 1e-9)) {
+    return evaluateImpl(pose, true, std::nullopt, nullptr, nullptr);
+  }
+  return evaluateImpl(pose, true, Eigen::Vector3d(forearm_direction.normalized()), nullptr,
+                      nullptr);
 }
 
 bool isInFrontOfCameras(const Eigen::Vector3d& point,
@@ -121,7 +160,7 @@ bool isInFrontOfCameras(const Eigen::Vector3d& point,
 
 void PoseEnergy::setFrame(const std::vector<CameraObservation>& observations) {
   cameras_.clear();
-  const size_t num_gaussians = model_.gaussians.size();
+  const size_t num_gaussians = numGaussians();
   std::vector<std::vector<const ImageGaussian*>> kept_per_camera;
   std::vector<Hsv> foreground_colours;
   std::vector<double> foreground_areas;
@@ -169,16 +208,40 @@ void PoseEnergy::setFrame(const std::vector<CameraObservation>& observations) {
     for (size_t p = 0; p < num_gaussians; ++p) {
       const double model_weight = modelWeight(p);
       for (size_t i = 0; i < kept.size(); ++i) {
+        // The forearm's Gaussians have the model's mean colour.
+        const Hsv& colour =
+            p < model_.gaussians.size() ? model_.gaussians[p].hsv : model_mean_colour_;
         weights[p * kept.size() + i] =
-            model_weight * colourSimilarity(model_.gaussians[p].hsv, corrected[i], params_.colour);
+            model_weight * colourSimilarity(colour, corrected[i], params_.colour);
       }
     }
   }
 }
 
 double PoseEnergy::evaluate(const Pose& pose, PoseVector* gradient, EnergyTerms* terms) const {
-  const PosedHand hand = forwardKinematics(model_, pose);
-  const size_t num_gaussians = model_.gaussians.size();
+  return evaluateImpl(pose, forearm_present_, forearm_direction_, gradient, terms);
+}
+
+double PoseEnergy::evaluateImpl(const Pose& pose, bool with_forearm,
+                                const std::optional<Eigen::Vector3d>& forearm_direction,
+                                PoseVector* gradient, EnergyTerms* terms) const {
+  PosedHand hand = forwardKinematics(model_, pose);
+  const size_t num_hand_gaussians = hand.gaussians.size();
+  // The forearm's Gaussians (EnergyParams::forearm_gaussians) after the hand's.
+  if (with_forearm && params_.forearm_gaussians > 0) {
+    const Eigen::Vector3d direction =
+        forearm_direction ? *forearm_direction : Eigen::Vector3d(-pose.rotation.col(0));
+    const double share = params_.forearm_length / params_.forearm_gaussians;
+    const Eigen::Matrix3d along = direction * direction.transpose();
+    const Eigen::Matrix3d cov =
+        (0.25 * share * share) * along +
+        (params_.forearm_sigma * params_.forearm_sigma) * (Eigen::Matrix3d::Identity() - along);
+    for (int i = 0; i < params_.forearm_gaussians; ++i) {
+      hand.gaussians.push_back(
+          {pose.translation + (params_.forearm_gap + (i + 0.5) * share) * direction, cov});
+    }
+  }
+  const size_t num_gaussians = hand.gaussians.size();
   const bool with_gradient = gradient != nullptr;
 
   // Gradient of E_sim with respect to each Gaussian's world mean and covariance (symmetric
@@ -330,6 +393,14 @@ double PoseEnergy::evaluate(const Pose& pose, PoseVector* gradient, EnergyTerms*
       const Eigen::Matrix3d d_cov = axis_skew * world.cov - world.cov * axis_skew;
       (*gradient)[parameter] += gm.dot(d_mean) + gc.cwiseProduct(d_cov).sum();
     };
+    if (p >= num_hand_gaussians) {
+      // The forearm moves with the wrist; it turns with the hand only when it has no direction
+      // of its own.
+      if (!forearm_direction) {
+        for (int i = 0; i < 3; ++i) add_rotation(kRootRotation + i);
+      }
+      continue;
+    }
     for (int i = 0; i < 3; ++i) add_rotation(kRootRotation + i);
     for (int dof : ancestor_dofs_[model_.gaussians[p].bone]) add_rotation(kFirstJointDof + dof);
   }

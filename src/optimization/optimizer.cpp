@@ -111,4 +111,43 @@ OptimizationResult optimizePose(const PoseEnergy& energy, const Pose& start,
   return best;
 }
 
+Eigen::Vector3d refineForearmDirection(const PoseEnergy& energy, const Pose& pose,
+                                       const Eigen::Vector3d& start,
+                                       const ForearmSearchParams& params, double* best_energy) {
+  const Eigen::Vector3d straight = -pose.rotation.col(0);
+  auto within_wrist = [&](const Eigen::Vector3d& direction) -> Eigen::Vector3d {
+    if (!direction.allFinite() || direction.norm() < 1e-9) return straight;
+    const Eigen::Vector3d d = direction.normalized();
+    const double angle = std::acos(std::clamp(d.dot(straight), -1.0, 1.0));
+    if (angle <= params.max_wrist_angle || !(params.max_wrist_angle > 0.0)) return d;
+    // Turned back towards straight on, in the plane of the two.
+    const Eigen::Vector3d axis = straight.cross(d);
+    if (axis.norm() < 1e-9) return straight;  // exactly backwards: nothing to keep
+    return Eigen::AngleAxisd(params.max_wrist_angle, axis.normalized()) * straight;
+  };
+  Eigen::Vector3d best = within_wrist(start);
+  double best_value = energy.evaluateWithForearm(pose, best);
+  if (energy.params().forearm_gaussians > 0) {
+    double step = params.initial_step;
+    for (int round = 0; round < params.rounds; ++round, step *= 0.5) {
+      const Eigen::Vector3d u = best.unitOrthogonal();
+      const Eigen::Vector3d v = best.cross(u);
+      const Eigen::Vector3d centre = best;
+      for (const Eigen::Vector3d& axis : {u, v}) {
+        for (const double sign : {1.0, -1.0}) {
+          const Eigen::Vector3d candidate =
+              within_wrist(Eigen::AngleAxisd(sign * step, axis) * centre);
+          const double value = energy.evaluateWithForearm(pose, candidate);
+          if (value > best_value) {
+            best_value = value;
+            best = candidate;
+          }
+        }
+      }
+    }
+  }
+  if (best_energy) *best_energy = best_value;
+  return best;
+}
+
 }  // namespace sag_hand_tracker

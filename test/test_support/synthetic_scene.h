@@ -99,6 +99,28 @@ inline ImageSoG modelImageSoG(const HandModel& model, const Pose& pose, const Ca
   return sog;
 }
 
+// The model with a bare forearm (issue 9) for model-made images: the energy's forearm
+// (EnergyParams::forearm_*) as Gaussians of the palm bone, along `direction` (palm frame, from the
+// wrist; the default: straight on from the palm), in the palm's colour.
+inline HandModel withForearm(const HandModel& model, const EnergyParams& params,
+                             const Eigen::Vector3d& direction = -Eigen::Vector3d::UnitX()) {
+  HandModel scene = model;
+  const Eigen::Vector3d d = direction.normalized();
+  const double share = params.forearm_length / params.forearm_gaussians;
+  const Eigen::Matrix3d along = d * d.transpose();
+  const Eigen::Matrix3d cov =
+      (0.25 * share * share) * along +
+      (params.forearm_sigma * params.forearm_sigma) * (Eigen::Matrix3d::Identity() - along);
+  for (int i = 0; i < params.forearm_gaussians; ++i) {
+    ModelGaussian arm = model.gaussians.front();
+    arm.bone = 0;
+    arm.mean = (params.forearm_gap + (i + 0.5) * share) * d;
+    arm.cov = cov;
+    scene.gaussians.push_back(arm);
+  }
+  return scene;
+}
+
 inline std::vector<CameraObservation> modelObservations(const HandModel& model, const Pose& pose,
                                                         const std::vector<Camera>& cameras,
                                                         double cell = 4.0) {

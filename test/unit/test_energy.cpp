@@ -1,8 +1,11 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <optional>
 #include <random>
 
 #include "sag_hand_tracker/energy/energy.h"
+#include "sag_hand_tracker/tracking/tracker.h"
 #include "test_support/synthetic_scene.h"
 
 using namespace sag_hand_tracker;
@@ -356,4 +359,113 @@ TEST(EnergyCannotCheat, InFrontOfCamerasNeedsEveryCamera) {
         PoseEnergy(loadHandModel(modelPath("sag")), bad);
       },
       InputError);
+}
+
+// ---- the forearm (issue 9) ----------------------------------------------------------------------
+
+namespace {
+
+// The gradient with the forearm present, rigid with the hand (no direction) or along a world
+// direction of its own, on images of the hand with a bare forearm.
+void checkForearmGradient(const std::optional<Eigen::Vector3d>& direction) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  EnergyParams params;
+  params.max_mahalanobis_sq = 1e9;
+  PoseEnergy energy(model, params);
+  energy.setFrame(
+      modelObservations(withForearm(model, params), typicalPose(model), fiveCameraRig(), 6.0));
+  energy.setForearmPresent(true);
+  energy.setForearmDirection(direction);
+  ASSERT_TRUE(energy.forearmPresent());
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 3; ++trial) {
+    const Pose pose = randomPose(model, rng);
+    PoseVector gradient;
+    energy.evaluate(pose, &gradient);
+    const double scale = gradient.cwiseAbs().maxCoeff();
+    ASSERT_GT(scale, 0.0);
+    for (int i = 0; i < kNumDof; ++i) {
+      const double h = i < 3 ? 1e-6 : 1e-5;
+      const double numeric = centralDifference(energy, pose, i, h);
+      EXPECT_NEAR(gradient[i], numeric, 1e-4 * std::max(std::fabs(numeric), 1e-3 * scale))
+          << "trial " << trial << " parameter " << model.parameterNames()[i];
+    }
+  }
+}
+
+}  // namespace
+
+TEST(EnergyGradient, SagWithARigidForearmMatchesCentralDifferences) {
+  checkForearmGradient(std::nullopt);
+}
+TEST(EnergyGradient, SagWithAForearmOfItsOwnDirectionMatchesCentralDifferences) {
+  checkForearmGradient(Eigen::Vector3d(-0.9, 0.3, -0.2));
+}
+
+// Until the forearm is declared present the energy is the hand's alone, value and gradient.
+TEST(Energy, ForearmIsAbsentByDefaultAndThenChangesNothing) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  EnergyParams with_arm, without_arm;
+  without_arm.forearm_gaussians = 0;
+  ASSERT_GT(with_arm.forearm_gaussians, 0);
+  PoseEnergy a(model, with_arm), b(model, without_arm);
+  const auto observations =
+      modelObservations(withForearm(model, with_arm), typicalPose(model), fiveCameraRig());
+  a.setFrame(observations);
+  b.setFrame(observations);
+  EXPECT_FALSE(a.forearmPresent());
+  b.setForearmPresent(true);  // no Gaussians: nothing to add
+  EXPECT_FALSE(b.forearmPresent());
+  std::mt19937 rng(3);
+  for (int trial = 0; trial < 3; ++trial) {
+    const Pose pose = randomPose(model, rng);
+    PoseVector ga, gb;
+    EXPECT_EQ(a.evaluate(pose, &ga), b.evaluate(pose, &gb));
+    EXPECT_EQ(ga, gb);
+  }
+}
+
+// A bare forearm is foreground the hand cannot explain: the forearm adds much similarity there
+// (the tracker's forearm_min_gain switches it on), little on a hand whose forearm is sleeved
+// (background), and with it the true pose beats the hand slid up onto the arm.
+TEST(Energy, ForearmExplainsABareForearmAndLittleElse) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const EnergyParams params;
+  const TrackerParams tracker_defaults;
+  Pose truth = typicalPose(model);
+  for (int j = 0; j < kNumJointDof; ++j) truth.joints[j] = model.joints[j].max * 0.8;  // a fist
+  const Eigen::Vector3d straight = -truth.rotation.col(0);
+
+  PoseEnergy bare(model, params), sleeved(model, params);
+  bare.setFrame(modelObservations(withForearm(model, params), truth, fiveCameraRig()));
+  sleeved.setFrame(modelObservations(model, truth, fiveCameraRig()));
+  const double bare_gain = bare.evaluateWithForearm(truth, straight) - bare.evaluate(truth);
+  const double sleeved_gain =
+      sleeved.evaluateWithForearm(truth, straight) - sleeved.evaluate(truth);
+  EXPECT_GT(bare_gain, tracker_defaults.forearm_min_gain);
+  EXPECT_LT(sleeved_gain, 0.5 * tracker_defaults.forearm_min_gain);
+  EXPECT_GE(sleeved_gain, 0.0);
+
+  Pose slid = truth;
+  slid.translation -= 0.04 * truth.rotation.col(0);  // 4 cm up the arm
+  bare.setForearmPresent(true);
+  EXPECT_GT(bare.evaluate(truth), bare.evaluate(slid) + 0.01);
+}
+
+TEST(Energy, BadForearmParametersAreRefused) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  auto with = [&model](auto change) {
+    EnergyParams params;
+    change(&params);
+    return [model, params]() { PoseEnergy energy(model, params); };
+  };
+  EXPECT_THROW(with([](EnergyParams* p) { p->forearm_sigma = 0.0; })(), InputError);
+  EXPECT_THROW(with([](EnergyParams* p) { p->forearm_gaussians = -1; })(), InputError);
+  EXPECT_THROW(with([](EnergyParams* p) { p->forearm_length = std::nan(""); })(), InputError);
+  EXPECT_THROW(with([](EnergyParams* p) { p->forearm_weight = -1.0; })(), InputError);
+  // No forearm: its other parameters do not matter.
+  EXPECT_NO_THROW(with([](EnergyParams* p) {
+    p->forearm_gaussians = 0;
+    p->forearm_sigma = 0.0;
+  })());
 }

@@ -2,6 +2,8 @@
 
 #include "sag_hand_tracker/apps/metrics.h"
 
+#include <algorithm>
+#include <cmath>
 #include <random>
 
 #include "sag_hand_tracker/optimization/optimizer.h"
@@ -110,4 +112,39 @@ TEST(Pose, ExtrapolationRepeatsTheLastMotion) {
   EXPECT_NEAR(c.joints[0], 0.3, 1e-12);
   const Pose round_trip = Pose::fromVector(c.toVector());
   EXPECT_TRUE(round_trip.rotation.isApprox(c.rotation, 1e-12));
+}
+
+// The forearm's direction (issue 9): from straight on from the palm, the search finds a forearm
+// turned 20 degrees away, and never leaves the wrist's bound.
+TEST(Optimizer, RefinesTheForearmsDirectionWithinTheWristsBound) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const EnergyParams params;
+  const Pose truth = typicalPose(model);
+  const Eigen::Vector3d bent_in_palm =
+      Eigen::AngleAxisd(20.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ()) * -Eigen::Vector3d::UnitX();
+  const Eigen::Vector3d bent = truth.rotation * bent_in_palm;
+  const Eigen::Vector3d straight = -truth.rotation.col(0);
+  PoseEnergy energy(model, params);
+  energy.setFrame(
+      modelObservations(withForearm(model, params, bent_in_palm), truth, fiveCameraRig()));
+  auto angle = [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+    return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * 180.0 / M_PI;
+  };
+
+  ForearmSearchParams search;
+  search.rounds = 4;
+  double found_energy = 0.0;
+  const Eigen::Vector3d found =
+      refineForearmDirection(energy, truth, straight, search, &found_energy);
+  EXPECT_LT(angle(found, bent), 5.0);
+  EXPECT_NEAR(found_energy, energy.evaluateWithForearm(truth, found), 1e-12);
+  EXPECT_GT(found_energy, energy.evaluateWithForearm(truth, straight));
+
+  search.max_wrist_angle = 10.0 * M_PI / 180.0;
+  const Eigen::Vector3d bounded = refineForearmDirection(energy, truth, straight, search);
+  EXPECT_LE(angle(bounded, straight), 10.0 + 1e-6);
+  EXPECT_GT(angle(bounded, straight), 5.0);  // as far towards the arm as it may
+  // A start beyond the bound is pulled back to it; a reversed one to straight on.
+  EXPECT_LE(angle(refineForearmDirection(energy, truth, bent, search), straight), 10.0 + 1e-6);
+  EXPECT_LE(angle(refineForearmDirection(energy, truth, -straight, search), straight), 10.0 + 1e-6);
 }

@@ -1,6 +1,7 @@
 // The pose fitting energy E(Theta) = E_sim - w_l E_lim (paper eqs. 6-9) and its exact gradient.
 #pragma once
 
+#include <optional>
 #include <vector>
 
 #include "sag_hand_tracker/camera/camera.h"
@@ -52,6 +53,24 @@ struct EnergyParams {
   // flexex1 and tigergrasp worst; README "Where it falls short"), so it is opt-in until the
   // double-counted area of overlapping model Gaussians is handled.
   double model_area_weight = 0.0;
+  // The forearm (issue 9). A bare forearm is skin-coloured foreground that a hand-only model
+  // cannot explain; with the capped overlap of eq. 8 the fingers and the palm then slide onto it
+  // whenever the hand's own foreground is smaller (a fist, a flexed wrist): the studio's
+  // `wristflex` scored the hand slid 8 cm up the arm above the true pose (0.52 against 0.39).
+  // `forearm_gaussians` Gaussians (0: none) along a forearm of `forearm_length` (m), starting
+  // `forearm_gap` behind the wrist (the root), `forearm_sigma` across, each half its share of the
+  // length along, with the model's mean colour and weight `forearm_weight`, explain it. The arm
+  // is part of the energy only once setForearmPresent(true) says the images show it (the tracker
+  // decides that from how much foreground it explains: TrackerParams::forearm_min_gain). It has
+  // no pose parameters of its own: by default it continues straight on from the palm (the root's
+  // -x axis, rigid with the hand: what the start hypotheses assume), and setForearmDirection gives
+  // it a world direction of its own instead (the tracker's, refined per frame by
+  // refineForearmDirection in optimizer.h), so that the wrist can flex under it.
+  int forearm_gaussians = 4;
+  double forearm_length = 0.20;
+  double forearm_gap = 0.01;
+  double forearm_sigma = 0.02;
+  double forearm_weight = 1.0;
 };
 
 // One camera's input for a frame: calibration and the image SoG (undistorted pixels).
@@ -86,6 +105,19 @@ class PoseEnergy {
   // E(Theta); with `gradient`, also dE/dTheta (orientation in the tangent space, see pose.h).
   double evaluate(const Pose& pose, PoseVector* gradient = nullptr,
                   EnergyTerms* terms = nullptr) const;
+  // The same with the forearm present along `forearm_direction` (a world direction from the
+  // wrist, normalised here), whatever setForearmPresent and setForearmDirection say.
+  double evaluateWithForearm(const Pose& pose, const Eigen::Vector3d& forearm_direction) const;
+
+  // Whether the forearm's Gaussians (EnergyParams::forearm_gaussians) are part of the energy
+  // (default: no), and their world direction from the wrist; empty: straight on from the palm,
+  // rigid with the hand (the default). Both are kept across setFrame.
+  void setForearmPresent(bool present) { forearm_present_ = present; }
+  bool forearmPresent() const { return forearm_present_ && params_.forearm_gaussians > 0; }
+  void setForearmDirection(const std::optional<Eigen::Vector3d>& direction);
+  const std::optional<Eigen::Vector3d>& forearmDirection() const { return forearm_direction_; }
+  // The forearm's direction for `pose`: the set one, or straight on from the palm.
+  Eigen::Vector3d forearmDirectionFor(const Pose& pose) const;
 
   const HandModel& model() const { return model_; }
   const EnergyParams& params() const { return params_; }
@@ -103,7 +135,12 @@ class PoseEnergy {
     double image_area = 1.0;  // I_c = sum_q E_qq
   };
 
+  // p indexes the model's Gaussians, then the forearm's.
   double modelWeight(size_t p) const;
+  size_t numGaussians() const;
+  double evaluateImpl(const Pose& pose, bool with_forearm,
+                      const std::optional<Eigen::Vector3d>& forearm_direction, PoseVector* gradient,
+                      EnergyTerms* terms) const;
   Hsv model_mean_colour_ = Hsv::Zero();  // area-weighted mean of the model Gaussians' colours  //
                                          // w_p of eq. 8: the Gaussian's weight times model_weight
 
@@ -112,6 +149,8 @@ class PoseEnergy {
   std::vector<std::vector<int>> ancestor_dofs_;     // per bone
   std::vector<std::pair<int, int>> pip_dip_pairs_;  // joint indices of coupled PIP, DIP
   std::vector<FrameCamera> cameras_;
+  bool forearm_present_ = false;
+  std::optional<Eigen::Vector3d> forearm_direction_;
 };
 
 // isInFrontOfCameras (camera.h) for the cameras of a frame's observations.

@@ -1,6 +1,7 @@
 // Per-frame pose optimisation: a fixed number of gradient-ascent iterations (paper section 4.4).
 #pragma once
 
+#include <cmath>
 #include <string>
 
 #include "sag_hand_tracker/energy/energy.h"
@@ -35,5 +36,25 @@ struct OptimizationResult {
 // Maximises the energy from `start` with the configured iterations.
 OptimizationResult optimizePose(const PoseEnergy& energy, const Pose& start,
                                 const OptimizerParams& params);
+
+// The forearm's direction (EnergyParams::forearm_gaussians) that scores `pose` best, with the
+// pose fixed: a pattern search from `start` that turns the direction by +-step about two axes
+// across it and keeps the best, `rounds` times, halving the step each round. Directions more than
+// `max_wrist_angle` (rad) from straight on from the palm (the root's -x axis) are pulled back to
+// it. A wrist bends further, but a free arm folds under the hand where it finds the hand's own
+// foreground, and the arm's direction needs to be only roughly right: on the studio's
+// `wristflex` (flexion up to 55 deg, all hands) 15, 30, 60 and 100 deg gave 13.0, 13.9, 14.2
+// and 14.5 mm, the direction fixed at the start's 24.7 mm. Returns the direction; `best_energy`
+// (optional) gets its energy (the forearm present). Without forearm Gaussians: `start` (pulled
+// back).
+struct ForearmSearchParams {
+  double initial_step = 0.2;  // rad
+  int rounds = 2;
+  double max_wrist_angle = 30.0 * M_PI / 180.0;
+};
+Eigen::Vector3d refineForearmDirection(const PoseEnergy& energy, const Pose& pose,
+                                       const Eigen::Vector3d& start,
+                                       const ForearmSearchParams& params,
+                                       double* best_energy = nullptr);
 
 }  // namespace sag_hand_tracker

@@ -81,6 +81,14 @@ struct TrackerParams {
   // table far more often than at its palm). A clearly better candidate still wins; 0 disables
   // the prior (and the twin).
   double start_facing_margin = 0.03;
+  // The forearm in the energy (EnergyParams::forearm_gaussians): after each frame, the tracked
+  // pose is scored with and without the forearm (along its direction, refined every frame while
+  // it is present); it is part of the next frame's energy when it adds more than
+  // `forearm_min_gain` to the similarity, and stays while it adds more than half that. A bare
+  // forearm adds 0.20-0.24 on the studio's `wristflex`, the bare wrist above a sleeve about 0.01
+  // (a wrong track, e.g. a hand pointing along its own arm, more: 0.05 switched it on in
+  // `fastturn`); a sleeved forearm does not switch it on, so those tracks are unchanged.
+  double forearm_min_gain = 0.1;
   // Plausibility: the hand centre must lie at least `min_camera_depth` (m) in front of every
   // camera and inside the image of at least `min_cameras_for_start` cameras; a pose that is not is
   // never reported (the frame is lost).
@@ -235,6 +243,26 @@ class HandTracker {
   void boundRotation(const PoseEnergy& energy, const Pose& current, const Pose& predicted,
                      OptimizationResult* result) const;
   bool looksLost(double similarity) const;
+  // Refines the forearm's direction for result->pose from `from` (empty: straight on from the
+  // palm) and scores the result with it; returns the direction.
+  Eigen::Vector3d fitForearm(const PoseEnergy& energy, OptimizationResult* result,
+                             const std::optional<Eigen::Vector3d>& from) const;
+  // hypothesisSearch with the forearm straight on from the palm, and without the sleeve's forearm
+  // cue while the forearm is in the energy.
+  std::optional<std::vector<OptimizationResult>> searchWithForearm(
+      PoseEnergy& energy, const std::vector<CameraObservation>& observations);
+  // A start without a track and without the forearm (a synchronous search): the search is run
+  // again with the forearm, and its candidates replace `candidates` (and the forearm stays on)
+  // when its best one gains more than forearm_min_gain by it. The first start on a bare forearm
+  // otherwise has only the hand-only energy and the sleeve cue, which on a flexed wrist can pick
+  // a reversed hand that the forearm's gain at that pose never corrects.
+  void startWithForearmIfItIsBare(PoseEnergy& energy,
+                                  const std::vector<CameraObservation>& observations,
+                                  std::vector<OptimizationResult>* candidates);
+  // Decides forearm_present_ for the next frame from the reported pose (its energy `energy_now`
+  // with the frame's forearm state) (TrackerParams::forearm_min_gain).
+  void updateForearmPresence(PoseEnergy& energy, const Pose& pose,
+                             const std::optional<Eigen::Vector3d>& direction, double energy_now);
 
   // The flip hypothesis being carried (see TrackerParams::flip_margin) and its own history.
   struct Alternative {
@@ -252,6 +280,9 @@ class HandTracker {
     int frames_since_start = 0;
     std::optional<Alternative> alternative;
     int arm_reversed_streak = 0;
+    bool forearm_present = false;
+    std::optional<Eigen::Vector3d> forearm;
+    std::optional<Eigen::Vector3d> alternative_forearm;
   };
   TrackState trackState() const;
   void setTrackState(const TrackState& state);
@@ -278,6 +309,11 @@ class HandTracker {
   double typical_similarity_ = 0.0;  // running average while tracking (0: none yet)
   int frames_since_start_ = 0;
   std::optional<Alternative> alternative_;
+  // The forearm's world direction (EnergyParams::forearm_gaussians) of the track and of the
+  // carried alternative, refined every frame; empty: straight on from the palm.
+  bool forearm_present_ = false;
+  std::optional<Eigen::Vector3d> forearm_;
+  std::optional<Eigen::Vector3d> alternative_forearm_;
   int arm_reversed_streak_ = 0;
   // asynchronous_search: step() asked for a search; update then hands the set to a worker.
   bool search_wanted_ = false;
