@@ -256,6 +256,9 @@ class HandTracker {
   // when its best one gains more than forearm_min_gain by it. The first start on a bare forearm
   // otherwise has only the hand-only energy and the sleeve cue, which on a flexed wrist can pick
   // a reversed hand that the forearm's gain at that pose never corrects.
+  // Whether a bare forearm may be in the images: the forearm in the energy gains more than half
+  // of forearm_min_gain at `pose` or at it reversed (the cheap test before that second search).
+  bool forearmMayBeBare(const PoseEnergy& energy, const Pose& pose) const;
   void startWithForearmIfItIsBare(PoseEnergy& energy,
                                   const std::vector<CameraObservation>& observations,
                                   std::vector<OptimizationResult>* candidates);
