@@ -205,6 +205,34 @@ std::string toString(TrackStatus status) {
   return "unknown";
 }
 
+namespace {
+
+bool samePose(const std::optional<Pose>& a, const std::optional<Pose>& b) {
+  if (a.has_value() != b.has_value()) return false;
+  return !a ||
+         (a->translation == b->translation && a->rotation == b->rotation && a->joints == b->joints);
+}
+
+bool sameVector(const std::optional<Eigen::Vector3d>& a, const std::optional<Eigen::Vector3d>& b) {
+  return a.has_value() == b.has_value() && (!a || *a == *b);
+}
+
+}  // namespace
+
+bool HandTracker::sameTrackState(const TrackState& a, const TrackState& b) {
+  const bool same_alternative =
+      a.alternative.has_value() == b.alternative.has_value() &&
+      (!a.alternative || (samePose(a.alternative->previous, b.alternative->previous) &&
+                          samePose(a.alternative->current, b.alternative->current) &&
+                          a.alternative->wins == b.alternative->wins));
+  return samePose(a.previous, b.previous) && samePose(a.current, b.current) && a.lost == b.lost &&
+         a.typical_similarity == b.typical_similarity &&
+         a.frames_since_start == b.frames_since_start && same_alternative &&
+         a.arm_reversed_streak == b.arm_reversed_streak && a.forearm_present == b.forearm_present &&
+         sameVector(a.forearm, b.forearm) &&
+         sameVector(a.alternative_forearm, b.alternative_forearm);
+}
+
 // A set the frame path has stepped, for the worker.
 struct HandTracker::HandedFrame {
   std::vector<CameraObservation> observations;
@@ -225,6 +253,10 @@ struct HandTracker::Worker {
   bool busy = false;
   bool finish = false;
   bool cancelled = false;
+  // The frame path's state after the first set; when the worker's equals it (a re-detection that
+  // changed nothing), the rest would only repeat the frame path's own steps: it stops there.
+  std::optional<TrackState> frame_path_after_first;
+  bool unchanged = false;
   std::exception_ptr error;  // what ended it early; rethrown by the update that adopts it
   std::future<void> done;
 
@@ -258,6 +290,9 @@ struct HandTracker::Worker {
       } catch (...) {
         failure = std::current_exception();
       }
+      const bool same = !failure && frame_path_after_first &&
+                        sameTrackState(tracker->trackState(), *frame_path_after_first);
+      frame_path_after_first.reset();
       lock.lock();
       busy = false;
       changed.notify_all();
@@ -266,6 +301,12 @@ struct HandTracker::Worker {
         return;
       }
       results.emplace_back(frame.reported_pose, std::move(*result));
+      // Only while no set waits for it (every set handed since had its pose on the frame path).
+      if (same && std::all_of(queue.begin(), queue.end(),
+                              [](const HandedFrame& next) { return next.reported_pose; })) {
+        unchanged = true;
+        queue.clear();
+      }
     }
   }
 };
@@ -515,6 +556,7 @@ void HandTracker::startWorker(const TrackState& state, HandedFrame frame, int ni
   auto worker = std::make_unique<Worker>();
   worker->tracker = std::make_unique<HandTracker>(model_, synchronous);
   worker->tracker->setTrackState(state);
+  worker->frame_path_after_first = trackState();  // called after the frame path's step
   worker->queue.push_back(std::move(frame));
   Worker* running = worker.get();
   worker->done = std::async(std::launch::async, [running, gate = search_gate_, niceness]() {
@@ -525,6 +567,7 @@ void HandTracker::startWorker(const TrackState& state, HandedFrame frame, int ni
 
 void HandTracker::handToWorker(HandedFrame frame) {
   std::lock_guard<std::mutex> lock(worker_->mutex);
+  if (worker_->unchanged) return;  // the frame path's own state is the synchronous tracker's
   std::deque<HandedFrame>& queue = worker_->queue;
   queue.push_back(std::move(frame));
   // Beyond the bounds the oldest are skipped; they stay as they were reported.
@@ -540,6 +583,7 @@ void HandTracker::collectWorker(bool adopt) {
   std::vector<std::pair<bool, FrameResult>> results;
   std::exception_ptr error;
   TrackState adopted;
+  bool unchanged = false;
   {
     std::lock_guard<std::mutex> lock(worker_->mutex);
     results.swap(worker_->results);
@@ -547,7 +591,8 @@ void HandTracker::collectWorker(bool adopt) {
       // Idle: it touches its tracker no more, so its state is read here, without waiting for its
       // thread (at a lower priority it may take a while to be scheduled and end).
       error = worker_->error;
-      if (!error) adopted = worker_->tracker->trackState();
+      unchanged = worker_->unchanged;
+      if (!error && !unchanged) adopted = worker_->tracker->trackState();
       worker_->finish = true;
       worker_->changed.notify_all();
     }
@@ -561,7 +606,7 @@ void HandTracker::collectWorker(bool adopt) {
   // Its thread ends by itself; it is joined once it has (or by the next adoption, reset, end).
   retired_ = std::move(worker_);
   if (error) std::rethrow_exception(error);
-  setTrackState(adopted);
+  if (!unchanged) setTrackState(adopted);
 }
 
 void HandTracker::stopWorker() {

@@ -289,6 +289,7 @@ class HandTracker {
   };
   TrackState trackState() const;
   void setTrackState(const TrackState& state);
+  static bool sameTrackState(const TrackState& a, const TrackState& b);
 
   // The worker of asynchronous_search (defined in tracker.cpp).
   struct Worker;
