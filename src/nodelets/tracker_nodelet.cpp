@@ -36,7 +36,8 @@
 // next set first publishes the poses the worker has found for such sets since (joint_states, tf,
 // fingertips, markers and a second status with has_pose and late true), each with its own image
 // stamp, oldest first, then its own. Sets beyond the bound stay lost. Late sets get no overlay
-// images and are not collected by a running ~calibrate.
+// images; a running ~calibrate collects them (it keeps the observations of the sets it saw
+// without a pose until their late results come).
 //
 // Live calibration (~calibrate, srv/Calibrate.srv, doc/calibration.md "Live"): the call collects
 // the sets of the next `duration` seconds (image stamps) as CalibrationFrames (the observations
@@ -76,6 +77,7 @@
 #include <sys/syscall.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -83,6 +85,7 @@
 #include <filesystem>
 #include <fstream>
 #include <future>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -416,7 +419,10 @@ class TrackerNodelet : public nodelet::Nodelet {
     }
     const double seconds = secondsSince(start);
     // The catch-up's sets first, oldest first, each with its own stamp.
-    for (const FrameResult& late : late_results) publishLateResult(late);
+    for (const FrameResult& late : late_results) {
+      publishLateResult(late);
+      if (recording_) recordLate(late);
+    }
     ++frames_;
     seconds_sum_ += seconds;
     last_result_ = result;
@@ -426,7 +432,16 @@ class TrackerNodelet : public nodelet::Nodelet {
       NODELET_ERROR_THROTTLE(2.0, "tracker returned a non-finite pose: not published; reset");
       tracker_->reset();
     }
-    if (recording_) record(stamp.toSec(), result, pose_ok, observations);
+    if (recording_) {
+      record(stamp.toSec(), result, pose_ok, observations);
+      // Its pose may still come late (the worker's): its observations are kept for it.
+      if (!pose_ok) {
+        awaiting_late_[set.stamp_ns] = observations;
+        while (awaiting_late_.size() > static_cast<std::size_t>(kMaxCatchUpFrames)) {
+          awaiting_late_.erase(awaiting_late_.begin());
+        }
+      }
+    }
     PosedHand hand;
     if (pose_ok) {
       hand = forwardKinematics(model_, result.pose);
@@ -517,6 +532,27 @@ class TrackerNodelet : public nodelet::Nodelet {
   }
 
   // Adds a processed set to the running calibration's recording. Caller holds mutex_.
+  // A late result during the collection: the set was counted when it came; its frame is kept now,
+  // in stamp order, with the observations kept for it (frames of the start's search, which a
+  // routine's fist or turned palm often needs).
+  void recordLate(const FrameResult& result) {
+    const auto kept = awaiting_late_.find(result.frame_id);
+    if (kept == awaiting_late_.end()) return;
+    CalibrationRecording& recording = *recording_;
+    if (!recording.complete && result.has_pose && result.pose.allFinite() &&
+        result.status != TrackStatus::kLost) {
+      CalibrationFrame frame;
+      frame.stamp = result.stamp;
+      frame.observations = std::move(kept->second);
+      frame.pose = result.pose;
+      const auto later = std::upper_bound(
+          recording.frames.begin(), recording.frames.end(), frame.stamp,
+          [](double stamp, const CalibrationFrame& other) { return stamp < other.stamp; });
+      recording.frames.insert(later, std::move(frame));
+    }
+    awaiting_late_.erase(kept);
+  }
+
   void record(double stamp, const FrameResult& result, bool pose_ok,
               const std::vector<CameraObservation>& observations) {
     CalibrationRecording& recording = *recording_;
@@ -622,6 +658,7 @@ class TrackerNodelet : public nodelet::Nodelet {
           lock, deadline, [this] { return stopping_ || recording_->complete || !ros::ok(); });
       recording = std::move(*recording_);
       recording_.reset();
+      awaiting_late_.clear();
     }
     response->sets = recording.sets;
     response->tracked_frames = static_cast<int>(recording.frames.size());
@@ -917,6 +954,9 @@ class TrackerNodelet : public nodelet::Nodelet {
   std::unique_ptr<HandTracker> tracker_;
   std::string model_label_;  // for the status: the model parameter, or the saved file
   std::optional<CalibrationRecording> recording_;  // while a ~calibrate call collects
+  // While it collects: the observations of the sets reported without a pose, by frame id, for
+  // their late results.
+  std::map<std::int64_t, std::vector<CameraObservation>> awaiting_late_;
   std::condition_variable recording_done_;
   std::vector<CameraInput> cameras_;
   std::unique_ptr<Synchronizer> synchronizer_;
