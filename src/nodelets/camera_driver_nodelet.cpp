@@ -49,6 +49,7 @@
 #include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/capture/capture.h"
 #include "sag_hand_tracker/ros/conversions.h"
+#include "sag_hand_tracker/ros/image_transport_lock.h"
 #include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
@@ -167,6 +168,7 @@ class CameraDriverNodelet : public nodelet::Nodelet {
 
     const std::optional<CameraRig> rig = loadRig(pnh.param<std::string>("rig_file", ""));
 
+    std::unique_lock<std::mutex> plugins(imageTransportMutex());
     image_transport::ImageTransport it(nh);
     outputs_.resize(count);
     for (int i = 0; i < count; ++i) {
@@ -180,6 +182,7 @@ class CameraDriverNodelet : public nodelet::Nodelet {
       NODELET_INFO("camera %s: source '%s' -> %s, camera_info from %s", names[i].c_str(),
                    sources[i].c_str(), out.publisher.getTopic().c_str(), calibration.c_str());
     }
+    plugins.unlock();
     if (rig) publishExtrinsics(*rig);
 
     if (capture_->runningCount() == 0) {

@@ -43,6 +43,7 @@
 
 #include "sag_hand_tracker/SegmentationConfig.h"
 #include "sag_hand_tracker/ros/conversions.h"
+#include "sag_hand_tracker/ros/image_transport_lock.h"
 #include "sag_hand_tracker/ros/live_room_cues.h"
 #include "sag_hand_tracker/ros/sog_conversions.h"
 #include "sag_hand_tracker/ros/throttled_warnings.h"
@@ -76,7 +77,10 @@ class SegmentationNodelet : public nodelet::Nodelet {
       params.room.enabled = room_cues_;
       segmenter_.setParams(params);
     }
-    it_ = std::make_unique<image_transport::ImageTransport>(nh);
+    {
+      std::lock_guard<std::mutex> plugins(imageTransportMutex());
+      it_ = std::make_unique<image_transport::ImageTransport>(nh);
+    }
     if (room_cues_) {
       region_sub_ =
           nh.subscribe<HandRegion>("hand_region", 2, [this](const HandRegion::ConstPtr& msg) {
@@ -140,6 +144,7 @@ class SegmentationNodelet : public nodelet::Nodelet {
 
   void updateSubscription() {
     std::lock_guard<std::mutex> lock(subscription_mutex_);
+    std::lock_guard<std::mutex> plugins(imageTransportMutex());
     if (sog_pub_.getNumSubscribers() > 0) {
       if (!camera_sub_) {
         camera_sub_ = it_->subscribeCamera(

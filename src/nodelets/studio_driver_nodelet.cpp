@@ -41,6 +41,7 @@
 #include <std_msgs/String.h>
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <pluginlib/class_list_macros.hpp>
+#include "sag_hand_tracker/ros/image_transport_lock.h"
 #include "sag_hand_tracker/ros/package_config.h"
 
 #include <XmlRpcValue.h>
@@ -111,13 +112,16 @@ class StudioDriverNodelet : public nodelet::Nodelet {
     const double setup_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - setup_start).count();
 
-    image_transport::ImageTransport it(nh);
-    for (const Camera& camera : rig_.cameras) {
-      Output out;
-      out.frame_id = opticalFrame(camera.name);
-      out.info = toCameraInfo(camera);
-      out.publisher = it.advertiseCamera(camera.name + "/image_raw", 2);
-      outputs_.push_back(std::move(out));
+    {
+      std::lock_guard<std::mutex> plugins(imageTransportMutex());
+      image_transport::ImageTransport it(nh);
+      for (const Camera& camera : rig_.cameras) {
+        Output out;
+        out.frame_id = opticalFrame(camera.name);
+        out.info = toCameraInfo(camera);
+        out.publisher = it.advertiseCamera(camera.name + "/image_raw", 2);
+        outputs_.push_back(std::move(out));
+      }
     }
     gt_joint_pub_ = nh.advertise<sensor_msgs::JointState>("ground_truth/joint_states", 10);
     gt_fingertip_pub_ = nh.advertise<geometry_msgs::PoseArray>("ground_truth/fingertips", 10);

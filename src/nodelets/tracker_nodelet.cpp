@@ -70,6 +70,7 @@
 #include <tf2_ros/transform_listener.h>
 #include <visualization_msgs/MarkerArray.h>
 #include <pluginlib/class_list_macros.hpp>
+#include "sag_hand_tracker/ros/image_transport_lock.h"
 #include "sag_hand_tracker/ros/package_config.h"
 
 #include <ros/callback_queue.h>
@@ -215,6 +216,7 @@ class TrackerNodelet : public nodelet::Nodelet {
     fingertip_pub_ = nh.advertise<geometry_msgs::PoseArray>("fingertips", 10);
     status_pub_ = nh.advertise<TrackingStatus>("status", 10);
 
+    std::unique_lock<std::mutex> plugins(imageTransportMutex());
     it_ = std::make_unique<image_transport::ImageTransport>(nh);
     cameras_.resize(num_cameras_);
     for (int i = 0; i < num_cameras_; ++i) {
@@ -230,6 +232,7 @@ class TrackerNodelet : public nodelet::Nodelet {
       cameras_[i].overlay_pub = it_->advertise(cam + "/overlay", 1);
       if (room_cues_) cameras_[i].region_pub = nh.advertise<HandRegion>(cam + "/hand_region", 2);
     }
+    plugins.unlock();
 
     diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
     diagnostics_->setHardwareID("sag_hand_tracker");
@@ -867,6 +870,7 @@ class TrackerNodelet : public nodelet::Nodelet {
     std::lock_guard<std::mutex> lock(mutex_);
     CameraInput& input = cameras_[i];
     const bool wanted = input.overlay_pub.getNumSubscribers() > 0;
+    std::lock_guard<std::mutex> plugins(imageTransportMutex());
     if (wanted && !input.image_sub) {
       input.image_sub = it_->subscribe("cam" + std::to_string(i) + "/image_raw", 2,
                                        [this, i](const sensor_msgs::ImageConstPtr& image) {
