@@ -6,6 +6,20 @@
 #include "projection_impl.h"
 
 namespace sag_hand_tracker {
+
+ForearmGaussians forearmGaussians(const EnergyParams& params, const Eigen::Vector3d& wrist,
+                                  const Eigen::Vector3d& direction) {
+  ForearmGaussians arm;
+  if (params.forearm_gaussians <= 0) return arm;
+  const double share = params.forearm_length / params.forearm_gaussians;
+  const Eigen::Matrix3d along = direction * direction.transpose();
+  arm.cov = (0.25 * share * share) * along +
+            (params.forearm_sigma * params.forearm_sigma) * (Eigen::Matrix3d::Identity() - along);
+  for (int i = 0; i < params.forearm_gaussians; ++i) {
+    arm.means.push_back(wrist + (params.forearm_gap + (i + 0.5) * share) * direction);
+  }
+  return arm;
+}
 namespace {
 
 // Forward-mode AD over the 9 inputs of a projection: mean (3) and unique covariance entries (6).
@@ -231,15 +245,8 @@ double PoseEnergy::evaluateImpl(const Pose& pose, bool with_forearm,
   if (with_forearm && params_.forearm_gaussians > 0) {
     const Eigen::Vector3d direction =
         forearm_direction ? *forearm_direction : Eigen::Vector3d(-pose.rotation.col(0));
-    const double share = params_.forearm_length / params_.forearm_gaussians;
-    const Eigen::Matrix3d along = direction * direction.transpose();
-    const Eigen::Matrix3d cov =
-        (0.25 * share * share) * along +
-        (params_.forearm_sigma * params_.forearm_sigma) * (Eigen::Matrix3d::Identity() - along);
-    for (int i = 0; i < params_.forearm_gaussians; ++i) {
-      hand.gaussians.push_back(
-          {pose.translation + (params_.forearm_gap + (i + 0.5) * share) * direction, cov});
-    }
+    const ForearmGaussians arm = forearmGaussians(params_, pose.translation, direction);
+    for (const Eigen::Vector3d& mean : arm.means) hand.gaussians.push_back({mean, arm.cov});
   }
   const size_t num_gaussians = hand.gaussians.size();
   const bool with_gradient = gradient != nullptr;

@@ -546,7 +546,6 @@ FrameResult HandTracker::update(const std::vector<CameraObservation>& observatio
     const int niceness = frame.reported_pose ? params_.worker_niceness : 0;
     startWorker(before, std::move(frame), niceness);
   }
-  search_wanted_ = false;
   return result;
 }
 

@@ -105,17 +105,13 @@ inline ImageSoG modelImageSoG(const HandModel& model, const Pose& pose, const Ca
 inline HandModel withForearm(const HandModel& model, const EnergyParams& params,
                              const Eigen::Vector3d& direction = -Eigen::Vector3d::UnitX()) {
   HandModel scene = model;
-  const Eigen::Vector3d d = direction.normalized();
-  const double share = params.forearm_length / params.forearm_gaussians;
-  const Eigen::Matrix3d along = d * d.transpose();
-  const Eigen::Matrix3d cov =
-      (0.25 * share * share) * along +
-      (params.forearm_sigma * params.forearm_sigma) * (Eigen::Matrix3d::Identity() - along);
-  for (int i = 0; i < params.forearm_gaussians; ++i) {
+  const ForearmGaussians forearm =
+      forearmGaussians(params, Eigen::Vector3d::Zero(), direction.normalized());
+  for (const Eigen::Vector3d& mean : forearm.means) {
     ModelGaussian arm = model.gaussians.front();
     arm.bone = 0;
-    arm.mean = (params.forearm_gap + (i + 0.5) * share) * d;
-    arm.cov = cov;
+    arm.mean = mean;
+    arm.cov = forearm.cov;
     scene.gaussians.push_back(arm);
   }
   return scene;

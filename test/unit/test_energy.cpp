@@ -39,6 +39,24 @@ double centralDifference(const PoseEnergy& energy, const Pose& pose, int i, doub
   return (plus - minus) / (2.0 * h);
 }
 
+// The analytic gradient at `pose` against central differences in every parameter (relative error,
+// against the parameter's own size or 1e-3 of the largest component); returns how many it checked.
+int expectGradientMatches(const PoseEnergy& energy, const HandModel& model, const Pose& pose,
+                          const std::string& label) {
+  PoseVector gradient;
+  energy.evaluate(pose, &gradient);
+  const double scale = gradient.cwiseAbs().maxCoeff();
+  EXPECT_GT(scale, 0.0) << label;
+  if (!(scale > 0.0)) return 0;
+  for (int i = 0; i < kNumDof; ++i) {
+    const double h = i < 3 ? 1e-6 : 1e-5;  // metres / radians
+    const double numeric = centralDifference(energy, pose, i, h);
+    EXPECT_NEAR(gradient[i], numeric, 1e-4 * std::max(std::fabs(numeric), 1e-3 * scale))
+        << label << " parameter " << model.parameterNames()[i];
+  }
+  return kNumDof;
+}
+
 void checkGradient(const std::string& model_name,
                    double coupling = EnergyParams().dip_pip_coupling_weight,
                    double model_area_weight = EnergyParams().model_area_weight,
@@ -56,20 +74,8 @@ void checkGradient(const std::string& model_name,
   energy.setFrame(modelObservations(model, typicalPose(model), cameras, 6.0));
   int checked = 0;
   for (int trial = 0; trial < 4; ++trial) {
-    const Pose pose = randomPose(model, rng);
-    PoseVector gradient;
-    energy.evaluate(pose, &gradient);
-    const double scale = gradient.cwiseAbs().maxCoeff();
-    ASSERT_GT(scale, 0.0);
-    for (int i = 0; i < kNumDof; ++i) {
-      const double h = i < 3 ? 1e-6 : 1e-5;  // metres / radians
-      const double numeric = centralDifference(energy, pose, i, h);
-      // Relative error, against the parameter's own size or 1e-3 of the largest component.
-      const double tolerance = 1e-4 * std::max(std::fabs(numeric), 1e-3 * scale);
-      EXPECT_NEAR(gradient[i], numeric, tolerance)
-          << model_name << " trial " << trial << " parameter " << model.parameterNames()[i];
-      ++checked;
-    }
+    checked += expectGradientMatches(energy, model, randomPose(model, rng),
+                                     model_name + " trial " + std::to_string(trial));
   }
   EXPECT_EQ(checked, 4 * kNumDof);
 }
@@ -379,17 +385,7 @@ void checkForearmGradient(const std::optional<Eigen::Vector3d>& direction) {
   ASSERT_TRUE(energy.forearmPresent());
   std::mt19937 rng(7);
   for (int trial = 0; trial < 3; ++trial) {
-    const Pose pose = randomPose(model, rng);
-    PoseVector gradient;
-    energy.evaluate(pose, &gradient);
-    const double scale = gradient.cwiseAbs().maxCoeff();
-    ASSERT_GT(scale, 0.0);
-    for (int i = 0; i < kNumDof; ++i) {
-      const double h = i < 3 ? 1e-6 : 1e-5;
-      const double numeric = centralDifference(energy, pose, i, h);
-      EXPECT_NEAR(gradient[i], numeric, 1e-4 * std::max(std::fabs(numeric), 1e-3 * scale))
-          << "trial " << trial << " parameter " << model.parameterNames()[i];
-    }
+    expectGradientMatches(energy, model, randomPose(model, rng), "trial " + std::to_string(trial));
   }
 }
 

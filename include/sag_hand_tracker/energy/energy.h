@@ -95,6 +95,15 @@ struct EnergyTerms {
 
 // Holds what does not depend on the pose for one frame (colour similarities, E_qq), so that the
 // optimizer's iterations evaluate only the pose-dependent part.
+// The forearm's Gaussians (EnergyParams::forearm_*) along the unit `direction` from `wrist`: their
+// means, and the one covariance they share. The energy's and the test scenes' forearm.
+struct ForearmGaussians {
+  std::vector<Eigen::Vector3d> means;
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Identity();
+};
+ForearmGaussians forearmGaussians(const EnergyParams& params, const Eigen::Vector3d& wrist,
+                                  const Eigen::Vector3d& direction);
+
 class PoseEnergy {
  public:
   PoseEnergy(const HandModel& model, const EnergyParams& params);
