@@ -17,9 +17,10 @@
 //   as track_bag does, so that a replay gives track_bag's poses exactly), catch_up_seconds (0.25;
 //   with asynchronous_search: the worker keeps the sets of up to this many seconds; those that
 //   got no pose on the frame path meanwhile are published late, below), worker_niceness (10: a
-//   re-detecting worker's nice value above the frame path's; 0-19), room_cues (false), multi_view
-//   (true) and recheck_interval (5) (below), plus the dynamic_reconfigure parameters of
-//   cfg/Tracker.cfg.
+//   re-detecting worker's nice value above the frame path's; 0-19), search_threads (2: threads of
+//   one start or re-detection search, which give the same result as one; 1-16), room_cues
+//   (false), multi_view (true) and recheck_interval (5) (below), plus the dynamic_reconfigure
+//   parameters of cfg/Tracker.cfg.
 //
 // Room cues (issue 11; ros/live_room_cues.h, doc/segmentation.md "The live graph"; the segmentation
 // nodelets' room_cues must be on too): after every set the tracked hand is published to each
@@ -174,6 +175,11 @@ class TrackerNodelet : public nodelet::Nodelet {
       NODELET_ERROR("worker_niceness must be in [0, 19] (got %d); using 10", worker_niceness_);
       worker_niceness_ = 10;
     }
+    search_threads_ = pnh.param("search_threads", search_threads_);
+    if (!(search_threads_ >= 1 && search_threads_ <= 16)) {
+      NODELET_ERROR("search_threads must be in [1, 16] (got %d); using 2", search_threads_);
+      search_threads_ = 2;
+    }
     room_cues_ = pnh.param("room_cues", false);
     {
       MultiViewParams multi_view;
@@ -271,6 +277,7 @@ class TrackerNodelet : public nodelet::Nodelet {
     params.asynchronous_search = asynchronous_search_;
     params.catch_up_seconds = catch_up_seconds_;
     params.worker_niceness = worker_niceness_;
+    params.search_threads = search_threads_;
     return params;
   }
 
@@ -955,6 +962,7 @@ class TrackerNodelet : public nodelet::Nodelet {
   LiveRoomCues room_;  // room_cues: the multi-view check and the tracked hand's regions
   double catch_up_seconds_ = 0.25;
   int worker_niceness_ = 10;
+  int search_threads_ = 2;
   std::unique_ptr<HandTracker> tracker_;
   std::string model_label_;  // for the status: the model parameter, or the saved file
   std::optional<CalibrationRecording> recording_;  // while a ~calibrate call collects

@@ -10,6 +10,7 @@
 #include <optional>
 #include <utility>
 
+#include "sag_hand_tracker/util/parallel_for.h"
 #include "sag_hand_tracker/util/thread_priority.h"
 
 namespace sag_hand_tracker {
@@ -479,10 +480,16 @@ std::vector<OptimizationResult> HandTracker::startFromHypotheses(
     OptimizationResult candidate;
     candidate.pose = neutralPose(model, centre - rotation * kHandCentreInPalm, rotation);
     if (armCallsReversed(params, candidate.pose, observations)) continue;
-    candidate.energy = energy.evaluate(candidate.pose);
     candidates.push_back(candidate);
   }
-  if (current) candidates.push_back({*current, energy.evaluate(*current), 1});
+  if (current) candidates.push_back({*current, 0.0, 1});
+  parallelFor(static_cast<int>(candidates.size()), params.search_threads,
+              [&](int i) { candidates[i].energy = energy.evaluate(candidates[i].pose); });
+  // Each candidate refined on its own; one thread or several give the same candidates.
+  auto refine_all = [&](const OptimizerParams& stage) {
+    parallelFor(static_cast<int>(candidates.size()), params.search_threads,
+                [&](int i) { candidates[i] = optimizePose(energy, candidates[i].pose, stage); });
+  };
   auto keep_best = [&candidates](size_t count) {
     count = std::min(count, candidates.size());
     std::partial_sort(candidates.begin(), candidates.begin() + count, candidates.end(),
@@ -494,9 +501,7 @@ std::vector<OptimizationResult> HandTracker::startFromHypotheses(
   OptimizerParams stage_params = params.optimizer;
   keep_best(kCoarseKept);
   stage_params.iterations = kCoarseIterations;
-  for (OptimizationResult& candidate : candidates) {
-    candidate = optimizePose(energy, candidate.pose, stage_params);
-  }
+  refine_all(stage_params);
   keep_best(kHypothesesKept);
   // The rolled-over twin of the best candidate goes into the last stage as well: on hands unlike
   // the model the coarse stage often keeps only one palm side, and the start prior
@@ -512,9 +517,7 @@ std::vector<OptimizationResult> HandTracker::startFromHypotheses(
     candidates.push_back(twin);
   }
   stage_params.iterations = params.start_iterations;
-  for (OptimizationResult& candidate : candidates) {
-    candidate = optimizePose(energy, candidate.pose, stage_params);
-  }
+  refine_all(stage_params);
   rankCandidates(params, observations, &candidates);
   return candidates;
 }

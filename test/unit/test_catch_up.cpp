@@ -70,11 +70,13 @@ TEST(TrackerCatchUp, EverySetDuringTheStartSearchGetsItsPoseAfterwards) {
   const std::vector<Camera> cameras = fiveCameraRig();
   TrackerParams params;
   params.asynchronous_search = true;
+  params.search_threads = 3;  // the worker searches on three threads, the reference on one
   HandTracker tracker(model, params);
   std::promise<void> gate;
   tracker.holdSearchesUntil(gate.get_future().share());
   TrackerParams synchronous_params = params;
   synchronous_params.asynchronous_search = false;
+  synchronous_params.search_threads = 1;
   HandTracker synchronous(model, synchronous_params);
 
   constexpr int kHeld = 6, kFrames = 10;
@@ -141,11 +143,13 @@ TEST(TrackerCatchUp, EverySetDuringARestartSearchGetsItsPoseAfterwards) {
   const std::vector<Camera> cameras = fiveCameraRig();
   TrackerParams params;
   params.asynchronous_search = true;
+  params.search_threads = 2;
   params.redetect_interval = 0;  // only the restart searches
   HandTracker tracker(model, params);
   std::promise<void> gate;
   TrackerParams synchronous_params = params;
   synchronous_params.asynchronous_search = false;
+  synchronous_params.search_threads = 1;
   HandTracker synchronous(model, synchronous_params);
 
   constexpr int kTracked = 8, kHeld = 4, kFrames = kTracked + kHeld + 4;

@@ -42,6 +42,37 @@ TEST(Tracker, StartsAutomaticallyFromHypotheses) {
   EXPECT_LT(error, 0.02) << "fingertip error after start " << error * 1000 << " mm";
 }
 
+// The search's candidates are independent: several threads (TrackerParams::search_threads, the
+// live worker's) give exactly the start and restart of one.
+TEST(Tracker, TheSearchGivesTheSameStartOnAnyNumberOfThreads) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  Pose truth = typicalPose(model);
+  truth.rotation = rotationFromVector(Eigen::Vector3d(0.3, 0.0, -M_PI / 2));
+  Pose moved = truth;
+  moved.translation.x() += 0.08;  // a jump: lost, then a restart with the tracked pose as well
+  const std::vector<std::vector<CameraObservation>> sets = {
+      modelObservations(model, truth, cameras, 3.0), modelObservations(model, moved, cameras, 3.0),
+      modelObservations(model, moved, cameras, 3.0)};
+  HandTracker one(model, TrackerParams());
+  std::vector<FrameResult> expected;
+  for (size_t i = 0; i < sets.size(); ++i) expected.push_back(one.update(sets[i], 0.04 * i));
+  ASSERT_TRUE(expected.front().has_pose);
+  for (int threads : {2, 3}) {
+    TrackerParams params;
+    params.search_threads = threads;
+    HandTracker several(model, params);
+    for (size_t i = 0; i < sets.size(); ++i) {
+      const FrameResult result = several.update(sets[i], 0.04 * i);
+      EXPECT_EQ(result.status, expected[i].status) << "set " << i << ", " << threads << " threads";
+      ASSERT_EQ(result.has_pose, expected[i].has_pose) << "set " << i << ", " << threads;
+      if (result.has_pose) {
+        EXPECT_EQ(result.pose.toVector(), expected[i].pose.toVector()) << "set " << i;
+      }
+    }
+  }
+}
+
 // Warm-started tracking of a moving hand, then a jump that loses the track and restarts it.
 TEST(Tracker, TracksMotionAndRestartsWhenLost) {
   const HandModel model = loadHandModel(modelPath("sag"));

@@ -110,6 +110,12 @@ struct TrackerParams {
   // or lost) keeps the frame path's priority: the sets wait for it, and the frame path has little
   // to do meanwhile. 0: equal.
   int worker_niceness = 10;
+  // Threads for one hypothesis search (its candidates are scored and refined independently; the
+  // result is the same for any number). The live graph's worker uses the cores the frame path
+  // leaves free while a start keeps the sets waiting (issue 12); offline tools keep one thread, so
+  // that their frames per second measure one core. New threads take the searching thread's nice
+  // value.
+  int search_threads = 1;
   // Catch-up (issue 12): with asynchronous_search, the sets the worker has not tracked yet are
   // kept for it only while they are within `catch_up_seconds` (by stamp) of the newest set (at
   // most kMaxCatchUpFrames; older ones are skipped, as a synchronous tracker skips a camera set
