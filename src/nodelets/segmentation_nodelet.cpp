@@ -42,6 +42,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "sag_hand_tracker/SegmentationConfig.h"
+#include "sag_hand_tracker/ros/checked_subscription.h"
 #include "sag_hand_tracker/ros/conversions.h"
 #include "sag_hand_tracker/ros/image_transport_lock.h"
 #include "sag_hand_tracker/ros/live_room_cues.h"
@@ -82,10 +83,14 @@ class SegmentationNodelet : public nodelet::Nodelet {
       it_ = std::make_unique<image_transport::ImageTransport>(nh);
     }
     if (room_cues_) {
-      region_sub_ =
-          nh.subscribe<HandRegion>("hand_region", 2, [this](const HandRegion::ConstPtr& msg) {
+      region_sub_ = subscribeChecked<HandRegion>(
+          nh, "hand_region", 2,
+          [this](const HandRegion::ConstPtr& msg) {
             std::lock_guard<std::mutex> lock(mutex_);
             region_ = msg;
+          },
+          [this](const std::string& problem) {
+            warn("malformed message on hand_region dropped (" + problem + ")");
           });
     }
 

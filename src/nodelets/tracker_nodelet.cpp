@@ -71,6 +71,7 @@
 #include <tf2_ros/transform_listener.h>
 #include <visualization_msgs/MarkerArray.h>
 #include <pluginlib/class_list_macros.hpp>
+#include "sag_hand_tracker/ros/checked_subscription.h"
 #include "sag_hand_tracker/ros/image_transport_lock.h"
 #include "sag_hand_tracker/ros/package_config.h"
 
@@ -227,13 +228,24 @@ class TrackerNodelet : public nodelet::Nodelet {
     cameras_.resize(num_cameras_);
     for (int i = 0; i < num_cameras_; ++i) {
       const std::string cam = "cam" + std::to_string(i);
-      cameras_[i].sog_sub = nh.subscribe<SumOfGaussians>(
-          cam + "/sog", 5, [this, i](const SumOfGaussians::ConstPtr& msg) { onSoG(i, msg); });
-      cameras_[i].info_sub = nh.subscribe<sensor_msgs::CameraInfo>(
-          cam + "/camera_info", 2, [this, i](const sensor_msgs::CameraInfo::ConstPtr& msg) {
+      // Malformed messages from other processes are dropped with a warning
+      // (ros/checked_subscription.h).
+      auto malformed = [this, i, cam](const std::string& topic) {
+        return [this, i, topic = cam + "/" + topic](const std::string& problem) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          warnCamera(i, "malformed message on " + topic + " dropped (" + problem + ")");
+        };
+      };
+      cameras_[i].sog_sub = subscribeChecked<SumOfGaussians>(
+          nh, cam + "/sog", 5, [this, i](const SumOfGaussians::ConstPtr& msg) { onSoG(i, msg); },
+          malformed("sog"));
+      cameras_[i].info_sub = subscribeChecked<sensor_msgs::CameraInfo>(
+          nh, cam + "/camera_info", 2,
+          [this, i](const sensor_msgs::CameraInfo::ConstPtr& msg) {
             std::lock_guard<std::mutex> lock(mutex_);
             cameras_[i].info = msg;
-          });
+          },
+          malformed("camera_info"));
       // No connect callbacks: the timer below polls the subscriber count (see onTimer).
       cameras_[i].overlay_pub = it_->advertise(cam + "/overlay", 1);
       if (room_cues_) cameras_[i].region_pub = nh.advertise<HandRegion>(cam + "/hand_region", 2);

@@ -8,8 +8,8 @@
 //     drop_times (list of s, one per drop_cameras entry) gives each camera its own time instead;
 //     resume_times (list of s, one per drop_cameras entry) makes it publish again from then
 //   malformed (false): cam<last> sends malformed SoGs in turn (size not matching camera_info,
-//     a NaN Gaussian, no Gaussians at all, an unknown frame) and cam<last-1> never sends its
-//     camera_info.
+//     a NaN Gaussian, no Gaussians at all, an unknown frame, bytes whose Gaussian array declares
+//     1e9 elements) and cam<last-1> never sends its camera_info.
 #include "sag_hand_tracker/SumOfGaussians.h"
 
 #include <geometry_msgs/PoseArray.h>
@@ -18,14 +18,83 @@
 #include <tf2_ros/static_transform_broadcaster.h>
 
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 #include <map>
+#include <stdexcept>
 
 #include "sag_hand_tracker/ros/conversions.h"
 #include "sag_hand_tracker/ros/sog_conversions.h"
 #include "test_support/synthetic_scene.h"
 
 using namespace sag_hand_tracker;
+
+// Bytes published as a SumOfGaussians, whatever they hold: how a broken or hostile publisher in
+// another process reaches the tracker (roscpp checks only the type's name and MD5).
+struct RawSoG {
+  std::vector<std::uint8_t> bytes;
+};
+namespace ros {
+namespace message_traits {
+template <>
+struct MD5Sum<RawSoG> {
+  static const char* value() { return MD5Sum<SumOfGaussians>::value(); }
+  static const char* value(const RawSoG&) { return value(); }
+};
+template <>
+struct DataType<RawSoG> {
+  static const char* value() { return DataType<SumOfGaussians>::value(); }
+  static const char* value(const RawSoG&) { return value(); }
+};
+template <>
+struct Definition<RawSoG> {
+  static const char* value() { return Definition<SumOfGaussians>::value(); }
+  static const char* value(const RawSoG&) { return value(); }
+};
+}  // namespace message_traits
+namespace serialization {
+template <>
+struct Serializer<RawSoG> {
+  template <typename Stream>
+  inline static void write(Stream& stream, const RawSoG& raw) {
+    std::memcpy(stream.advance(raw.bytes.size()), raw.bytes.data(), raw.bytes.size());
+  }
+  inline static std::uint32_t serializedLength(const RawSoG& raw) { return raw.bytes.size(); }
+};
+}  // namespace serialization
+}  // namespace ros
+
+namespace {
+
+// `msg` serialized, with its Gaussian array's length prefix replaced by 1e9.
+RawSoG withHugeGaussianCount(const SumOfGaussians& msg) {
+  RawSoG raw;
+  raw.bytes.resize(ros::serialization::serializationLength(msg));
+  ros::serialization::OStream out(raw.bytes.data(), raw.bytes.size());
+  ros::serialization::serialize(out, msg);
+  // The prefix is the first 4 bytes of the serialized `gaussians` field: find it by serializing
+  // the message without its Gaussians, whose prefix then sits at the same place (the fields
+  // before it are the same).
+  SumOfGaussians head = msg;
+  head.gaussians.clear();
+  std::vector<std::uint8_t> head_bytes(ros::serialization::serializationLength(head));
+  ros::serialization::OStream head_out(head_bytes.data(), head_bytes.size());
+  ros::serialization::serialize(head_out, head);
+  for (std::size_t offset = 0; offset + 4 <= head_bytes.size(); ++offset) {
+    std::uint32_t value = 0, original = 0;
+    std::memcpy(&value, head_bytes.data() + offset, 4);
+    std::memcpy(&original, raw.bytes.data() + offset, 4);
+    if (value == 0 && original == msg.gaussians.size()) {
+      const std::uint32_t huge = 1000000000u;
+      std::memcpy(raw.bytes.data() + offset, &huge, 4);
+      return raw;
+    }
+  }
+  throw std::runtime_error("the Gaussians' length prefix was not found");
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   ros::init(argc, argv, "synthetic_sog_publisher");
@@ -56,6 +125,7 @@ int main(int argc, char** argv) {
   tf2_ros::StaticTransformBroadcaster static_tf;
   std::vector<geometry_msgs::TransformStamped> transforms;
   std::vector<ros::Publisher> sog_pubs, info_pubs;
+  ros::Publisher raw_pub;  // malformed: the raw bytes on cam<last>/sog
   for (int i = 0; i < n; ++i) {
     const Eigen::Isometry3d camera_to_world = cameras[i].world_to_camera.inverse();
     const Eigen::Quaterniond q(camera_to_world.rotation());
@@ -75,6 +145,7 @@ int main(int argc, char** argv) {
     info_pubs.push_back(
         nh.advertise<sensor_msgs::CameraInfo>("cam" + std::to_string(i) + "/camera_info", 5));
   }
+  if (malformed) raw_pub = nh.advertise<RawSoG>("cam" + std::to_string(n - 1) + "/sog", 5);
   static_tf.sendTransform(transforms);
   ros::Publisher truth_pub = nh.advertise<geometry_msgs::PoseArray>("ground_truth/fingertips", 10);
 
@@ -119,7 +190,7 @@ int main(int argc, char** argv) {
       msg.header.stamp = stamp;
       msg.header.frame_id = frame_id;
       if (broken_sog) {
-        switch (frame % 4) {
+        switch (frame % 5) {
           case 0:
             msg.width /= 2;
             break;  // size does not match camera_info
@@ -130,8 +201,14 @@ int main(int argc, char** argv) {
           case 2:
             msg.gaussians.clear();
             break;  // an empty SoG
-          default:
+          case 3:
             msg.header.frame_id = "no_such_frame";
+            break;
+          default:
+            if (!msg.gaussians.empty()) {
+              raw_pub.publish(withHugeGaussianCount(msg));
+              continue;
+            }
             break;
         }
       }

@@ -17,6 +17,7 @@
 #include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/ros/bag_input.h"
 #include "sag_hand_tracker/ros/bag_output.h"
+#include "sag_hand_tracker/ros/checked_subscription.h"
 #include "sag_hand_tracker/ros/conversions.h"
 #include "sag_hand_tracker/ros/message_bounds.h"
 #include "sag_hand_tracker/ros/sog_conversions.h"
@@ -796,4 +797,43 @@ TEST(MessageBounds, TheBagWithAHugeDeclaredArrayIsRefusedWithoutAllocatingIt) {
               std::string::npos)
         << message;
   }
+}
+
+// The live subscriptions (ros/checked_subscription.h): roscpp hands the helper the bytes of a
+// message from another process; a well-formed one reaches the callback unchanged, a malformed one
+// is reported and never deserialized (the callback is not called).
+TEST(MessageBounds, LiveSubscriptionsDropMalformedMessagesBeforeDeserializing) {
+  sensor_msgs::CameraInfo info;
+  info.header.frame_id = "f";
+  info.distortion_model = "plumb_bob";
+  info.D = {0.1, 0.0, 0.0, 0.0, 0.0};
+  std::vector<std::uint8_t> bytes = serialized(info);
+  int calls = 0;
+  std::vector<std::string> problems;
+  CheckedCallbackHelper<sensor_msgs::CameraInfo> helper(
+      [&](const sensor_msgs::CameraInfo::ConstPtr&) { ++calls; },
+      [&](const std::string& problem) { problems.push_back(problem); });
+  auto deserialize = [&](std::vector<std::uint8_t>* data) {
+    ros::SubscriptionCallbackHelperDeserializeParams params;
+    params.buffer = data->data();
+    params.length = static_cast<std::uint32_t>(data->size());
+    return helper.deserialize(params);
+  };
+  const ros::VoidConstPtr good = deserialize(&bytes);
+  ASSERT_TRUE(good);
+  const auto* message = static_cast<const sensor_msgs::CameraInfo*>(good.get());
+  EXPECT_EQ(message->D, info.D);
+  EXPECT_EQ(message->header.frame_id, "f");
+  EXPECT_TRUE(problems.empty());
+
+  const std::size_t d_offset = 4 + 8 + 4 + 1 + 4 + 4 + 4 + 9;  // as in the test above
+  writeUint32(&bytes, d_offset, 1800000000u);
+  EXPECT_FALSE(deserialize(&bytes));
+  ASSERT_EQ(problems.size(), 1u);
+  EXPECT_NE(problems[0].find("D: 1800000000 elements of 8 bytes declared"), std::string::npos)
+      << problems[0];
+  bytes.resize(10);  // truncated
+  EXPECT_FALSE(deserialize(&bytes));
+  EXPECT_EQ(problems.size(), 2u);
+  EXPECT_EQ(calls, 0);  // deserialize never calls back; roscpp calls only with a message
 }
