@@ -30,7 +30,7 @@ FUZZ_SECONDS ?= 60
 # FUZZ_RUNS=N also ends each target after N executions (whichever of the two comes first).
 FUZZ_RUNS ?=
 FUZZ_BUILD := $(ROOT)/.fuzz_build
-FUZZ_TARGETS := model_yaml rig_yaml motion_yaml bag messages
+FUZZ_TARGETS := model_yaml rig_yaml motion_yaml bag messages live_messages
 # Largest input per target (bytes): above the largest seed (the seed bags of 52 kB are cut, the
 # 9 kB ones are whole); larger inputs add only time per execution, no new code.
 FUZZ_MAX_LEN_model_yaml := 8192
@@ -38,6 +38,7 @@ FUZZ_MAX_LEN_rig_yaml := 4096
 FUZZ_MAX_LEN_motion_yaml := 8192
 FUZZ_MAX_LEN_bag := 12288
 FUZZ_MAX_LEN_messages := 1024
+FUZZ_MAX_LEN_live_messages := 4096
 # ASan as usual, but freshly allocated memory is not filled with 0xbe, the quarantine of freed
 # memory is 32 MB (one execution frees a few MB: a use after free within it is still caught) and
 # allocation stacks are 8 frames: the 256 MB default quarantine made every allocation touch a new

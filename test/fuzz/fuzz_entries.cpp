@@ -12,11 +12,13 @@
 
 #include <rosbag/bag.h>
 
+#include "sag_hand_tracker/HandRegion.h"
 #include "sag_hand_tracker/SumOfGaussians.h"
 #include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/model/hand_model.h"
 #include "sag_hand_tracker/model/kinematics.h"
 #include "sag_hand_tracker/ros/bag_input.h"
+#include "sag_hand_tracker/ros/checked_subscription.h"
 #include "sag_hand_tracker/ros/conversions.h"
 #include "sag_hand_tracker/ros/sog_conversions.h"
 #include "sag_hand_tracker/studio/motion.h"
@@ -208,12 +210,57 @@ void fuzzMessages(const std::uint8_t* data, std::size_t size) {
   }
 }
 
+namespace {
+
+// The bytes through the live subscription's helper, as roscpp's transport hands them over; the
+// message it accepts, or null.
+template <class M>
+boost::shared_ptr<const M> deserializeLive(const std::vector<std::uint8_t>& bytes) {
+  int calls = 0;
+  sag_hand_tracker::CheckedCallbackHelper<M> helper(
+      [&calls](const boost::shared_ptr<const M>&) { ++calls; }, [](const std::string&) {});
+  std::vector<std::uint8_t> buffer = bytes;  // roscpp's own, writable buffer
+  ros::SubscriptionCallbackHelperDeserializeParams params;
+  params.buffer = buffer.data();
+  params.length = static_cast<std::uint32_t>(buffer.size());
+  const ros::VoidConstPtr message = helper.deserialize(params);
+  if (calls != 0) finding("the check called the callback");
+  return boost::static_pointer_cast<const M>(message);
+}
+
+}  // namespace
+
+void fuzzLiveMessages(const std::uint8_t* data, std::size_t size) {
+  if (size == 0) return;
+  const int kind = data[0] % 3;
+  const std::vector<std::uint8_t> bytes(data + 1, data + size);
+  try {
+    if (kind == 0) {
+      const auto msg = deserializeLive<sag_hand_tracker::SumOfGaussians>(bytes);
+      if (!msg) return;
+      const sag_hand_tracker::ImageSoG sog = sag_hand_tracker::sogFromMsg(*msg);
+      for (const auto& g : sog.gaussians) {
+        if (!g.mean.allFinite() || !std::isfinite(g.sigma)) finding("accepted SoG not finite");
+      }
+    } else if (kind == 1) {
+      const auto info = deserializeLive<sensor_msgs::CameraInfo>(bytes);
+      if (info) checkCamera(sag_hand_tracker::fromCameraInfo(*info, "cam0"));
+    } else {
+      deserializeLive<sag_hand_tracker::HandRegion>(bytes);
+    }
+  } catch (const InputError&) {
+  } catch (const ros::serialization::StreamOverrunException&) {
+    finding("a message the check accepted overran roscpp's deserializer");
+  }
+}
+
 const std::vector<FuzzTarget>& fuzzTargets() {
   static const std::vector<FuzzTarget> targets{{"model_yaml", fuzzModelYaml},
                                                {"rig_yaml", fuzzRigYaml},
                                                {"motion_yaml", fuzzMotionYaml},
                                                {"bag", fuzzBag},
-                                               {"messages", fuzzMessages}};
+                                               {"messages", fuzzMessages},
+                                               {"live_messages", fuzzLiveMessages}};
   return targets;
 }
 

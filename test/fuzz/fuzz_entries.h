@@ -24,6 +24,11 @@ void fuzzBag(const std::uint8_t* data, std::size_t size);
 // sogFromMsg, fromCameraInfo (then undistortion), toRgbMat.
 void fuzzMessages(const std::uint8_t* data, std::size_t size);
 
+// The first byte picks SumOfGaussians, CameraInfo or HandRegion; the rest is the message's bytes
+// as they arrive from another process -> the live subscriptions' check and roscpp's deserializer
+// (ros/checked_subscription.h), then sogFromMsg / fromCameraInfo on what it accepts.
+void fuzzLiveMessages(const std::uint8_t* data, std::size_t size);
+
 struct FuzzTarget {
   std::string name;  // also the folder test/fuzz/corpus/<name>/
   void (*entry)(const std::uint8_t*, std::size_t);
