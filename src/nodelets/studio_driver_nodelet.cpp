@@ -29,13 +29,8 @@
 //   wait_for_subscribers (10.0 s): before the first frame, wait until every camera's image_raw
 //     has a subscriber (at most this long; 0 = do not wait)
 //   model ("sag"): the skeleton the hand is rendered on; config_dir (the package's config/)
-//   render_niceness (0; 0-19): the rendering thread's nice value above the process' (see below)
 // Rendering runs on a callback queue and thread of its own, so it does not take one of the
-// manager's worker threads away from the segmentation and the tracker. Rendering five images is
-// far more work than a camera driver's read-out (about half a core at 60 fps here); with
-// render_niceness > 0 the graph's threads take the CPU first and the renderer uses what they
-// leave, as the graph would beside real cameras (each set is stamped when it is complete, so a
-// set rendered later is not counted as latency, but it can come at an uneven rate).
+// manager's worker threads away from the segmentation and the tracker.
 #include <geometry_msgs/PoseArray.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <image_transport/image_transport.h>
@@ -62,7 +57,6 @@
 #include "sag_hand_tracker/studio/motion.h"
 #include "sag_hand_tracker/studio/renderer.h"
 #include "sag_hand_tracker/studio/sequence.h"
-#include "sag_hand_tracker/util/thread_priority.h"
 #include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
@@ -79,11 +73,6 @@ class StudioDriverNodelet : public nodelet::Nodelet {
     ros::NodeHandle& nh = getNodeHandle();
     ros::NodeHandle& pnh = getPrivateNodeHandle();
     fps_ = pnh.param("fps", 25.0);
-    render_niceness_ = pnh.param("render_niceness", 0);
-    if (!(render_niceness_ >= 0 && render_niceness_ <= 19)) {
-      NODELET_ERROR("render_niceness must be in [0, 19] (got %d); using 0", render_niceness_);
-      render_niceness_ = 0;
-    }
     if (!(fps_ > 0.0 && fps_ <= 1000.0)) {
       NODELET_FATAL("fps %g: must be in (0, 1000]; the studio does nothing", fps_);
       return;
@@ -233,12 +222,6 @@ class StudioDriverNodelet : public nodelet::Nodelet {
   // (no frame is skipped: every set of the sequence is published, the rate drops).
   void tick() {
     if (!started_) {
-      if (render_niceness_ > 0 && !lowered_) {  // the first tick, on the rendering thread
-        lowered_ = true;
-        if (!lowerCurrentThreadPriority(render_niceness_)) {
-          NODELET_WARN("studio: could not lower the rendering thread's priority");
-        }
-      }
       const double waited = (ros::WallTime::now() - wait_start_).toSec();
       if (!subscribersReady() && waited < wait_for_subscribers_) return;
       if (wait_for_subscribers_ > 0 && !subscribersReady()) {
@@ -314,8 +297,6 @@ class StudioDriverNodelet : public nodelet::Nodelet {
   }
 
   double fps_ = 25.0;
-  int render_niceness_ = 0;
-  bool lowered_ = false;  // the rendering thread's priority has been set (render_niceness)
   bool loop_ = false;
   std::uint64_t seed_ = 1;
   int empty_frames_ = 10;
