@@ -163,16 +163,23 @@ RedetectionChoice chooseRedetection(const OptimizationResult& tracked,
   for (size_t i = 0; i < candidates.size(); ++i) {
     const OptimizationResult& candidate = candidates[i];
     const bool flip = isFlip(candidate.pose.rotation, tracked.pose.rotation);
-    if (!flip && candidate.energy > tracked.energy + params.redetect_margin) {
+    if (!flip && choice.adopt < 0 && candidate.energy > tracked.energy + params.redetect_margin) {
       choice.adopt = static_cast<int>(i);
-      break;
     }
-    if (flip && !carrying && choice.carry < 0 && params.flip_confirm_frames > 0 &&
-        candidate.energy > tracked.energy + params.flip_margin) {
+    if (flip && (choice.carry < 0 || candidate.energy > candidates[choice.carry].energy)) {
       choice.carry = static_cast<int>(i);
     }
   }
-  if (choice.adopt >= 0) choice.carry = -1;
+  // The best flip is carried when it beats what the track will be after this frame (the adopted
+  // candidate, if any) by flip_margin. An adoption replaces the alternative being carried, so a
+  // flip may then be carried anew: a better pose of the wrong palm side must not hide a far
+  // better flip (the studio's rolled-over `fastturn` and `random` tracks adopted same-side poses
+  // 0.03-0.1 below a flip to the true side, and the flip was never carried).
+  const double reference = choice.adopt >= 0 ? candidates[choice.adopt].energy : tracked.energy;
+  if (choice.carry >= 0 && (params.flip_confirm_frames <= 0 || (carrying && choice.adopt < 0) ||
+                            !(candidates[choice.carry].energy > reference + params.flip_margin))) {
+    choice.carry = -1;
+  }
   return choice;
 }
 
@@ -818,7 +825,8 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
           forearm = restart_forearms[choice.adopt];
           started = true;
           alternative_.reset();
-        } else if (choice.carry >= 0) {
+        }
+        if (choice.carry >= 0) {
           alternative_ = Alternative{std::nullopt, restart[choice.carry].pose, 1};
           alternative_forearm_ = restart_forearms[choice.carry];
         }

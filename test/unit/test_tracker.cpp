@@ -147,13 +147,31 @@ TEST(TrackerOrientation, RedetectionNeverAdoptsAFlip) {
   EXPECT_EQ(choice.carry, -1);
 
   // A better pose of the same orientation (a 30-degree turn) is adopted on the small margin, even
-  // behind a better flip.
+  // behind a better flip; the flip, better than the adopted pose by more than flip_margin, is then
+  // carried as well (also when one was carried: the adoption replaces it).
   const Eigen::Matrix3d turned =
       r * Eigen::AngleAxisd(M_PI / 6, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  const double adopted = 0.80 + 2 * params.redetect_margin;
+  for (bool carrying : {false, true}) {
+    choice = chooseRedetection(
+        tracked, {resultWith(rolledOver(r), 0.95), resultWith(turned, adopted)}, params, carrying);
+    EXPECT_EQ(choice.adopt, 1);
+    EXPECT_EQ(choice.carry, 0);
+  }
+  // The best flip is the one carried, whatever the candidates' order.
   choice = chooseRedetection(
       tracked,
-      {resultWith(rolledOver(r), 0.95), resultWith(turned, 0.80 + 2 * params.redetect_margin)},
+      {resultWith(reversed(r), 0.90), resultWith(turned, adopted), resultWith(rolledOver(r), 0.95)},
       params, false);
+  EXPECT_EQ(choice.adopt, 1);
+  EXPECT_EQ(choice.carry, 2);
+  // A flip better than the track by flip_margin but not better than the adopted pose by it is
+  // not carried.
+  const double adopted_high = 0.80 + params.flip_margin;
+  choice = chooseRedetection(tracked,
+                             {resultWith(rolledOver(r), adopted_high + 0.5 * params.flip_margin),
+                              resultWith(turned, adopted_high)},
+                             params, false);
   EXPECT_EQ(choice.adopt, 1);
   EXPECT_EQ(choice.carry, -1);
   // Not on less than redetect_margin.

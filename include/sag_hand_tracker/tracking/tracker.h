@@ -149,10 +149,11 @@ Eigen::Matrix3d boundedRotation(const Eigen::Matrix3d& reference, const Eigen::M
                                 double max_angle);
 
 // The periodic re-detection's decision, given the tracked result of this frame and the start
-// routine's candidates (best first): `adopt` indexes the candidate that replaces the track (one
-// that is no flip of it, better by redetect_margin), `carry` the flipped candidate that starts
-// being carried as the alternative (better by flip_margin; only when none is carried yet); -1:
-// none. A flip is never adopted here, whatever its margin.
+// routine's candidates (best first): `adopt` indexes the candidate that replaces the track (the
+// first that is no flip of it, better by redetect_margin), `carry` the flipped candidate that
+// starts being carried as the alternative (the best flip, when it beats the adopted candidate, or
+// else the track, by flip_margin; while one is carried, only together with an adoption, which
+// replaces it); -1: none. A flip is never adopted here, whatever its margin.
 struct RedetectionChoice {
   int adopt = -1;
   int carry = -1;
