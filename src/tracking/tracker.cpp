@@ -163,7 +163,14 @@ RedetectionChoice chooseRedetection(const OptimizationResult& tracked,
   for (size_t i = 0; i < candidates.size(); ++i) {
     const OptimizationResult& candidate = candidates[i];
     const bool flip = isFlip(candidate.pose.rotation, tracked.pose.rotation);
-    if (!flip && choice.adopt < 0 && candidate.energy > tracked.energy + params.redetect_margin) {
+    // A large turn that is no flip still needs the flip's margin.
+    const bool turned = params.redetect_turn_angle > 0.0 &&
+                        Eigen::Quaterniond(candidate.pose.rotation)
+                                .angularDistance(Eigen::Quaterniond(tracked.pose.rotation)) >
+                            params.redetect_turn_angle;
+    const double margin =
+        turned ? std::max(params.flip_margin, params.redetect_margin) : params.redetect_margin;
+    if (!flip && choice.adopt < 0 && candidate.energy > tracked.energy + margin) {
       choice.adopt = static_cast<int>(i);
     }
     if (flip && (choice.carry < 0 || candidate.energy > candidates[choice.carry].energy)) {
@@ -181,6 +188,22 @@ RedetectionChoice chooseRedetection(const OptimizationResult& tracked,
     choice.carry = -1;
   }
   return choice;
+}
+
+AlternativeVerdict judgeAlternative(double track_energy, double challenger_energy,
+                                    const TrackerParams& params, int* wins, int* frames) {
+  if (!(challenger_energy > track_energy + params.flip_keep_margin)) {
+    return AlternativeVerdict::kDrop;
+  }
+  ++*frames;
+  if (challenger_energy > track_energy + params.flip_margin &&
+      ++*wins >= params.flip_confirm_frames) {
+    return AlternativeVerdict::kConfirm;
+  }
+  if (params.flip_max_frames > 0 && *frames >= params.flip_max_frames) {
+    return AlternativeVerdict::kDrop;
+  }
+  return AlternativeVerdict::kKeep;
 }
 
 bool isPlausiblePose(const Pose& pose, const std::vector<CameraObservation>& observations,
@@ -231,7 +254,8 @@ bool HandTracker::sameTrackState(const TrackState& a, const TrackState& b) {
       a.alternative.has_value() == b.alternative.has_value() &&
       (!a.alternative || (samePose(a.alternative->previous, b.alternative->previous) &&
                           samePose(a.alternative->current, b.alternative->current) &&
-                          a.alternative->wins == b.alternative->wins));
+                          a.alternative->wins == b.alternative->wins &&
+                          a.alternative->frames == b.alternative->frames));
   return samePose(a.previous, b.previous) && samePose(a.current, b.current) && a.lost == b.lost &&
          a.typical_similarity == b.typical_similarity &&
          a.frames_since_start == b.frames_since_start && same_alternative &&
@@ -753,8 +777,8 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
     EnergyTerms terms;
     energy.evaluate(optimized->pose, nullptr, &terms);
 
-    // The carried flip hypothesis: tracked like the main one; it takes over only after
-    // `flip_confirm_frames` consecutive frames with an energy clearly above the track's.
+    // The carried flip hypothesis: tracked like the main one; it takes over after
+    // `flip_confirm_frames` frames with an energy clearly above the track's (judgeAlternative).
     if (alternative_) {
       Alternative& alternative = *alternative_;
       const Pose alternative_start = predictedPose(alternative.previous, alternative.current);
@@ -764,19 +788,22 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
       boundRotation(energy, alternative.current, alternative_start, &challenger);
       alternative_forearm_ = fitForearm(energy, &challenger, alternative_forearm_);
       energy.setForearmDirection(forearm);
-      if (challenger.energy > optimized->energy + params_.flip_margin &&
+      const AlternativeVerdict verdict =
           plausible(challenger.pose, observations) &&
-          !armSaysReversed(challenger.pose, observations)) {
+                  !armSaysReversed(challenger.pose, observations)
+              ? judgeAlternative(optimized->energy, challenger.energy, params_, &alternative.wins,
+                                 &alternative.frames)
+              : AlternativeVerdict::kDrop;
+      if (verdict == AlternativeVerdict::kDrop) {
+        alternative_.reset();
+      } else if (verdict == AlternativeVerdict::kConfirm) {
+        optimized = challenger;
+        forearm = alternative_forearm_;
+        flipped = true;
+        alternative_.reset();
+      } else {
         alternative.previous = alternative.current;
         alternative.current = challenger.pose;
-        if (++alternative.wins >= params_.flip_confirm_frames) {
-          optimized = challenger;
-          forearm = alternative_forearm_;
-          flipped = true;
-          alternative_.reset();
-        }
-      } else {
-        alternative_.reset();
       }
     }
 

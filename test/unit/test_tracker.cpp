@@ -180,6 +180,73 @@ TEST(TrackerOrientation, RedetectionNeverAdoptsAFlip) {
   EXPECT_EQ(choice.adopt, -1);
 }
 
+// A large turn that is no flip (an 80-degree roll) is a re-detection's near-flip: it needs the
+// flip's margin to be adopted, a smaller turn only redetect_margin.
+TEST(TrackerOrientation, RedetectionNeedsTheFlipMarginForALargeTurn) {
+  TrackerParams params;
+  const Eigen::Matrix3d r = rotationFromVector(Eigen::Vector3d(0.1, 0.2, 0.3));
+  const OptimizationResult tracked = resultWith(r, 0.80);
+  const Eigen::Matrix3d large =
+      r * Eigen::AngleAxisd(80.0 * M_PI / 180.0, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  ASSERT_FALSE(isFlip(large, r));
+  ASSERT_GT(rotationAngle(large, r), params.redetect_turn_angle);
+  const double small_gain = 0.80 + 0.5 * (params.redetect_margin + params.flip_margin);
+  EXPECT_EQ(chooseRedetection(tracked, {resultWith(large, small_gain)}, params, false).adopt, -1);
+  EXPECT_EQ(
+      chooseRedetection(tracked, {resultWith(large, 0.80 + 2 * params.flip_margin)}, params, false)
+          .adopt,
+      0);
+  // Switched off: the small gain is enough again.
+  params.redetect_turn_angle = 0.0;
+  EXPECT_EQ(chooseRedetection(tracked, {resultWith(large, small_gain)}, params, false).adopt, 0);
+}
+
+// The carried flip needs flip_confirm_frames wins (energy above the track's by flip_margin), not
+// necessarily consecutive: a frame above the track by less keeps it without a win; one not above
+// it by flip_keep_margin drops it, and so does reaching flip_max_frames without confirming.
+TEST(TrackerOrientation, CarriedFlipIsConfirmedByItsWinsAndDroppedWhenItFallsBack) {
+  TrackerParams params;
+  ASSERT_LT(params.flip_keep_margin, params.flip_margin);
+  const double track = 0.80;
+  const double win = track + 2 * params.flip_margin;
+  const double near = track + 0.5 * (params.flip_keep_margin + params.flip_margin);
+  const double below = track + params.flip_keep_margin;
+  int wins = 1, frames = 1;  // as carried from a re-detection
+  for (int i = 0; i + 2 < params.flip_confirm_frames; ++i) {
+    EXPECT_EQ(judgeAlternative(track, win, params, &wins, &frames), AlternativeVerdict::kKeep);
+  }
+  EXPECT_EQ(judgeAlternative(track, near, params, &wins, &frames), AlternativeVerdict::kKeep);
+  EXPECT_EQ(wins, params.flip_confirm_frames - 1);
+  EXPECT_EQ(judgeAlternative(track, win, params, &wins, &frames), AlternativeVerdict::kConfirm);
+
+  wins = 1, frames = 1;
+  EXPECT_EQ(judgeAlternative(track, win, params, &wins, &frames), AlternativeVerdict::kKeep);
+  EXPECT_EQ(judgeAlternative(track, below, params, &wins, &frames), AlternativeVerdict::kDrop);
+
+  // Carried for flip_max_frames with too few wins.
+  wins = 1, frames = 1;
+  AlternativeVerdict verdict = AlternativeVerdict::kKeep;
+  int carried = 1;
+  while (verdict == AlternativeVerdict::kKeep && carried < 100) {
+    verdict = judgeAlternative(track, near, params, &wins, &frames);
+    ++carried;
+  }
+  EXPECT_EQ(verdict, AlternativeVerdict::kDrop);
+  EXPECT_EQ(carried, params.flip_max_frames);
+
+  // flip_keep_margin = flip_margin, flip_max_frames = flip_confirm_frames: consecutive wins only.
+  params.flip_keep_margin = params.flip_margin;
+  params.flip_max_frames = params.flip_confirm_frames;
+  wins = 1, frames = 1;
+  EXPECT_EQ(judgeAlternative(track, win, params, &wins, &frames), AlternativeVerdict::kKeep);
+  EXPECT_EQ(judgeAlternative(track, near, params, &wins, &frames), AlternativeVerdict::kDrop);
+  wins = 1, frames = 1;
+  for (int i = 0; i + 2 < params.flip_confirm_frames; ++i) {
+    EXPECT_EQ(judgeAlternative(track, win, params, &wins, &frames), AlternativeVerdict::kKeep);
+  }
+  EXPECT_EQ(judgeAlternative(track, win, params, &wins, &frames), AlternativeVerdict::kConfirm);
+}
+
 TEST(TrackerOrientation, PerFrameRotationIsBounded) {
   const Eigen::Matrix3d r = rotationFromVector(Eigen::Vector3d(0.4, 0.0, -0.7));
   const Eigen::Matrix3d far =

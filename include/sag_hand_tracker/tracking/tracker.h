@@ -47,11 +47,22 @@ struct TrackerParams {
   // normal or its wrist->middle-knuckle axis is more than 90 degrees from the tracked pose's (a
   // rolled-over or reversed hand). A small energy gain never justifies a flip: a re-detection that
   // finds one only starts carrying it as a second hypothesis, optimised every frame from its own
-  // previous pose like the track; it replaces the track when its energy stays above the track's by
-  // `flip_margin` on `flip_confirm_frames` consecutive frames, and is dropped as soon as it does
-  // not.
+  // previous pose like the track; it replaces the track when its energy has been above the
+  // track's by `flip_margin` on `flip_confirm_frames` frames (a *win*). The wins need not be
+  // consecutive: it is kept while its energy stays above the track's by more than
+  // `flip_keep_margin`, and dropped when it does not, or when it has not won often enough within
+  // `flip_max_frames` carried frames (0: no limit). On the studio's `fastturn` a true flip carried
+  // through a fast turn won 4 times, then by 0.016 only, and was dropped when the wins had to be
+  // consecutive (flip_keep_margin = flip_margin, flip_max_frames = flip_confirm_frames).
   double flip_margin = 0.02;
   int flip_confirm_frames = 5;
+  double flip_keep_margin = 0.0;
+  int flip_max_frames = 15;
+  // A re-detection candidate turned further than `redetect_turn_angle` (radians) from the track,
+  // though no flip, needs flip_margin instead of redetect_margin to be adopted: on the studio's
+  // `raised` such a turn of 88 deg, 0.013 better, was the start of a rolled-over stretch. 0
+  // disables it.
+  double redetect_turn_angle = 1.05;
   // How fast the hand may turn (radians per frame). The optimiser starts each frame from the pose
   // predicted at constant velocity (its turn capped at `max_rotation_per_frame`); its result may
   // differ from that prediction's orientation by at most `max_rotation_change_per_frame`, and from
@@ -161,6 +172,14 @@ struct RedetectionChoice {
 RedetectionChoice chooseRedetection(const OptimizationResult& tracked,
                                     const std::vector<OptimizationResult>& candidates,
                                     const TrackerParams& params, bool carrying);
+
+// The carried flip on one frame (TrackerParams::flip_margin): its energy and the track's, both
+// optimised on this frame; `wins` and `frames` (the alternative's counts so far) are updated.
+// kDrop: not above the track by flip_keep_margin, or flip_max_frames carried without confirming;
+// kConfirm: its flip_confirm_frames-th win (above the track by flip_margin), it replaces the track.
+enum class AlternativeVerdict { kKeep, kConfirm, kDrop };
+AlternativeVerdict judgeAlternative(double track_energy, double challenger_energy,
+                                    const TrackerParams& params, int* wins, int* frames);
 
 // Honesty (TrackerParams::min_camera_depth): the hand centre is in front of every camera and
 // inside the image of at least `min_cameras` of them.
@@ -273,6 +292,7 @@ class HandTracker {
     std::optional<Pose> previous;
     Pose current;
     int wins = 0;
+    int frames = 1;  // carried frames, the one it was found on included
   };
   // Everything step() carries from one set to the next: what the worker starts from and what the
   // frame path adopts from it.
