@@ -753,6 +753,28 @@ Eigen::Vector3d HandTracker::fitForearm(const PoseEnergy& energy, OptimizationRe
                                 &result->energy);
 }
 
+OptimizationResult HandTracker::trackFromPrediction(const PoseEnergy& energy,
+                                                    const std::optional<Pose>& previous,
+                                                    const Pose& current) const {
+  const Pose start = predictedPose(previous, current);
+  OptimizationResult result = optimizePose(energy, start, params_.optimizer);
+  boundRotation(energy, current, start, &result);
+  if (!previous || !params_.counter_turn_start) return result;
+  // The same turn the other way, from the predicted hand centre.
+  const Eigen::Matrix3d turn = current.rotation * previous->rotation.transpose();
+  if (!(Eigen::Quaterniond(turn).angularDistance(Eigen::Quaterniond::Identity()) >
+        params_.counter_turn_min_angle)) {
+    return result;
+  }
+  Pose counter = start;
+  counter.rotation = turn.transpose() * current.rotation;
+  counter.translation =
+      start.translation + start.rotation * kHandCentreInPalm - counter.rotation * kHandCentreInPalm;
+  OptimizationResult other = optimizePose(energy, counter, params_.optimizer);
+  boundRotation(energy, current, counter, &other);
+  return other.energy > result.energy ? other : result;
+}
+
 FrameResult HandTracker::step(const std::vector<CameraObservation>& observations, double stamp) {
   FrameResult result;
   result.stamp = stamp;
@@ -769,9 +791,7 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
   bool started = false;
   bool flipped = false;
   if (current_ && !lost_) {
-    const Pose start = predictedPose(previous_, *current_);
-    optimized = optimizePose(energy, start, params_.optimizer);
-    boundRotation(energy, *current_, start, &*optimized);
+    optimized = trackFromPrediction(energy, previous_, *current_);
     forearm = fitForearm(energy, &*optimized, forearm);
     energy.setForearmDirection(forearm);
     EnergyTerms terms;

@@ -337,6 +337,48 @@ TEST(TrackerOrientation, FollowsAFastRollWithoutRollingOver) {
   EXPECT_LT(worst, 0.02) << "worst fingertip error " << worst * 1000 << " mm";
 }
 
+namespace {
+
+// A roll about the wrist->knuckle axis that turns back at full speed (0.15 rad per frame): the
+// constant-velocity prediction is then two frames' turn ahead, and the track went on turning
+// (0.34 rad off); the counter-turn start (TrackerParams::counter_turn_start) begins where the hand
+// is (0.04 rad). Returns the worst palm-normal error after the turn back.
+double errorAfterARollTurnsBack(const TrackerParams& params) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  HandTracker tracker(model, params);
+  const Pose rest = typicalPose(model);
+  constexpr double kStep = 0.15;  // rad per frame
+  constexpr int kStill = 2, kTurn = 8, kBack = 4;
+  double angle = 0.0;
+  double worst = 0.0;
+  for (int frame = 0; frame < kStill + kTurn + kBack; ++frame) {
+    if (frame >= kStill) angle += frame < kStill + kTurn ? kStep : -kStep;
+    const Pose truth = reorientedAboutCentre(
+        rest,
+        rest.rotation * Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitX()).toRotationMatrix());
+    const FrameResult result =
+        tracker.update(modelObservations(model, truth, cameras, 3.0), frame * 0.04);
+    EXPECT_TRUE(result.has_pose) << "frame " << frame;
+    if (frame >= kStill + kTurn) {
+      worst = std::max(worst, palmNormalAngle(result.pose.rotation, truth.rotation));
+    }
+  }
+  return worst;
+}
+
+}  // namespace
+
+TEST(TrackerOrientation, CounterTurnStartFollowsARollThatTurnsBack) {
+  TrackerParams params;
+  ASSERT_TRUE(params.counter_turn_start);
+  const double with = errorAfterARollTurnsBack(params);
+  params.counter_turn_start = false;
+  const double without = errorAfterARollTurnsBack(params);
+  EXPECT_LT(with, 0.05) << "worst palm normal error after the roll turns back (rad)";
+  EXPECT_GT(without, 0.1) << "without the counter-turn start (rad)";
+}
+
 // Live graphs run the start search on a worker thread: the frame that launches it returns at once
 // without a pose; once the worker has started the track, a later frame goes on from it. (Without
 // the catch-up's late results; with them: test_catch_up.cpp.)
