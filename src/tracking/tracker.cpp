@@ -164,17 +164,47 @@ RedetectionChoice chooseRedetection(const OptimizationResult& tracked,
   for (size_t i = 0; i < candidates.size(); ++i) {
     const OptimizationResult& candidate = candidates[i];
     const bool flip = isFlip(candidate.pose.rotation, tracked.pose.rotation);
-    if (!flip && candidate.energy > tracked.energy + params.redetect_margin) {
+    // A large turn that is no flip still needs the flip's margin.
+    const bool turned = params.redetect_turn_angle > 0.0 &&
+                        Eigen::Quaterniond(candidate.pose.rotation)
+                                .angularDistance(Eigen::Quaterniond(tracked.pose.rotation)) >
+                            params.redetect_turn_angle;
+    const double margin =
+        turned ? std::max(params.flip_margin, params.redetect_margin) : params.redetect_margin;
+    if (!flip && choice.adopt < 0 && candidate.energy > tracked.energy + margin) {
       choice.adopt = static_cast<int>(i);
-      break;
     }
-    if (flip && !carrying && choice.carry < 0 && params.flip_confirm_frames > 0 &&
-        candidate.energy > tracked.energy + params.flip_margin) {
+    if (flip && (choice.carry < 0 || candidate.energy > candidates[choice.carry].energy)) {
       choice.carry = static_cast<int>(i);
     }
   }
-  if (choice.adopt >= 0) choice.carry = -1;
+  // The best flip is carried when it beats what the track will be after this frame (the adopted
+  // candidate, if any) by flip_margin. An adoption replaces the alternative being carried, so a
+  // flip may then be carried anew: a better pose of the wrong palm side must not hide a far
+  // better flip (the studio's rolled-over `fastturn` and `random` tracks adopted same-side poses
+  // 0.03-0.1 below a flip to the true side, and the flip was never carried).
+  const double reference = choice.adopt >= 0 ? candidates[choice.adopt].energy : tracked.energy;
+  if (choice.carry >= 0 && (params.flip_confirm_frames <= 0 || (carrying && choice.adopt < 0) ||
+                            !(candidates[choice.carry].energy > reference + params.flip_margin))) {
+    choice.carry = -1;
+  }
   return choice;
+}
+
+AlternativeVerdict judgeAlternative(double track_energy, double challenger_energy,
+                                    const TrackerParams& params, int* wins, int* frames) {
+  if (!(challenger_energy > track_energy + params.flip_keep_margin)) {
+    return AlternativeVerdict::kDrop;
+  }
+  ++*frames;
+  if (challenger_energy > track_energy + params.flip_margin &&
+      ++*wins >= params.flip_confirm_frames) {
+    return AlternativeVerdict::kConfirm;
+  }
+  if (params.flip_max_frames > 0 && *frames >= params.flip_max_frames) {
+    return AlternativeVerdict::kDrop;
+  }
+  return AlternativeVerdict::kKeep;
 }
 
 bool isPlausiblePose(const Pose& pose, const std::vector<CameraObservation>& observations,
@@ -225,7 +255,8 @@ bool HandTracker::sameTrackState(const TrackState& a, const TrackState& b) {
       a.alternative.has_value() == b.alternative.has_value() &&
       (!a.alternative || (samePose(a.alternative->previous, b.alternative->previous) &&
                           samePose(a.alternative->current, b.alternative->current) &&
-                          a.alternative->wins == b.alternative->wins));
+                          a.alternative->wins == b.alternative->wins &&
+                          a.alternative->frames == b.alternative->frames));
   return samePose(a.previous, b.previous) && samePose(a.current, b.current) && a.lost == b.lost &&
          a.typical_similarity == b.typical_similarity &&
          a.frames_since_start == b.frames_since_start && same_alternative &&
@@ -725,6 +756,28 @@ Eigen::Vector3d HandTracker::fitForearm(const PoseEnergy& energy, OptimizationRe
                                 &result->energy);
 }
 
+OptimizationResult HandTracker::trackFromPrediction(const PoseEnergy& energy,
+                                                    const std::optional<Pose>& previous,
+                                                    const Pose& current) const {
+  const Pose start = predictedPose(previous, current);
+  OptimizationResult result = optimizePose(energy, start, params_.optimizer);
+  boundRotation(energy, current, start, &result);
+  if (!previous || !params_.counter_turn_start) return result;
+  // The same turn the other way, from the predicted hand centre.
+  const Eigen::Matrix3d turn = current.rotation * previous->rotation.transpose();
+  if (!(Eigen::Quaterniond(turn).angularDistance(Eigen::Quaterniond::Identity()) >
+        params_.counter_turn_min_angle)) {
+    return result;
+  }
+  Pose counter = start;
+  counter.rotation = turn.transpose() * current.rotation;
+  counter.translation =
+      start.translation + start.rotation * kHandCentreInPalm - counter.rotation * kHandCentreInPalm;
+  OptimizationResult other = optimizePose(energy, counter, params_.optimizer);
+  boundRotation(energy, current, counter, &other);
+  return other.energy > result.energy ? other : result;
+}
+
 FrameResult HandTracker::step(const std::vector<CameraObservation>& observations, double stamp) {
   FrameResult result;
   result.stamp = stamp;
@@ -741,16 +794,14 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
   bool started = false;
   bool flipped = false;
   if (current_ && !lost_) {
-    const Pose start = predictedPose(previous_, *current_);
-    optimized = optimizePose(energy, start, params_.optimizer);
-    boundRotation(energy, *current_, start, &*optimized);
+    optimized = trackFromPrediction(energy, previous_, *current_);
     forearm = fitForearm(energy, &*optimized, forearm);
     energy.setForearmDirection(forearm);
     EnergyTerms terms;
     energy.evaluate(optimized->pose, nullptr, &terms);
 
-    // The carried flip hypothesis: tracked like the main one; it takes over only after
-    // `flip_confirm_frames` consecutive frames with an energy clearly above the track's.
+    // The carried flip hypothesis: tracked like the main one; it takes over after
+    // `flip_confirm_frames` frames with an energy clearly above the track's (judgeAlternative).
     if (alternative_) {
       Alternative& alternative = *alternative_;
       const Pose alternative_start = predictedPose(alternative.previous, alternative.current);
@@ -760,19 +811,22 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
       boundRotation(energy, alternative.current, alternative_start, &challenger);
       alternative_forearm_ = fitForearm(energy, &challenger, alternative_forearm_);
       energy.setForearmDirection(forearm);
-      if (challenger.energy > optimized->energy + params_.flip_margin &&
+      const AlternativeVerdict verdict =
           plausible(challenger.pose, observations) &&
-          !armSaysReversed(challenger.pose, observations)) {
+                  !armSaysReversed(challenger.pose, observations)
+              ? judgeAlternative(optimized->energy, challenger.energy, params_, &alternative.wins,
+                                 &alternative.frames)
+              : AlternativeVerdict::kDrop;
+      if (verdict == AlternativeVerdict::kDrop) {
+        alternative_.reset();
+      } else if (verdict == AlternativeVerdict::kConfirm) {
+        optimized = challenger;
+        forearm = alternative_forearm_;
+        flipped = true;
+        alternative_.reset();
+      } else {
         alternative.previous = alternative.current;
         alternative.current = challenger.pose;
-        if (++alternative.wins >= params_.flip_confirm_frames) {
-          optimized = challenger;
-          forearm = alternative_forearm_;
-          flipped = true;
-          alternative_.reset();
-        }
-      } else {
-        alternative_.reset();
       }
     }
 
@@ -821,7 +875,8 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
           forearm = restart_forearms[choice.adopt];
           started = true;
           alternative_.reset();
-        } else if (choice.carry >= 0) {
+        }
+        if (choice.carry >= 0) {
           alternative_ = Alternative{std::nullopt, restart[choice.carry].pose, 1};
           alternative_forearm_ = restart_forearms[choice.carry];
         }

@@ -178,19 +178,104 @@ TEST(TrackerOrientation, RedetectionNeverAdoptsAFlip) {
   EXPECT_EQ(choice.carry, -1);
 
   // A better pose of the same orientation (a 30-degree turn) is adopted on the small margin, even
-  // behind a better flip.
+  // behind a better flip; the flip, better than the adopted pose by more than flip_margin, is then
+  // carried as well (also when one was carried: the adoption replaces it).
   const Eigen::Matrix3d turned =
       r * Eigen::AngleAxisd(M_PI / 6, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  const double adopted = 0.80 + 2 * params.redetect_margin;
+  for (bool carrying : {false, true}) {
+    choice = chooseRedetection(
+        tracked, {resultWith(rolledOver(r), 0.95), resultWith(turned, adopted)}, params, carrying);
+    EXPECT_EQ(choice.adopt, 1);
+    EXPECT_EQ(choice.carry, 0);
+  }
+  // The best flip is the one carried, whatever the candidates' order.
   choice = chooseRedetection(
       tracked,
-      {resultWith(rolledOver(r), 0.95), resultWith(turned, 0.80 + 2 * params.redetect_margin)},
+      {resultWith(reversed(r), 0.90), resultWith(turned, adopted), resultWith(rolledOver(r), 0.95)},
       params, false);
+  EXPECT_EQ(choice.adopt, 1);
+  EXPECT_EQ(choice.carry, 2);
+  // A flip better than the track by flip_margin but not better than the adopted pose by it is
+  // not carried.
+  const double adopted_high = 0.80 + params.flip_margin;
+  choice = chooseRedetection(tracked,
+                             {resultWith(rolledOver(r), adopted_high + 0.5 * params.flip_margin),
+                              resultWith(turned, adopted_high)},
+                             params, false);
   EXPECT_EQ(choice.adopt, 1);
   EXPECT_EQ(choice.carry, -1);
   // Not on less than redetect_margin.
   choice = chooseRedetection(tracked, {resultWith(turned, 0.80 + 0.5 * params.redetect_margin)},
                              params, false);
   EXPECT_EQ(choice.adopt, -1);
+}
+
+// A large turn that is no flip (an 80-degree roll) is a re-detection's near-flip: it needs the
+// flip's margin to be adopted, a smaller turn only redetect_margin.
+TEST(TrackerOrientation, RedetectionNeedsTheFlipMarginForALargeTurn) {
+  TrackerParams params;
+  const Eigen::Matrix3d r = rotationFromVector(Eigen::Vector3d(0.1, 0.2, 0.3));
+  const OptimizationResult tracked = resultWith(r, 0.80);
+  const Eigen::Matrix3d large =
+      r * Eigen::AngleAxisd(80.0 * M_PI / 180.0, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  ASSERT_FALSE(isFlip(large, r));
+  ASSERT_GT(rotationAngle(large, r), params.redetect_turn_angle);
+  const double small_gain = 0.80 + 0.5 * (params.redetect_margin + params.flip_margin);
+  EXPECT_EQ(chooseRedetection(tracked, {resultWith(large, small_gain)}, params, false).adopt, -1);
+  EXPECT_EQ(
+      chooseRedetection(tracked, {resultWith(large, 0.80 + 2 * params.flip_margin)}, params, false)
+          .adopt,
+      0);
+  // Switched off: the small gain is enough again.
+  params.redetect_turn_angle = 0.0;
+  EXPECT_EQ(chooseRedetection(tracked, {resultWith(large, small_gain)}, params, false).adopt, 0);
+}
+
+// The carried flip needs flip_confirm_frames wins (energy above the track's by flip_margin), not
+// necessarily consecutive: a frame above the track by less keeps it without a win; one not above
+// it by flip_keep_margin drops it, and so does reaching flip_max_frames without confirming.
+TEST(TrackerOrientation, CarriedFlipIsConfirmedByItsWinsAndDroppedWhenItFallsBack) {
+  TrackerParams params;
+  ASSERT_LT(params.flip_keep_margin, params.flip_margin);
+  const double track = 0.80;
+  const double win = track + 2 * params.flip_margin;
+  const double near = track + 0.5 * (params.flip_keep_margin + params.flip_margin);
+  const double below = track + params.flip_keep_margin;
+  int wins = 1, frames = 1;  // as carried from a re-detection
+  for (int i = 0; i + 2 < params.flip_confirm_frames; ++i) {
+    EXPECT_EQ(judgeAlternative(track, win, params, &wins, &frames), AlternativeVerdict::kKeep);
+  }
+  EXPECT_EQ(judgeAlternative(track, near, params, &wins, &frames), AlternativeVerdict::kKeep);
+  EXPECT_EQ(wins, params.flip_confirm_frames - 1);
+  EXPECT_EQ(judgeAlternative(track, win, params, &wins, &frames), AlternativeVerdict::kConfirm);
+
+  wins = 1, frames = 1;
+  EXPECT_EQ(judgeAlternative(track, win, params, &wins, &frames), AlternativeVerdict::kKeep);
+  EXPECT_EQ(judgeAlternative(track, below, params, &wins, &frames), AlternativeVerdict::kDrop);
+
+  // Carried for flip_max_frames with too few wins.
+  wins = 1, frames = 1;
+  AlternativeVerdict verdict = AlternativeVerdict::kKeep;
+  int carried = 1;
+  while (verdict == AlternativeVerdict::kKeep && carried < 100) {
+    verdict = judgeAlternative(track, near, params, &wins, &frames);
+    ++carried;
+  }
+  EXPECT_EQ(verdict, AlternativeVerdict::kDrop);
+  EXPECT_EQ(carried, params.flip_max_frames);
+
+  // flip_keep_margin = flip_margin, flip_max_frames = flip_confirm_frames: consecutive wins only.
+  params.flip_keep_margin = params.flip_margin;
+  params.flip_max_frames = params.flip_confirm_frames;
+  wins = 1, frames = 1;
+  EXPECT_EQ(judgeAlternative(track, win, params, &wins, &frames), AlternativeVerdict::kKeep);
+  EXPECT_EQ(judgeAlternative(track, near, params, &wins, &frames), AlternativeVerdict::kDrop);
+  wins = 1, frames = 1;
+  for (int i = 0; i + 2 < params.flip_confirm_frames; ++i) {
+    EXPECT_EQ(judgeAlternative(track, win, params, &wins, &frames), AlternativeVerdict::kKeep);
+  }
+  EXPECT_EQ(judgeAlternative(track, win, params, &wins, &frames), AlternativeVerdict::kConfirm);
 }
 
 TEST(TrackerOrientation, PerFrameRotationIsBounded) {
@@ -281,6 +366,48 @@ TEST(TrackerOrientation, FollowsAFastRollWithoutRollingOver) {
     worst = std::max(worst, meanFingertipError(result.fingertips, fingertips(model, truth)));
   }
   EXPECT_LT(worst, 0.02) << "worst fingertip error " << worst * 1000 << " mm";
+}
+
+namespace {
+
+// A roll about the wrist->knuckle axis that turns back at full speed (0.15 rad per frame): the
+// constant-velocity prediction is then two frames' turn ahead, and the track went on turning
+// (0.34 rad off); the counter-turn start (TrackerParams::counter_turn_start) begins where the hand
+// is (0.04 rad). Returns the worst palm-normal error after the turn back.
+double errorAfterARollTurnsBack(const TrackerParams& params) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  HandTracker tracker(model, params);
+  const Pose rest = typicalPose(model);
+  constexpr double kStep = 0.15;  // rad per frame
+  constexpr int kStill = 2, kTurn = 8, kBack = 4;
+  double angle = 0.0;
+  double worst = 0.0;
+  for (int frame = 0; frame < kStill + kTurn + kBack; ++frame) {
+    if (frame >= kStill) angle += frame < kStill + kTurn ? kStep : -kStep;
+    const Pose truth = reorientedAboutCentre(
+        rest,
+        rest.rotation * Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitX()).toRotationMatrix());
+    const FrameResult result =
+        tracker.update(modelObservations(model, truth, cameras, 3.0), frame * 0.04);
+    EXPECT_TRUE(result.has_pose) << "frame " << frame;
+    if (frame >= kStill + kTurn) {
+      worst = std::max(worst, palmNormalAngle(result.pose.rotation, truth.rotation));
+    }
+  }
+  return worst;
+}
+
+}  // namespace
+
+TEST(TrackerOrientation, CounterTurnStartFollowsARollThatTurnsBack) {
+  TrackerParams params;
+  ASSERT_TRUE(params.counter_turn_start);
+  const double with = errorAfterARollTurnsBack(params);
+  params.counter_turn_start = false;
+  const double without = errorAfterARollTurnsBack(params);
+  EXPECT_LT(with, 0.05) << "worst palm normal error after the roll turns back (rad)";
+  EXPECT_GT(without, 0.1) << "without the counter-turn start (rad)";
 }
 
 // Live graphs run the start search on a worker thread: the frame that launches it returns at once

@@ -47,11 +47,22 @@ struct TrackerParams {
   // normal or its wrist->middle-knuckle axis is more than 90 degrees from the tracked pose's (a
   // rolled-over or reversed hand). A small energy gain never justifies a flip: a re-detection that
   // finds one only starts carrying it as a second hypothesis, optimised every frame from its own
-  // previous pose like the track; it replaces the track when its energy stays above the track's by
-  // `flip_margin` on `flip_confirm_frames` consecutive frames, and is dropped as soon as it does
-  // not.
+  // previous pose like the track; it replaces the track when its energy has been above the
+  // track's by `flip_margin` on `flip_confirm_frames` frames (a *win*). The wins need not be
+  // consecutive: it is kept while its energy stays above the track's by more than
+  // `flip_keep_margin`, and dropped when it does not, or when it has not won often enough within
+  // `flip_max_frames` carried frames (0: no limit). On the studio's `fastturn` a true flip carried
+  // through a fast turn won 4 times, then by 0.016 only, and was dropped when the wins had to be
+  // consecutive (flip_keep_margin = flip_margin, flip_max_frames = flip_confirm_frames).
   double flip_margin = 0.02;
   int flip_confirm_frames = 5;
+  double flip_keep_margin = 0.0;
+  int flip_max_frames = 15;
+  // A re-detection candidate turned further than `redetect_turn_angle` (radians) from the track,
+  // though no flip, needs flip_margin instead of redetect_margin to be adopted: on the studio's
+  // `raised` such a turn of 88 deg, 0.013 better, was the start of a rolled-over stretch. 0
+  // disables it.
+  double redetect_turn_angle = 1.05;
   // How fast the hand may turn (radians per frame). The optimiser starts each frame from the pose
   // predicted at constant velocity (its turn capped at `max_rotation_per_frame`); its result may
   // differ from that prediction's orientation by at most `max_rotation_change_per_frame`, and from
@@ -64,6 +75,18 @@ struct TrackerParams {
   // turn the bounds cannot follow ends in the lost test and a restart instead. 0 disables a bound.
   double max_rotation_per_frame = 0.45;
   double max_rotation_change_per_frame = 0.2;
+  // The counter-turn start: a hand seen turning about its own long axis looks much the same
+  // turning either way, and a track that turned the wrong way is carried on by the constant-
+  // velocity prediction until it has rolled over (the studio's `raised`, `fastturn`, `random`:
+  // every rolled-over stretch began so, in tracking). When the track turned by more than
+  // `counter_turn_min_angle` (radians) in the last frame, the frame is also optimised from the
+  // prediction with that turn reversed, and the better result (energy) is kept. It costs a second
+  // optimisation in those frames (65-93 % of the frames of the studio's sequences at 1 deg):
+  // optimisation +25-30 % per frame, frames/s -15-20 %. Subset of the benchmark (raised,
+  // fastturn, random x 4 hands): 30.8 -> 30.4 mm, rolled over 9.3 -> 1.5 %; the 7 Dexter
+  // sequences, default hand: 17.7 -> 15.6 mm (README, session 6).
+  bool counter_turn_start = true;
+  double counter_turn_min_angle = 0.0175;
   // Forearm cue: a camera whose segmentation found at least `min_arm_cells` sleeve cells
   // (ImageSoG::arm_cells) votes on which end of the hand is the wrist. Start hypotheses and
   // re-detections that point the wrist away from the arm (mean vote below `-arm_vote_threshold`)
@@ -155,10 +178,11 @@ Eigen::Matrix3d boundedRotation(const Eigen::Matrix3d& reference, const Eigen::M
                                 double max_angle);
 
 // The periodic re-detection's decision, given the tracked result of this frame and the start
-// routine's candidates (best first): `adopt` indexes the candidate that replaces the track (one
-// that is no flip of it, better by redetect_margin), `carry` the flipped candidate that starts
-// being carried as the alternative (better by flip_margin; only when none is carried yet); -1:
-// none. A flip is never adopted here, whatever its margin.
+// routine's candidates (best first): `adopt` indexes the candidate that replaces the track (the
+// first that is no flip of it, better by redetect_margin), `carry` the flipped candidate that
+// starts being carried as the alternative (the best flip, when it beats the adopted candidate, or
+// else the track, by flip_margin; while one is carried, only together with an adoption, which
+// replaces it); -1: none. A flip is never adopted here, whatever its margin.
 struct RedetectionChoice {
   int adopt = -1;
   int carry = -1;
@@ -166,6 +190,14 @@ struct RedetectionChoice {
 RedetectionChoice chooseRedetection(const OptimizationResult& tracked,
                                     const std::vector<OptimizationResult>& candidates,
                                     const TrackerParams& params, bool carrying);
+
+// The carried flip on one frame (TrackerParams::flip_margin): its energy and the track's, both
+// optimised on this frame; `wins` and `frames` (the alternative's counts so far) are updated.
+// kDrop: not above the track by flip_keep_margin, or flip_max_frames carried without confirming;
+// kConfirm: its flip_confirm_frames-th win (above the track by flip_margin), it replaces the track.
+enum class AlternativeVerdict { kKeep, kConfirm, kDrop };
+AlternativeVerdict judgeAlternative(double track_energy, double challenger_energy,
+                                    const TrackerParams& params, int* wins, int* frames);
 
 // Honesty (TrackerParams::min_camera_depth): the hand centre is in front of every camera and
 // inside the image of at least `min_cameras` of them.
@@ -249,6 +281,12 @@ class HandTracker {
   void boundRotation(const PoseEnergy& energy, const Pose& current, const Pose& predicted,
                      OptimizationResult* result) const;
   bool looksLost(double similarity) const;
+  // The warm-started optimisation of a frame from `current` (and the turn since `previous`):
+  // from the prediction, bounded (boundRotation), and with counter_turn_start also from the
+  // counter-turned prediction; the better result.
+  OptimizationResult trackFromPrediction(const PoseEnergy& energy,
+                                         const std::optional<Pose>& previous,
+                                         const Pose& current) const;
   // Refines the forearm's direction for result->pose from `from` (empty: straight on from the
   // palm) and scores the result with it; returns the direction.
   Eigen::Vector3d fitForearm(const PoseEnergy& energy, OptimizationResult* result,
@@ -278,6 +316,7 @@ class HandTracker {
     std::optional<Pose> previous;
     Pose current;
     int wins = 0;
+    int frames = 1;  // carried frames, the one it was found on included
   };
   // Everything step() carries from one set to the next: what the worker starts from and what the
   // frame path adopts from it.
