@@ -741,6 +741,10 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
     const Pose start = predictedPose(previous_, *current_);
     optimized = optimizePose(energy, start, params_.optimizer);
     boundRotation(energy, *current_, start, &*optimized);
+    for (int k = 0; k < params_.finger_toggles; ++k) {
+      const int finger = (frames_since_start_ * params_.finger_toggles + k) % kNumFingers;
+      optimized = toggleFinger(energy, *optimized, finger, params_.optimizer);
+    }
     forearm = fitForearm(energy, &*optimized, forearm);
     energy.setForearmDirection(forearm);
     EnergyTerms terms;
