@@ -301,10 +301,19 @@ double PoseEnergy::evaluateImpl(const Pose& pose, bool with_forearm,
     // Gaussian passes no gradient.
     double overlap = 0.0;  // O_c
     active.resize(n);
-    for (int i = 0; i < n; ++i) {
-      const bool saturated = sums[i] >= q.self_overlap[i];
-      overlap += saturated ? q.self_overlap[i] : sums[i];
-      active[i] = saturated ? 0.0 : 1.0;
+    if (params_.soft_saturation) {
+      // EnergyParams::soft_saturation: E_qq (1 - exp(-S_q / E_qq)), derivative exp(-S_q / E_qq).
+      for (int i = 0; i < n; ++i) {
+        const double remaining = std::exp(-sums[i] / q.self_overlap[i]);
+        overlap += q.self_overlap[i] * (1.0 - remaining);
+        active[i] = remaining;
+      }
+    } else {
+      for (int i = 0; i < n; ++i) {
+        const bool saturated = sums[i] >= q.self_overlap[i];
+        overlap += saturated ? q.self_overlap[i] : sums[i];
+        active[i] = saturated ? 0.0 : 1.0;
+      }
     }
     // E_c = (1 + lambda) O_c / (I_c + lambda M_c): dE_c = a dO_c + b dM_c.
     const double denominator = camera.image_area + lambda * model_area;

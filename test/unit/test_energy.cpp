@@ -60,7 +60,8 @@ int expectGradientMatches(const PoseEnergy& energy, const HandModel& model, cons
 void checkGradient(const std::string& model_name,
                    double coupling = EnergyParams().dip_pip_coupling_weight,
                    double model_area_weight = EnergyParams().model_area_weight,
-                   double joint_range_weight = EnergyParams().joint_range_weight) {
+                   double joint_range_weight = EnergyParams().joint_range_weight,
+                   bool soft_saturation = EnergyParams().soft_saturation) {
   const HandModel model = loadHandModel(modelPath(model_name));
   const std::vector<Camera> cameras = fiveCameraRig();
   std::mt19937 rng(42);
@@ -69,6 +70,7 @@ void checkGradient(const std::string& model_name,
   params.dip_pip_coupling_weight = coupling;
   params.model_area_weight = model_area_weight;
   params.joint_range_weight = joint_range_weight;
+  params.soft_saturation = soft_saturation;
   PoseEnergy energy(model, params);
   // Image from one pose, gradient at others: many pairs unsaturated, many partially overlapping.
   energy.setFrame(modelObservations(model, typicalPose(model), cameras, 6.0));
@@ -102,6 +104,41 @@ TEST(EnergyGradient, SogWithModelAreaNormalisationMatchesCentralDifferences) {
 TEST(EnergyGradient, SagWithStrongJointRangePriorMatchesCentralDifferences) {
   checkGradient("sag", EnergyParams().dip_pip_coupling_weight, EnergyParams().model_area_weight,
                 1.0);
+}
+
+// The same with the soft saturation of eq. 8 (EnergyParams::soft_saturation).
+TEST(EnergyGradient, SagWithSoftSaturationMatchesCentralDifferences) {
+  checkGradient("sag", EnergyParams().dip_pip_coupling_weight, EnergyParams().model_area_weight,
+                EnergyParams().joint_range_weight, true);
+}
+
+// The soft saturation E_qq (1 - exp(-S / E_qq)) never exceeds the paper's min(S, E_qq), so it is
+// below it wherever the model covers the image; the true pose still scores above perturbed ones.
+TEST(Energy, SoftSaturationIsBelowTheCapAndPeaksAtTheTruth) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const Pose truth = typicalPose(model);
+  const std::vector<CameraObservation> observations =
+      modelObservations(model, truth, fiveCameraRig());
+  EnergyParams hard_params, soft_params;
+  soft_params.soft_saturation = true;
+  PoseEnergy hard(model, hard_params), soft(model, soft_params);
+  hard.setFrame(observations);
+  soft.setFrame(observations);
+  EnergyTerms hard_terms, soft_terms;
+  const double at_truth = soft.evaluate(truth, nullptr, &soft_terms);
+  hard.evaluate(truth, nullptr, &hard_terms);
+  EXPECT_GT(soft_terms.similarity, 0.3);
+  EXPECT_LT(soft_terms.similarity, hard_terms.similarity - 0.01);
+  Pose moved = truth;
+  moved.translation.x() += 0.02;
+  EXPECT_GT(at_truth, soft.evaluate(moved));
+  moved = truth;
+  moved.joints[kNumJointDof - 3] += 0.5;  // pinky MCP flexion
+  EXPECT_GT(at_truth, soft.evaluate(moved));
+  // Far from every foreground Gaussian both are 0.
+  moved = truth;
+  moved.translation.z() += 5.0;
+  EXPECT_NEAR(soft.evaluate(moved), hard.evaluate(moved), 1e-9);
 }
 
 // The joint-range prior: zero with every joint in the middle of its limits, one per joint at a
