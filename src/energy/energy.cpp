@@ -312,14 +312,9 @@ double PoseEnergy::evaluateImpl(const Pose& pose, bool with_forearm,
       active[i] = saturated ? 0.0 : 1.0;
     }
     if (softness > 0.0) {
-      // EnergyParams::saturation_softness: a blend with E_qq (1 - exp(-S_q / E_qq)), whose
-      // derivative is exp(-S_q / E_qq).
-      overlap *= 1.0 - softness;
-      for (int i = 0; i < n; ++i) {
-        const double remaining = std::exp(-sums[i] / q.self_overlap[i]);
-        overlap += softness * q.self_overlap[i] * (1.0 - remaining);
-        active[i] = (1.0 - softness) * active[i] + softness * remaining;
-      }
+      // EnergyParams::saturation_softness: a blend with E_qq (1 - exp(-S_q / E_qq)).
+      overlap =
+          (1.0 - softness) * overlap + softSaturation(q, sums.data(), softness, active.data());
     }
     // E_c = (1 + lambda) O_c / (I_c + lambda M_c): dE_c = a dO_c + b dM_c.
     const double denominator = camera.image_area + lambda * model_area;
