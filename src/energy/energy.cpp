@@ -144,6 +144,10 @@ PoseEnergy::PoseEnergy(const HandModel& model, const EnergyParams& params)
         ", sigma " + std::to_string(params_.forearm_sigma) + ", weight " +
         std::to_string(params_.forearm_weight));
   }
+  if (!(params_.saturation_softness >= 0.0 && params_.saturation_softness <= 1.0)) {
+    throw InputError("energy: saturation_softness must be in [0, 1], got " +
+                     std::to_string(params_.saturation_softness));
+  }
   if (!(params_.model_area_weight >= 0.0) || !std::isfinite(params_.model_area_weight)) {
     throw InputError("energy: model_area_weight must be a finite number >= 0, got " +
                      std::to_string(params_.model_area_weight));
@@ -328,10 +332,16 @@ double PoseEnergy::evaluateImpl(const Pose& pose, bool with_forearm,
     // Gaussian passes no gradient.
     double overlap = 0.0;  // O_c
     active.resize(n);
+    const double softness = params_.saturation_softness;
     for (int i = 0; i < n; ++i) {
       const bool saturated = sums[i] >= q.self_overlap[i];
       overlap += saturated ? q.self_overlap[i] : sums[i];
       active[i] = saturated ? 0.0 : 1.0;
+    }
+    if (softness > 0.0) {
+      // EnergyParams::saturation_softness: a blend with E_qq (1 - exp(-S_q / E_qq)).
+      overlap =
+          (1.0 - softness) * overlap + softSaturation(q, sums.data(), softness, active.data());
     }
     // E_c = (1 + lambda) O_c / (I_c + lambda M_c): dE_c = a dO_c + b dM_c.
     const double denominator = camera.image_area + lambda * model_area;

@@ -45,4 +45,19 @@ void accumulateOverlapGradient(const OverlapTerm& term, const ImageGaussianArray
   gradient[4] += g4;
 }
 
+double softSaturation(const ImageGaussianArrays& q, const double* sums, double softness,
+                      double* active) {
+  const int n = q.size();
+  const double* __restrict self_overlap = q.self_overlap.data();
+  double* __restrict derivative = active;
+  double total = 0.0;
+#pragma omp simd reduction(+ : total)
+  for (int i = 0; i < n; ++i) {
+    const double remaining = std::exp(-sums[i] / self_overlap[i]);
+    total += self_overlap[i] * (1.0 - remaining);
+    derivative[i] = (1.0 - softness) * derivative[i] + softness * remaining;
+  }
+  return softness * total;
+}
+
 }  // namespace sag_hand_tracker

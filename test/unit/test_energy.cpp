@@ -60,7 +60,8 @@ int expectGradientMatches(const PoseEnergy& energy, const HandModel& model, cons
 void checkGradient(const std::string& model_name,
                    double coupling = EnergyParams().dip_pip_coupling_weight,
                    double model_area_weight = EnergyParams().model_area_weight,
-                   double joint_range_weight = EnergyParams().joint_range_weight) {
+                   double joint_range_weight = EnergyParams().joint_range_weight,
+                   double saturation_softness = EnergyParams().saturation_softness) {
   const HandModel model = loadHandModel(modelPath(model_name));
   const std::vector<Camera> cameras = fiveCameraRig();
   std::mt19937 rng(42);
@@ -69,6 +70,7 @@ void checkGradient(const std::string& model_name,
   params.dip_pip_coupling_weight = coupling;
   params.model_area_weight = model_area_weight;
   params.joint_range_weight = joint_range_weight;
+  params.saturation_softness = saturation_softness;
   PoseEnergy energy(model, params);
   // Image from one pose, gradient at others: many pairs unsaturated, many partially overlapping.
   energy.setFrame(modelObservations(model, typicalPose(model), cameras, 6.0));
@@ -102,6 +104,59 @@ TEST(EnergyGradient, SogWithModelAreaNormalisationMatchesCentralDifferences) {
 TEST(EnergyGradient, SagWithStrongJointRangePriorMatchesCentralDifferences) {
   checkGradient("sag", EnergyParams().dip_pip_coupling_weight, EnergyParams().model_area_weight,
                 1.0);
+}
+
+// The same with the soft saturation of eq. 8 (EnergyParams::saturation_softness 1 and 0.5).
+TEST(EnergyGradient, SagWithSoftSaturationMatchesCentralDifferences) {
+  checkGradient("sag", EnergyParams().dip_pip_coupling_weight, EnergyParams().model_area_weight,
+                EnergyParams().joint_range_weight, 1.0);
+  checkGradient("sag", EnergyParams().dip_pip_coupling_weight, EnergyParams().model_area_weight,
+                EnergyParams().joint_range_weight, 0.5);
+}
+
+// The soft saturation E_qq (1 - exp(-S / E_qq)) (EnergyParams::saturation_softness 1) never exceeds
+// the paper's min(S, E_qq), so it is below it wherever the model covers the image; the true pose
+// still scores above perturbed ones.
+TEST(Energy, SoftSaturationIsBelowTheCapAndPeaksAtTheTruth) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const Pose truth = typicalPose(model);
+  const std::vector<CameraObservation> observations =
+      modelObservations(model, truth, fiveCameraRig());
+  EnergyParams hard_params, soft_params;
+  hard_params.saturation_softness = 0.0;
+  soft_params.saturation_softness = 1.0;
+  PoseEnergy hard(model, hard_params), soft(model, soft_params);
+  hard.setFrame(observations);
+  soft.setFrame(observations);
+  EnergyTerms hard_terms, soft_terms;
+  const double at_truth = soft.evaluate(truth, nullptr, &soft_terms);
+  hard.evaluate(truth, nullptr, &hard_terms);
+  EXPECT_GT(soft_terms.similarity, 0.3);
+  EXPECT_LT(soft_terms.similarity, hard_terms.similarity - 0.01);
+  Pose moved = truth;
+  moved.translation.x() += 0.02;
+  EXPECT_GT(at_truth, soft.evaluate(moved));
+  moved = truth;
+  moved.joints[kNumJointDof - 3] += 0.5;  // pinky MCP flexion
+  EXPECT_GT(at_truth, soft.evaluate(moved));
+  // Far from every foreground Gaussian both are 0.
+  moved = truth;
+  moved.translation.z() += 5.0;
+  EXPECT_NEAR(soft.evaluate(moved), hard.evaluate(moved), 1e-9);
+  // Half soft is half way.
+  EnergyParams half_params;
+  half_params.saturation_softness = 0.5;
+  PoseEnergy half(model, half_params);
+  half.setFrame(observations);
+  EnergyTerms half_terms;
+  half.evaluate(truth, nullptr, &half_terms);
+  EXPECT_NEAR(half_terms.similarity, 0.5 * (hard_terms.similarity + soft_terms.similarity), 1e-9);
+  // Outside [0, 1]: refused.
+  for (const double bad : {-0.1, 1.5, std::nan("")}) {
+    EnergyParams bad_params;
+    bad_params.saturation_softness = bad;
+    EXPECT_THROW(PoseEnergy(model, bad_params), InputError) << bad;
+  }
 }
 
 // The joint-range prior: zero with every joint in the middle of its limits, one per joint at a

@@ -28,6 +28,16 @@ struct EnergyParams {
   double max_colour_gain = 3.0;
   // Pairs whose Mahalanobis term exceeds this are skipped: exp(-30) ~ 1e-13 of the pair's peak.
   double max_mahalanobis_sq = 60.0;
+  // The saturation of eq. 8: 0 is the paper's min(S_q, E_qq) with S_q = sum_p w_p E_pq; a in
+  // (0, 1] blends in a soft cap, (1 - a) min(S_q, E_qq) + a E_qq (1 - exp(-S_q / E_qq)), which
+  // rises as steeply at 0 and approaches the same cap smoothly, so that a second model Gaussian
+  // on a foreground region gains less than the first (curled fingers, issue 9: two straight
+  // model fingers on one real finger) and one on an already covered region still gains a
+  // little. Studio bags, default model (README "Session 6"): 0.5 took fingercount, flexex1 and
+  // tigergrasp (7 hands) from 30.7 to 23.0 mm and the open adbadd, fingerwave, pinch, random (4
+  // hands) from 17.1 to 14.9 mm; 1 helped the curled ones as much (22.8) and cost the open (26.2
+  // on 3 hands, against 18.7).
+  double saturation_softness = 0.5;
   // PIP-DIP coupling (as in Sridhar et al.'s successors and most hand trackers): a soft prior
   // -w_c sum_f (theta_dip - k theta_pip)^2 over the four fingers whose joints are named
   // <finger>_pip_flex / <finger>_dip_flex, k = `dip_pip_ratio`. 0 disables it. It resolves part

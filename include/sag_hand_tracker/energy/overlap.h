@@ -102,4 +102,10 @@ void overlapRow(const OverlapTerm& p, const ImageGaussianArrays& q, const double
 void accumulateOverlapGradient(const OverlapTerm& p, const ImageGaussianArrays& q,
                                const double* weighted, const double* active, double gradient[5]);
 
+// The soft part of eq. 8's saturation (EnergyParams::saturation_softness = `softness`): returns
+// softness * sum over q of E_qq (1 - exp(-sums[q] / E_qq)) and turns each active[q] (the hard
+// cap's derivative, 0 or 1) into (1 - softness) active[q] + softness exp(-sums[q] / E_qq).
+double softSaturation(const ImageGaussianArrays& q, const double* sums, double softness,
+                      double* active);
+
 }  // namespace sag_hand_tracker
