@@ -737,14 +737,25 @@ TEST(MessageBounds, WellFormedMessagesPass) {
   EXPECT_EQ(check<tf2_msgs::TFMessage>(serialized(tf)), "");
 }
 
-TEST(MessageBounds, AnArrayLongerThanTheMessageIsNamed) {
+namespace {
+
+// A small well-formed CameraInfo, and where its serialized D array's length prefix sits.
+sensor_msgs::CameraInfo smallCameraInfo() {
   sensor_msgs::CameraInfo info;
   info.header.frame_id = "f";
   info.distortion_model = "plumb_bob";
   info.D = {0.1, 0.0, 0.0, 0.0, 0.0};
+  return info;
+}
+// header: seq, stamp (8), frame_id (4 + 1); height, width; distortion_model (4 + 9); then D.
+constexpr std::size_t kSmallCameraInfoDOffset = 4 + 8 + 4 + 1 + 4 + 4 + 4 + 9;
+
+}  // namespace
+
+TEST(MessageBounds, AnArrayLongerThanTheMessageIsNamed) {
+  const sensor_msgs::CameraInfo info = smallCameraInfo();
   std::vector<std::uint8_t> bytes = serialized(info);
-  // header: seq, stamp (8), frame_id (4 + 1); height, width; distortion_model (4 + 9); then D.
-  const std::size_t d_offset = 4 + 8 + 4 + 1 + 4 + 4 + 4 + 9;
+  const std::size_t d_offset = kSmallCameraInfoDOffset;
   std::uint32_t declared = 0;
   std::memcpy(&declared, bytes.data() + d_offset, 4);
   ASSERT_EQ(declared, 5u);
@@ -803,10 +814,7 @@ TEST(MessageBounds, TheBagWithAHugeDeclaredArrayIsRefusedWithoutAllocatingIt) {
 // message from another process; a well-formed one reaches the callback unchanged, a malformed one
 // is reported and never deserialized (the callback is not called).
 TEST(MessageBounds, LiveSubscriptionsDropMalformedMessagesBeforeDeserializing) {
-  sensor_msgs::CameraInfo info;
-  info.header.frame_id = "f";
-  info.distortion_model = "plumb_bob";
-  info.D = {0.1, 0.0, 0.0, 0.0, 0.0};
+  const sensor_msgs::CameraInfo info = smallCameraInfo();
   std::vector<std::uint8_t> bytes = serialized(info);
   int calls = 0;
   std::vector<std::string> problems;
@@ -826,8 +834,7 @@ TEST(MessageBounds, LiveSubscriptionsDropMalformedMessagesBeforeDeserializing) {
   EXPECT_EQ(message->header.frame_id, "f");
   EXPECT_TRUE(problems.empty());
 
-  const std::size_t d_offset = 4 + 8 + 4 + 1 + 4 + 4 + 4 + 9;  // as in the test above
-  writeUint32(&bytes, d_offset, 1800000000u);
+  writeUint32(&bytes, kSmallCameraInfoDOffset, 1800000000u);
   EXPECT_FALSE(deserialize(&bytes));
   ASSERT_EQ(problems.size(), 1u);
   EXPECT_NE(problems[0].find("D: 1800000000 elements of 8 bytes declared"), std::string::npos)

@@ -134,6 +134,12 @@ Pose reorientedAboutCentre(const Pose& pose, const Eigen::Matrix3d& rotation) {
   return out;
 }
 
+// `pose` rolled by `angle` about its wrist->knuckle axis, about the hand centre.
+Pose rolledAboutCentre(const Pose& pose, double angle) {
+  return reorientedAboutCentre(
+      pose, pose.rotation * Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitX()).toRotationMatrix());
+}
+
 double rotationAngle(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
   return Eigen::Quaterniond(a).angularDistance(Eigen::Quaterniond(b));
 }
@@ -350,9 +356,7 @@ TEST(TrackerOrientation, FollowsAFastRollWithoutRollingOver) {
     // Eased roll about the wrist->knuckle axis: 0 .. pi, speed peaking at pi / 2 * pi / kTurn.
     const double t = std::clamp((frame - kStill) / static_cast<double>(kTurn), 0.0, 1.0);
     const double angle = 0.5 * M_PI * (1.0 - std::cos(M_PI * t));
-    const Pose truth = reorientedAboutCentre(
-        rest,
-        rest.rotation * Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitX()).toRotationMatrix());
+    const Pose truth = rolledAboutCentre(rest, angle);
     const FrameResult result =
         tracker.update(modelObservations(model, truth, cameras, 3.0), frame * 0.04);
     ASSERT_TRUE(result.has_pose) << "frame " << frame;
@@ -385,9 +389,7 @@ double errorAfterARollTurnsBack(const TrackerParams& params) {
   double worst = 0.0;
   for (int frame = 0; frame < kStill + kTurn + kBack; ++frame) {
     if (frame >= kStill) angle += frame < kStill + kTurn ? kStep : -kStep;
-    const Pose truth = reorientedAboutCentre(
-        rest,
-        rest.rotation * Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitX()).toRotationMatrix());
+    const Pose truth = rolledAboutCentre(rest, angle);
     const FrameResult result =
         tracker.update(modelObservations(model, truth, cameras, 3.0), frame * 0.04);
     EXPECT_TRUE(result.has_pose) << "frame " << frame;
