@@ -82,6 +82,16 @@ void checkGradient(const std::string& model_name,
   EXPECT_EQ(checked, 4 * kNumDof);
 }
 
+// The energy at `truth` is above its value with the hand moved 2 cm and with the pinky curled.
+void expectTruthBeatsNearbyPoses(const PoseEnergy& energy, const Pose& truth, double at_truth) {
+  Pose moved = truth;
+  moved.translation.x() += 0.02;
+  EXPECT_GT(at_truth, energy.evaluate(moved));
+  moved = truth;
+  moved.joints[kNumJointDof - 3] += 0.5;  // pinky MCP flexion
+  EXPECT_GT(at_truth, energy.evaluate(moved));
+}
+
 }  // namespace
 
 // The analytic / forward-mode gradient equals central differences for all 26 parameters,
@@ -133,14 +143,9 @@ TEST(Energy, SoftSaturationIsBelowTheCapAndPeaksAtTheTruth) {
   hard.evaluate(truth, nullptr, &hard_terms);
   EXPECT_GT(soft_terms.similarity, 0.3);
   EXPECT_LT(soft_terms.similarity, hard_terms.similarity - 0.01);
-  Pose moved = truth;
-  moved.translation.x() += 0.02;
-  EXPECT_GT(at_truth, soft.evaluate(moved));
-  moved = truth;
-  moved.joints[kNumJointDof - 3] += 0.5;  // pinky MCP flexion
-  EXPECT_GT(at_truth, soft.evaluate(moved));
+  expectTruthBeatsNearbyPoses(soft, truth, at_truth);
   // Far from every foreground Gaussian both are 0.
-  moved = truth;
+  Pose moved = truth;
   moved.translation.z() += 5.0;
   EXPECT_NEAR(soft.evaluate(moved), hard.evaluate(moved), 1e-9);
   // Half soft is half way.
@@ -226,12 +231,7 @@ TEST(Energy, TruePoseScoresHigherThanPerturbedPoses) {
   EXPECT_GT(terms.similarity, 0.5);
   EXPECT_LE(terms.similarity, 1.0);
   EXPECT_EQ(terms.per_camera.size(), 5u);
-  Pose moved = truth;
-  moved.translation.x() += 0.02;
-  EXPECT_GT(at_truth, energy.evaluate(moved));
-  moved = truth;
-  moved.joints[kNumJointDof - 3] += 0.5;  // pinky MCP flexion
-  EXPECT_GT(at_truth, energy.evaluate(moved));
+  expectTruthBeatsNearbyPoses(energy, truth, at_truth);
 }
 
 // Issue 9: a pale or a dark hand is the model's hand in another colour. With the cast corrected
