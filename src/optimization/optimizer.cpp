@@ -111,50 +111,6 @@ OptimizationResult optimizePose(const PoseEnergy& energy, const Pose& start,
   return best;
 }
 
-std::vector<int> fingerFlexionJoints(const HandModel& model, int finger) {
-  std::vector<int> joints;
-  if (finger < 0 || finger >= kNumFingers) return joints;
-  const std::string prefix = std::string(fingerNames()[finger]) + "_";
-  const std::string suffix = "_flex";
-  for (int j = 0; j < kNumJointDof; ++j) {
-    const std::string& name = model.joints[j].name;
-    if (name.size() > prefix.size() + suffix.size() &&
-        name.compare(0, prefix.size(), prefix) == 0 &&
-        name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0) {
-      joints.push_back(j);
-    }
-  }
-  return joints;
-}
-
-OptimizationResult toggleFinger(const PoseEnergy& energy, const OptimizationResult& current,
-                                int finger, const OptimizerParams& params,
-                                const FingerToggleParams& toggle) {
-  const HandModel& model = energy.model();
-  const std::vector<int> joints = fingerFlexionJoints(model, finger);
-  if (joints.empty()) return current;
-  // How far the finger is curled: the mean of its joints' positions in their ranges.
-  double curl = 0.0;
-  for (int j : joints) {
-    const JointDof& limits = model.joints[j];
-    const double width = limits.max - limits.min;
-    curl += width > 0.0 ? (current.pose.joints[j] - limits.min) / width : 0.0;
-  }
-  curl /= static_cast<double>(joints.size());
-  Pose start = current.pose;
-  for (int j : joints) {
-    const JointDof& limits = model.joints[j];
-    start.joints[j] = curl > 0.5 ? std::clamp(0.0, limits.min, limits.max)
-                                 : limits.min + toggle.curled_fraction * (limits.max - limits.min);
-  }
-  OptimizationResult candidate = optimizePose(energy, start, params);
-  candidate.evaluations += current.evaluations;
-  if (candidate.energy > current.energy) return candidate;
-  OptimizationResult kept = current;
-  kept.evaluations = candidate.evaluations;
-  return kept;
-}
-
 Eigen::Vector3d refineForearmDirection(const PoseEnergy& energy, const Pose& pose,
                                        const Eigen::Vector3d& start,
                                        const ForearmSearchParams& params, double* best_energy) {

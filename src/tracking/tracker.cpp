@@ -795,10 +795,6 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
   bool flipped = false;
   if (current_ && !lost_) {
     optimized = trackFromPrediction(energy, previous_, *current_);
-    for (int k = 0; k < params_.finger_toggles; ++k) {
-      const int finger = (frames_since_start_ * params_.finger_toggles + k) % kNumFingers;
-      optimized = toggleFinger(energy, *optimized, finger, params_.optimizer);
-    }
     forearm = fitForearm(energy, &*optimized, forearm);
     energy.setForearmDirection(forearm);
     EnergyTerms terms;

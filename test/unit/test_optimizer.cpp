@@ -92,58 +92,6 @@ TEST(Optimizer, KeepsParametersInsideLimitsAndCountsEvaluations) {
   EXPECT_EQ(result.evaluations, params.iterations + 1);
 }
 
-TEST(Optimizer, NamesEachFingersFlexionJoints) {
-  const HandModel model = loadHandModel(modelPath("sag"));
-  auto names = [&](int finger) {
-    std::vector<std::string> result;
-    for (int j : fingerFlexionJoints(model, finger)) result.push_back(model.joints[j].name);
-    return result;
-  };
-  EXPECT_EQ(names(0),
-            (std::vector<std::string>{"thumb_cmc_flex", "thumb_mcp_flex", "thumb_ip_flex"}));
-  EXPECT_EQ(names(2),
-            (std::vector<std::string>{"middle_mcp_flex", "middle_pip_flex", "middle_dip_flex"}));
-  EXPECT_EQ(names(4),
-            (std::vector<std::string>{"pinky_mcp_flex", "pinky_pip_flex", "pinky_dip_flex"}));
-  EXPECT_TRUE(fingerFlexionJoints(model, -1).empty());
-  EXPECT_TRUE(fingerFlexionJoints(model, kNumFingers).empty());
-}
-
-// A finger tracked straight while the image shows it curled: switching it finds the curled pose.
-TEST(Optimizer, TogglingAFingerFindsItCurled) {
-  const HandModel model = loadHandModel(modelPath("sag"));
-  const std::vector<Camera> cameras = fiveCameraRig();
-  Pose truth = typicalPose(model);
-  const std::vector<int> middle = fingerFlexionJoints(model, 2);
-  for (int j : middle) {
-    truth.joints[j] = model.joints[j].min + 0.8 * (model.joints[j].max - model.joints[j].min);
-  }
-  PoseEnergy energy(model, EnergyParams());
-  energy.setFrame(modelObservations(model, truth, cameras));
-  Pose straight = truth;
-  for (int j : middle) straight.joints[j] = 0.0;
-  OptimizerParams params;
-  const OptimizationResult current = optimizePose(energy, straight, params);
-  const double current_error = meanFingertipError(model, current.pose, truth);
-  ASSERT_GT(current_error, 0.01) << "10 iterations should not curl the finger by themselves";
-
-  const OptimizationResult toggled = toggleFinger(energy, current, 2, params);
-  EXPECT_GT(toggled.energy, current.energy);
-  EXPECT_LT(meanFingertipError(model, toggled.pose, truth), 0.5 * current_error);
-  EXPECT_EQ(toggled.evaluations, current.evaluations + params.iterations + 1);
-  for (int j : middle) EXPECT_GT(toggled.pose.joints[j], 0.5 * truth.joints[j]);
-
-  // Switching a finger that is already right (the index, straight) keeps the better of the two.
-  const OptimizationResult kept = toggleFinger(energy, toggled, 1, params);
-  EXPECT_GE(kept.energy, toggled.energy);
-  for (int j : fingerFlexionJoints(model, 1)) {
-    EXPECT_NEAR(kept.pose.joints[j], truth.joints[j], 15.0 * M_PI / 180.0);
-  }
-  // No such finger: unchanged.
-  const OptimizationResult none = toggleFinger(energy, toggled, 7, params);
-  EXPECT_EQ(none.energy, toggled.energy);
-}
-
 TEST(Optimizer, ParsesStepControl) {
   EXPECT_EQ(parseStepControl("fixed"), StepControl::kFixed);
   EXPECT_EQ(parseStepControl("rprop"), StepControl::kRprop);

@@ -698,39 +698,3 @@ TEST(TrackerForearm, IsUsedForABareForearmOnly) {
   const ForearmRun hand_only_hard = trackFlexingWrist(no_forearm, true);
   EXPECT_GT(hand_only_hard.worst_error, 0.03) << hand_only_hard.worst_error * 1000 << " mm";
 }
-
-// TrackerParams::finger_toggles: a finger that curls from one frame to the next, faster than the
-// warm-started iterations follow, is found by switching it.
-TEST(Tracker, FingerTogglesFollowAFingerThatCurlsAtOnce) {
-  const HandModel model = loadHandModel(modelPath("sag"));
-  const std::vector<Camera> cameras = fiveCameraRig();
-  const Pose open = typicalPose(model);
-  Pose curled = open;
-  for (int j : fingerFlexionJoints(model, 2)) {
-    curled.joints[j] = model.joints[j].min + 0.8 * (model.joints[j].max - model.joints[j].min);
-  }
-  auto error_after_curl = [&](int finger_toggles) {
-    TrackerParams params;
-    params.redetect_interval = 0;
-    params.finger_toggles = finger_toggles;
-    // Measured with eq. 8's hard cap. With the default saturation_softness (0.5) this scene gave
-    // 33.2 mm with toggles and 24.5 without: there the energy prefers the wrong state (README
-    // "Session 6"), one reason why finger_toggles is off.
-    params.energy.saturation_softness = 0.0;
-    HandTracker tracker(model, params);
-    tracker.update(modelObservations(model, open, cameras, 3.0), 0.0);
-    tracker.update(modelObservations(model, open, cameras, 3.0), 0.04);
-    FrameResult result;
-    // Every finger in turn within the frames after the curl.
-    for (int frame = 2; frame < 2 + kNumFingers; ++frame) {
-      result = tracker.update(modelObservations(model, curled, cameras, 3.0), frame * 0.04);
-    }
-    EXPECT_TRUE(result.has_pose);
-    return meanFingertipError(result.fingertips, fingertips(model, curled));
-  };
-  const double without = error_after_curl(0), with = error_after_curl(1);
-  // The energy's maximum lies a few mm from the generating pose (Optimizer tests): measured 7.5 mm
-  // with, 29.7 mm without.
-  EXPECT_LT(with, 0.010) << "with toggles " << with * 1000 << " mm";
-  EXPECT_GT(without, 2.0 * with) << "without " << without * 1000 << " mm, with " << with * 1000;
-}

@@ -38,25 +38,6 @@ struct OptimizationResult {
 OptimizationResult optimizePose(const PoseEnergy& energy, const Pose& start,
                                 const OptimizerParams& params);
 
-// Curled fingers (issue 9): per frame the optimizer only follows the gradient from the predicted
-// pose, and a finger that curls or straightens faster than it can follow (counting, a grasp) is
-// left in the wrong basin: its Gaussians sit on the palm's saturated foreground, where eq. 8
-// passes no gradient, or it stays straight over the real neighbour finger. This starts a second
-// optimisation from `current` with finger `finger`'s flexion joints (thumb..pinky, the joints
-// named <finger>_*_flex) switched to the other state: straight (0, within the limits) when the
-// finger is more than half curled, else curled (`curled_fraction` of each joint's range), and
-// returns it when its energy is higher than `current`'s, else `current`. `evaluations` counts
-// both.
-struct FingerToggleParams {
-  double curled_fraction = 0.8;
-};
-OptimizationResult toggleFinger(const PoseEnergy& energy, const OptimizationResult& current,
-                                int finger, const OptimizerParams& params,
-                                const FingerToggleParams& toggle = FingerToggleParams());
-// The flexion joints (indices into Pose::joints) of finger `finger` (0 thumb .. 4 little finger):
-// the joints named <thumb|index|middle|ring|pinky>_*_flex. Empty for a finger the model lacks.
-std::vector<int> fingerFlexionJoints(const HandModel& model, int finger);
-
 // The forearm's direction (EnergyParams::forearm_gaussians) that scores `pose` best, with the
 // pose fixed: a pattern search from `start` that turns the direction by +-step about two axes
 // across it and keeps the best, `rounds` times, halving the step each round. Directions more than

@@ -38,13 +38,6 @@ struct TrackerParams {
   // recovers tracks that converged to a wrong but stable pose, which the similarity cannot flag.
   int redetect_interval = 25;
   double redetect_margin = 0.005;
-  // Curled fingers (issue 9): each tracked frame also tries this many fingers, in turn, switched
-  // to the other state (straight / curled) and keeps the better energy (toggleFinger in
-  // optimizer.h); 0 disables it. Each costs one more optimisation per frame. Off: on the studio's
-  // fingercount, flexex1 and tigergrasp (7 hands) 1 gave 32.5 mm against 30.7, 6 other sequences
-  // (2 hands) 17.7 against 18.4: the energy itself prefers the wrong finger states in about half
-  // of the bad frames (README "Session 6: curled fingers").
-  int finger_toggles = 0;
   // The track counts as lost when the normalised similarity drops below `lost_similarity`, or
   // below `lost_ratio` times its running average over the recent tracked frames.
   double lost_similarity = 0.15;
