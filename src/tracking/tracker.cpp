@@ -18,6 +18,20 @@ namespace {
 
 // Palm-frame point that the foreground centroid is taken to be (the middle of the hand).
 const Eigen::Vector3d kHandCentreInPalm(0.065, 0.0, 0.0);
+
+Eigen::Vector3d handCentre(const Pose& pose) {
+  return pose.translation + pose.rotation * kHandCentreInPalm;
+}
+
+// The root translation that puts the hand centre at `centre` with the root turned to `rotation`.
+Eigen::Vector3d rootAt(const Eigen::Vector3d& centre, const Eigen::Matrix3d& rotation) {
+  return centre - rotation * kHandCentreInPalm;
+}
+
+// The angle (radians) of the rotation between two orientations.
+double rotationAngle(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+  return Eigen::Quaterniond(a).angularDistance(Eigen::Quaterniond(b));
+}
 constexpr size_t kCoarseKept = 24;
 constexpr int kCoarseIterations = 8;
 constexpr size_t kHypothesesKept = 4;
@@ -94,7 +108,7 @@ void preferBackFacingCameras(const std::vector<CameraObservation>& observations,
                              std::vector<OptimizationResult>* candidates) {
   if (!(margin > 0.0) || candidates->size() < 2) return;
   auto facing = [&observations](const Pose& pose) {
-    const Eigen::Vector3d centre = pose.translation + pose.rotation * kHandCentreInPalm;
+    const Eigen::Vector3d centre = handCentre(pose);
     double sum = 0.0;
     for (const CameraObservation& observation : observations) {
       const Eigen::Vector3d camera_centre =
@@ -151,9 +165,9 @@ std::optional<double> forearmVote(const Pose& pose,
 
 Eigen::Matrix3d boundedRotation(const Eigen::Matrix3d& reference, const Eigen::Matrix3d& rotation,
                                 double max_angle) {
-  const Eigen::Quaterniond from(reference), to(rotation);
-  const double angle = from.angularDistance(to);
+  const double angle = rotationAngle(reference, rotation);
   if (!(max_angle > 0.0) || angle <= max_angle) return rotation;
+  const Eigen::Quaterniond from(reference), to(rotation);
   return from.slerp(max_angle / angle, to).normalized().toRotationMatrix();
 }
 
@@ -165,10 +179,9 @@ RedetectionChoice chooseRedetection(const OptimizationResult& tracked,
     const OptimizationResult& candidate = candidates[i];
     const bool flip = isFlip(candidate.pose.rotation, tracked.pose.rotation);
     // A large turn that is no flip still needs the flip's margin.
-    const bool turned = params.redetect_turn_angle > 0.0 &&
-                        Eigen::Quaterniond(candidate.pose.rotation)
-                                .angularDistance(Eigen::Quaterniond(tracked.pose.rotation)) >
-                            params.redetect_turn_angle;
+    const bool turned =
+        params.redetect_turn_angle > 0.0 &&
+        rotationAngle(candidate.pose.rotation, tracked.pose.rotation) > params.redetect_turn_angle;
     const double margin =
         turned ? std::max(params.flip_margin, params.redetect_margin) : params.redetect_margin;
     if (!flip && choice.adopt < 0 && candidate.energy > tracked.energy + margin) {
@@ -210,7 +223,7 @@ AlternativeVerdict judgeAlternative(double track_energy, double challenger_energ
 bool isPlausiblePose(const Pose& pose, const std::vector<CameraObservation>& observations,
                      double min_camera_depth, int min_cameras) {
   if (!pose.allFinite()) return false;
-  const Eigen::Vector3d centre = pose.translation + pose.rotation * kHandCentreInPalm;
+  const Eigen::Vector3d centre = handCentre(pose);
   int inside = 0;
   for (const CameraObservation& observation : observations) {
     const Camera& camera = observation.camera;
@@ -509,7 +522,7 @@ std::vector<OptimizationResult> HandTracker::startFromHypotheses(
   std::vector<OptimizationResult> candidates;
   for (const Eigen::Matrix3d& rotation : orientationHypotheses()) {
     OptimizationResult candidate;
-    candidate.pose = neutralPose(model, centre - rotation * kHandCentreInPalm, rotation);
+    candidate.pose = neutralPose(model, rootAt(centre, rotation), rotation);
     if (armCallsReversed(params, candidate.pose, observations)) continue;
     candidates.push_back(candidate);
   }
@@ -539,11 +552,10 @@ std::vector<OptimizationResult> HandTracker::startFromHypotheses(
   // (start_facing_margin) can only choose between sides that were both refined.
   if (!candidates.empty() && params.start_facing_margin > 0.0) {
     const Pose& best = candidates.front().pose;
-    const Eigen::Vector3d hand_centre = best.translation + best.rotation * kHandCentreInPalm;
     const Eigen::Matrix3d rolled =
         best.rotation * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
     OptimizationResult twin;
-    twin.pose = neutralPose(model, hand_centre - rolled * kHandCentreInPalm, rolled);
+    twin.pose = neutralPose(model, rootAt(handCentre(best), rolled), rolled);
     twin.energy = energy.evaluate(twin.pose);
     candidates.push_back(twin);
   }
@@ -735,10 +747,9 @@ bool HandTracker::forearmMayBeBare(const PoseEnergy& energy, const Pose& pose) c
   // The forearm straight on from the pose's palm, and from the same hand reversed about its centre
   // (fingers where its wrist is, open): a reversed start is what the second search corrects, and
   // at a reversed pose a bare forearm gains little. Sleeved forearms gain about 0.01 at either.
-  const Eigen::Vector3d centre = pose.translation + pose.rotation * kHandCentreInPalm;
   const Eigen::Matrix3d reversed =
       pose.rotation * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  const Pose twin = neutralPose(model_, centre - reversed * kHandCentreInPalm, reversed);
+  const Pose twin = neutralPose(model_, rootAt(handCentre(pose), reversed), reversed);
   for (const Pose* candidate : {&pose, &twin}) {
     const double gain = energy.evaluateWithForearm(*candidate, -candidate->rotation.col(0)) -
                         energy.evaluate(*candidate);
@@ -765,14 +776,12 @@ OptimizationResult HandTracker::trackFromPrediction(const PoseEnergy& energy,
   if (!previous || !params_.counter_turn_start) return result;
   // The same turn the other way, from the predicted hand centre.
   const Eigen::Matrix3d turn = current.rotation * previous->rotation.transpose();
-  if (!(Eigen::Quaterniond(turn).angularDistance(Eigen::Quaterniond::Identity()) >
-        params_.counter_turn_min_angle)) {
+  if (!(rotationAngle(turn, Eigen::Matrix3d::Identity()) > params_.counter_turn_min_angle)) {
     return result;
   }
   Pose counter = start;
   counter.rotation = turn.transpose() * current.rotation;
-  counter.translation =
-      start.translation + start.rotation * kHandCentreInPalm - counter.rotation * kHandCentreInPalm;
+  counter.translation = rootAt(handCentre(start), counter.rotation);
   OptimizationResult other = optimizePose(energy, counter, params_.optimizer);
   boundRotation(energy, current, counter, &other);
   return other.energy > result.energy ? other : result;
