@@ -2,9 +2,8 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
-#include <unsupported/Eigen/AutoDiff>
 
-#include "projection_impl.h"
+#include "sag_hand_tracker/energy/projection.h"
 
 namespace sag_hand_tracker {
 
@@ -23,60 +22,21 @@ ForearmGaussians forearmGaussians(const EnergyParams& params, const Eigen::Vecto
 }
 namespace {
 
-// Forward-mode AD over the 9 inputs of a projection: mean (3) and unique covariance entries (6).
-using Derivatives9 = Eigen::Matrix<double, 9, 1>;
-using Dual = Eigen::AutoDiffScalar<Derivatives9>;
-
 // A model Gaussian projected into one camera, with the Jacobian of (mean_x, mean_y, cov_xx,
 // cov_xy, cov_yy) with respect to (mu_c, unique Sigma_c) when a gradient is wanted.
 struct ProjectionWithJacobian {
   ProjectedGaussian projected;
-  Eigen::Matrix<double, 5, 9> jacobian;
+  ProjectionJacobian jacobian;
 };
-
-void unique6(const Eigen::Matrix3d& cov, double* out) {
-  out[0] = cov(0, 0);
-  out[1] = cov(1, 1);
-  out[2] = cov(2, 2);
-  out[3] = cov(0, 1);
-  out[4] = cov(0, 2);
-  out[5] = cov(1, 2);
-}
 
 ProjectionWithJacobian projectInCamera(ProjectionMode mode, const Eigen::Vector3d& mean,
                                        const Eigen::Matrix3d& cov, const Eigen::Matrix3d& K,
                                        bool with_jacobian) {
   ProjectionWithJacobian result;
-  double sigma[6];
-  unique6(cov, sigma);
-  if (!with_jacobian) {
-    const double mu[3] = {mean.x(), mean.y(), mean.z()};
-    detail::Projection2D<double> p;
-    const bool ok = mode == ProjectionMode::kPerspective
-                        ? detail::projectPerspectiveGeneric(mu, sigma, K, &p)
-                        : detail::projectScaledOrthographicGeneric(mu, sigma, K, &p);
-    if (!ok) return result;
-    result.projected.mean = Eigen::Vector2d(p.mean_x, p.mean_y);
-    result.projected.cov << p.cov_xx, p.cov_xy, p.cov_xy, p.cov_yy;
-    result.projected.valid = true;
-    return result;
-  }
-  Dual mu[3], sigma_dual[6];
-  for (int i = 0; i < 3; ++i) mu[i] = Dual(mean[i], 9, i);
-  for (int i = 0; i < 6; ++i) sigma_dual[i] = Dual(sigma[i], 9, 3 + i);
-  detail::Projection2D<Dual> p;
-  const bool ok = mode == ProjectionMode::kPerspective
-                      ? detail::projectPerspectiveGeneric(mu, sigma_dual, K, &p)
-                      : detail::projectScaledOrthographicGeneric(mu, sigma_dual, K, &p);
-  if (!ok) return result;
-  result.projected.mean = Eigen::Vector2d(p.mean_x.value(), p.mean_y.value());
-  result.projected.cov << p.cov_xx.value(), p.cov_xy.value(), p.cov_xy.value(), p.cov_yy.value();
-  result.projected.valid = true;
-  result.jacobian.row(0) = p.mean_x.derivatives().transpose();
-  result.jacobian.row(1) = p.mean_y.derivatives().transpose();
-  result.jacobian.row(2) = p.cov_xx.derivatives().transpose();
-  result.jacobian.row(3) = p.cov_xy.derivatives().transpose();
-  result.jacobian.row(4) = p.cov_yy.derivatives().transpose();
+  ProjectionJacobian* jacobian = with_jacobian ? &result.jacobian : nullptr;
+  result.projected = mode == ProjectionMode::kPerspective
+                         ? projectPerspective(mean, cov, K, jacobian)
+                         : projectScaledOrthographic(mean, cov, K, jacobian);
   return result;
 }
 
@@ -353,7 +313,7 @@ double PoseEnergy::evaluateImpl(const Pose& pose, bool with_forearm,
     if (!with_gradient) continue;
 
     // Accumulate dE/d(mu_p, Sigma_p) over all image Gaussians, then chain once per (Gaussian,
-    // camera) through the projection (forward-mode Jacobian) and the camera rotation.
+    // camera) through the projection (its exact Jacobian) and the camera rotation.
     for (size_t p = 0; p < num_gaussians; ++p) {
       if (!projections[p].projected.valid) continue;
       Eigen::Matrix<double, 5, 1> g_projected = Eigen::Matrix<double, 5, 1>::Zero();

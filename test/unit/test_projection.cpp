@@ -162,3 +162,106 @@ TEST(Projection, ScaledOrthographicScalesSigmaWithDepth) {
   EXPECT_NEAR(p.mean.y(), 120.0 - 300.0 * 0.1, 1e-9);
   EXPECT_NEAR(std::sqrt(p.cov(0, 0)), 300.0 * sigma / 0.5, 1e-9);
 }
+
+namespace {
+
+// The paper's construction, eqs. 3-5, written out as in the paper: the cone matrix
+// M = A mu mu^T A - (mu^T A mu - 1) A with A = Sigma^-1, its section with z = 1 (centre from the
+// minors, shape -|M| / |M33| M33^-1), then through K.
+ProjectedGaussian coneProjection(const Eigen::Vector3d& mu, const Eigen::Matrix3d& sigma,
+                                 const Eigen::Matrix3d& K) {
+  const Eigen::Matrix3d A = sigma.inverse();
+  const Eigen::Vector3d b = A * mu;
+  const Eigen::Matrix3d M = b * b.transpose() - (mu.dot(b) - 1.0) * A;
+  const Eigen::Matrix2d M33 = M.topLeftCorner<2, 2>();
+  const Eigen::Vector2d centre = -M33.inverse() * M.topRightCorner<2, 1>();
+  const Eigen::Matrix2d shape = -M.determinant() / M33.determinant() * M33.inverse();
+  const Eigen::Matrix2d K2 = K.topLeftCorner<2, 2>();
+  ProjectedGaussian result;
+  result.mean = K2 * centre + K.topRightCorner<2, 1>();
+  result.cov = K2 * shape * K2.transpose();
+  result.valid = true;
+  return result;
+}
+
+Eigen::Matrix<double, 5, 1> packed(const ProjectedGaussian& g) {
+  Eigen::Matrix<double, 5, 1> v;
+  v << g.mean.x(), g.mean.y(), g.cov(0, 0), g.cov(0, 1), g.cov(1, 1);
+  return v;
+}
+
+// Central differences of a projection over (mu, unique Sigma), the Jacobian's column order.
+template <typename Project>
+ProjectionJacobian numericJacobian(Project project, const RandomCase& c) {
+  ProjectionJacobian numeric;
+  const int unique_row[6] = {0, 1, 2, 0, 0, 1}, unique_col[6] = {0, 1, 2, 1, 2, 2};
+  for (int k = 0; k < 9; ++k) {
+    const double h = k < 3 ? 1e-7 : 1e-10;
+    Eigen::Vector3d mean_plus = c.mean, mean_minus = c.mean;
+    Eigen::Matrix3d cov_plus = c.cov, cov_minus = c.cov;
+    if (k < 3) {
+      mean_plus[k] += h;
+      mean_minus[k] -= h;
+    } else {
+      const int i = unique_row[k - 3], j = unique_col[k - 3];
+      cov_plus(i, j) += h;
+      cov_minus(i, j) -= h;
+      if (i != j) {
+        cov_plus(j, i) += h;
+        cov_minus(j, i) -= h;
+      }
+    }
+    numeric.col(k) =
+        (packed(project(mean_plus, cov_plus, c.K)) - packed(project(mean_minus, cov_minus, c.K))) /
+        (2.0 * h);
+  }
+  return numeric;
+}
+
+}  // namespace
+
+// The closed form (the dual conic Sigma - mu mu^T) is the same ellipse as the paper's cone.
+TEST(Projection, PerspectiveEqualsThePapersConeConstruction) {
+  std::mt19937 rng(5);
+  for (int trial = 0; trial < 200; ++trial) {
+    const RandomCase c = randomCase(rng);
+    const ProjectedGaussian projected = projectPerspective(c.mean, c.cov, c.K);
+    const ProjectedGaussian cone = coneProjection(c.mean, c.cov, c.K);
+    ASSERT_TRUE(projected.valid) << "trial " << trial;
+    const Eigen::Matrix<double, 5, 1> difference = packed(projected) - packed(cone);
+    EXPECT_LT(difference.cwiseAbs().maxCoeff(), 1e-9 * packed(cone).cwiseAbs().maxCoeff())
+        << "trial " << trial << ": " << difference.transpose();
+  }
+}
+
+// The exact Jacobian the energy gradient chains through, against central differences, for both
+// projections (the SoG baseline's only depends on the trace of Sigma).
+TEST(Projection, JacobiansMatchCentralDifferences) {
+  std::mt19937 rng(9);
+  for (int trial = 0; trial < 100; ++trial) {
+    const RandomCase c = randomCase(rng);
+    for (const bool perspective : {true, false}) {
+      const auto project = [perspective](const Eigen::Vector3d& mean, const Eigen::Matrix3d& cov,
+                                         const Eigen::Matrix3d& K) {
+        return perspective ? projectPerspective(mean, cov, K)
+                           : projectScaledOrthographic(mean, cov, K);
+      };
+      ProjectionJacobian jacobian;
+      jacobian.setConstant(std::nan(""));
+      const ProjectedGaussian projected =
+          perspective ? projectPerspective(c.mean, c.cov, c.K, &jacobian)
+                      : projectScaledOrthographic(c.mean, c.cov, c.K, &jacobian);
+      ASSERT_TRUE(projected.valid);
+      // The value path with and without the Jacobian is the same.
+      EXPECT_EQ(packed(projected), packed(project(c.mean, c.cov, c.K)));
+      ASSERT_TRUE(jacobian.allFinite()) << "trial " << trial;
+      const ProjectionJacobian numeric = numericJacobian(project, c);
+      for (int row = 0; row < 5; ++row) {
+        const double scale = numeric.row(row).cwiseAbs().maxCoeff() + 1e-6;
+        EXPECT_LT((jacobian.row(row) - numeric.row(row)).cwiseAbs().maxCoeff(), 1e-5 * scale)
+            << "trial " << trial << (perspective ? " perspective" : " orthographic") << ", row "
+            << row << "\nexact   " << jacobian.row(row) << "\nnumeric " << numeric.row(row);
+      }
+    }
+  }
+}
