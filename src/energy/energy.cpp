@@ -46,6 +46,7 @@ struct EvaluationScratch {
   std::vector<Eigen::Matrix3d> g_cov;
   std::vector<ProjectionWithJacobian> projections;
   std::vector<OverlapTerm> overlap_terms;
+  std::vector<OverlapRange> ranges;
   std::vector<double> weighted, active, sums, area;
 };
 
@@ -167,11 +168,17 @@ void PoseEnergy::setFrame(const std::vector<CameraObservation>& observations) {
     std::vector<const ImageGaussian*> kept;
     double self_overlap_sum = 0.0;
     for (const ImageGaussian& g : observation.sog.gaussians) {
-      if (!g.mean.allFinite() || !(g.sigma > 0.0) || !std::isfinite(g.sigma) ||
-          !g.hsv.allFinite()) {
-        continue;
+      if (g.mean.allFinite() && g.sigma > 0.0 && std::isfinite(g.sigma) && g.hsv.allFinite()) {
+        kept.push_back(&g);
       }
-      kept.push_back(&g);
+    }
+    // Sorted by x: overlapRange.
+    std::stable_sort(kept.begin(), kept.end(), [](const ImageGaussian* a, const ImageGaussian* b) {
+      return a->mean.x() < b->mean.x();
+    });
+    for (const ImageGaussian* pointer : kept) {
+      const ImageGaussian& g = *pointer;
+      q.max_variance = std::max(q.max_variance, g.sigma * g.sigma);
       q.mean_x.push_back(g.mean.x());
       q.mean_y.push_back(g.mean.y());
       q.variance.push_back(g.sigma * g.sigma);
@@ -240,6 +247,7 @@ double PoseEnergy::evaluateImpl(const Pose& pose, bool with_forearm,
   std::vector<Eigen::Matrix3d>& g_cov = scratch.g_cov;
   std::vector<ProjectionWithJacobian>& projections = scratch.projections;
   std::vector<OverlapTerm>& overlap_terms = scratch.overlap_terms;
+  std::vector<OverlapRange>& ranges = scratch.ranges;
   std::vector<double>& weighted = scratch.weighted;
   std::vector<double>& active = scratch.active;
   std::vector<double>& sums = scratch.sums;
@@ -247,6 +255,7 @@ double PoseEnergy::evaluateImpl(const Pose& pose, bool with_forearm,
   g_cov.assign(num_gaussians, Eigen::Matrix3d::Zero());
   projections.resize(num_gaussians);  // each assigned per camera before it is read
   overlap_terms.resize(num_gaussians);
+  ranges.resize(num_gaussians);
 
   double similarity = 0.0;
   if (terms) {
@@ -262,7 +271,7 @@ double PoseEnergy::evaluateImpl(const Pose& pose, bool with_forearm,
     const FrameCamera& camera = cameras_[c];
     const ImageGaussianArrays& q = camera.image_gaussians;
     const int n = q.size();
-    weighted.resize(num_gaussians * n);  // every row is written below (zero when not visible)
+    weighted.resize(num_gaussians * n);  // row p is written (and read) in ranges[p] only
     sums.assign(n, 0.0);
     double model_area = 0.0;  // M_c
     for (size_t p = 0; p < num_gaussians; ++p) {
@@ -271,7 +280,6 @@ double PoseEnergy::evaluateImpl(const Pose& pose, bool with_forearm,
           camera.rotation * hand.gaussians[p].cov * camera.rotation.transpose();
       projections[p] = projectInCamera(model_.projection, mean, cov, camera.K, with_gradient);
       if (!projections[p].projected.valid) {
-        std::fill_n(weighted.data() + p * n, n, 0.0);
         // It cannot be seen where the camera sees foreground: a fixed share of the image's area
         // against the pose (no gradient; the optimizer's step control and the start's scoring
         // still see the lower value).
@@ -282,10 +290,13 @@ double PoseEnergy::evaluateImpl(const Pose& pose, bool with_forearm,
       overlap_terms[p] = prepareOverlapTerm(projections[p].projected);
       area[p] = 2.0 * M_PI * overlap_terms[p].sqrt_det;  // integral of the projected Gaussian
       model_area += modelWeight(p) * area[p];
+      // Only the image Gaussians within reach: the others' D_pq is 0.
+      const OverlapRange range = ranges[p] =
+          overlapRange(overlap_terms[p], q, params_.max_mahalanobis_sq);
       double* row = weighted.data() + p * n;
-      overlapRow(overlap_terms[p], q, camera.weights.data() + p * n, params_.max_mahalanobis_sq,
-                 row);
-      for (int i = 0; i < n; ++i) sums[i] += row[i];
+      overlapRow(overlap_terms[p], q, range, camera.weights.data() + p * n,
+                 params_.max_mahalanobis_sq, row);
+      for (int i = range.begin; i < range.end; ++i) sums[i] += row[i];
     }
 
     // Paper eq. 8: sum over image Gaussians of min(sum_p w_p E_pq, E_qq). A saturated image
@@ -317,8 +328,8 @@ double PoseEnergy::evaluateImpl(const Pose& pose, bool with_forearm,
     for (size_t p = 0; p < num_gaussians; ++p) {
       if (!projections[p].projected.valid) continue;
       Eigen::Matrix<double, 5, 1> g_projected = Eigen::Matrix<double, 5, 1>::Zero();
-      accumulateOverlapGradient(overlap_terms[p], q, weighted.data() + p * n, active.data(),
-                                g_projected.data());
+      accumulateOverlapGradient(overlap_terms[p], q, ranges[p], weighted.data() + p * n,
+                                active.data(), g_projected.data());
       g_projected *= d_overlap;
       if (d_area != 0.0) {
         // d(2 pi sqrt|S|) over (S_xx, S_xy as one entry, S_yy) = area/2 (S^-1)_xx, area (S^-1)_xy,

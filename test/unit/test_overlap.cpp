@@ -3,6 +3,8 @@
 #include "sag_hand_tracker/energy/overlap.h"
 
 #include <Eigen/Dense>
+#include <algorithm>
+#include <random>
 
 using namespace sag_hand_tracker;
 
@@ -99,4 +101,56 @@ TEST(Overlap, FarPairsAreCutOff) {
   const OverlapTerm term = prepareOverlapTerm(p);
   EXPECT_GT(overlapIsotropic(term, 3.0, 0.0, 1.0, 60.0, nullptr), 0.0);
   EXPECT_EQ(overlapIsotropic(term, 20.0, 0.0, 1.0, 60.0, nullptr), 0.0);
+}
+
+// The range of image Gaussians a model Gaussian can reach (sorted by x) holds every pair whose
+// overlap is not cut off, and the row over the range is the row over all of them.
+TEST(Overlap, RangeHoldsEveryPairWithinTheCutOff) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> position(0.0, 320.0), sigma(0.5, 8.0), spread(1.0, 15.0),
+      correlation(-0.9, 0.9);
+  const double max_mahalanobis_sq = 60.0;
+  int culled = 0, total = 0;
+  for (int trial = 0; trial < 50; ++trial) {
+    ImageGaussianArrays q;
+    std::vector<double> xs(300);
+    for (double& x : xs) x = position(rng);
+    std::sort(xs.begin(), xs.end());
+    for (const double x : xs) {
+      const double s = sigma(rng);
+      q.mean_x.push_back(x);
+      q.mean_y.push_back(position(rng) * 0.75);
+      q.variance.push_back(s * s);
+      q.self_overlap.push_back(M_PI * s * s);
+      q.max_variance = std::max(q.max_variance, s * s);
+    }
+    ProjectedGaussian projected;
+    const double sx = spread(rng), sy = spread(rng), r = correlation(rng);
+    projected.mean << position(rng), position(rng) * 0.75;
+    projected.cov << sx * sx, r * sx * sy, r * sx * sy, sy * sy;
+    projected.valid = true;
+    const OverlapTerm term = prepareOverlapTerm(projected);
+    const OverlapRange range = overlapRange(term, q, max_mahalanobis_sq);
+    ASSERT_LE(0, range.begin);
+    ASSERT_LE(range.begin, range.end);
+    ASSERT_LE(range.end, q.size());
+    const std::vector<double> weight(q.size(), 0.7);
+    std::vector<double> row(q.size(), -1.0);
+    overlapRow(term, q, range, weight.data(), max_mahalanobis_sq, row.data());
+    for (int i = 0; i < q.size(); ++i) {
+      const double value = 0.7 * overlapIsotropic(term, q.mean_x[i], q.mean_y[i], q.variance[i],
+                                                  max_mahalanobis_sq, nullptr);
+      if (i < range.begin || i >= range.end) {
+        EXPECT_EQ(value, 0.0) << "trial " << trial << ", image Gaussian " << i;
+        EXPECT_EQ(row[i], -1.0);  // not written
+        ++culled;
+      } else {
+        EXPECT_NEAR(row[i], value, 1e-12 * std::max(1.0, value));
+      }
+      ++total;
+    }
+  }
+  // Hand-sized Gaussians in a 320-pixel image: most pairs are out of reach (or the range would
+  // be pointless).
+  EXPECT_GT(culled, total / 2) << culled << " of " << total;
 }

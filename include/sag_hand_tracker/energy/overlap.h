@@ -87,20 +87,33 @@ inline double overlapIsotropic(const OverlapTerm& p, double mean_x, double mean_
   return value;
 }
 
-// Image Gaussians of one camera, structure of arrays for the vectorised kernels.
+// Image Gaussians of one camera, structure of arrays for the vectorised kernels, sorted by mean_x
+// so that the image Gaussians a model Gaussian can reach are one contiguous range.
 struct ImageGaussianArrays {
   std::vector<double> mean_x, mean_y, variance, self_overlap;
+  double max_variance = 0.0;
   int size() const { return static_cast<int>(mean_x.size()); }
 };
 
-// weighted[q] = weight[q] * D_pq for every image Gaussian q (weight = w_p d(c_p, c_q)).
-void overlapRow(const OverlapTerm& p, const ImageGaussianArrays& q, const double* weight,
-                double max_mahalanobis_sq, double* weighted);
+// The image Gaussians [begin, end) that are not beyond `max_mahalanobis_sq` of `p` (overlapValue
+// is exactly 0 for every other one): for any pair, d^T S^-1 d >= dx^2 / S_xx, and
+// S_xx <= cov_xx + max_variance. Needs `q` sorted by mean_x.
+struct OverlapRange {
+  int begin = 0, end = 0;
+};
+OverlapRange overlapRange(const OverlapTerm& p, const ImageGaussianArrays& q,
+                          double max_mahalanobis_sq);
 
-// Adds the sum over q of active[q] * d(weighted[q])/d(mean_x, mean_y, cov_xx, cov_xy, cov_yy),
-// where weighted = overlapRow's output (the weights do not depend on the pose).
+// weighted[q] = weight[q] * D_pq for the image Gaussians q in `range` (weight = w_p d(c_p, c_q));
+// the others are not written.
+void overlapRow(const OverlapTerm& p, const ImageGaussianArrays& q, OverlapRange range,
+                const double* weight, double max_mahalanobis_sq, double* weighted);
+
+// Adds the sum over q in `range` of active[q] * d(weighted[q])/d(mean_x, mean_y, cov_xx, cov_xy,
+// cov_yy), where weighted = overlapRow's output (the weights do not depend on the pose).
 void accumulateOverlapGradient(const OverlapTerm& p, const ImageGaussianArrays& q,
-                               const double* weighted, const double* active, double gradient[5]);
+                               OverlapRange range, const double* weighted, const double* active,
+                               double gradient[5]);
 
 // The soft part of eq. 8's saturation (EnergyParams::saturation_softness = `softness`): returns
 // softness * sum over q of E_qq (1 - exp(-sums[q] / E_qq)) and turns each active[q] (the hard
