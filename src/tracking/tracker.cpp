@@ -543,7 +543,8 @@ std::vector<OptimizationResult> HandTracker::startFromHypotheses(
     candidates.resize(count);
   };
   OptimizerParams stage_params = params.optimizer;
-  keep_best(kCoarseKept);
+  // With a pose among the candidates fewer do (TrackerParams::redetect_coarse_kept).
+  keep_best(current ? static_cast<size_t>(std::max(1, params.redetect_coarse_kept)) : kCoarseKept);
   stage_params.iterations = kCoarseIterations;
   refine_all(stage_params);
   keep_best(kHypothesesKept);
