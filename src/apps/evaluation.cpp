@@ -997,6 +997,7 @@ Options:
                        skin gate and plate, without and with the room cues; foreground precision
                        and recall, fingertip error; DIR/rooms.md, rooms.csv, rooms/*.png
                        (sequences: adbadd,pinch unless --sequences)
+  --room-configs a,b   the room runs to make (skin, skin+cues, plate, plate+cues; default all)
   --help               this text
 )";
 }
@@ -1038,6 +1039,14 @@ BenchmarkOptions parseBenchmarkArguments(const std::vector<std::string>& args) {
       options.plots = false;
     } else if (arg == "--rooms") {
       options.rooms = parseListOption(arg, value());
+    } else if (arg == "--room-configs") {
+      options.room_configs = parseListOption(arg, value());
+      for (const std::string& name : options.room_configs) {
+        if (name != "skin" && name != "skin+cues" && name != "plate" && name != "plate+cues") {
+          throw UsageError("--room-configs: unknown run '" + name +
+                           "' (expected skin, skin+cues, plate or plate+cues)");
+        }
+      }
     } else if (arg == "--fitted") {
       options.fitted = true;
     } else if (arg == "--routine-frames") {

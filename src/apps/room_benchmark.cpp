@@ -1,6 +1,7 @@
 // runRoomBenchmark: see room_benchmark.h.
 #include "sag_hand_tracker/apps/room_benchmark.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -9,9 +10,9 @@
 #include <map>
 #include <sstream>
 
-#include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/apps/render_runner.h"
 #include "sag_hand_tracker/apps/room_evaluation.h"
+#include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/ros/package_config.h"
 #include "sag_hand_tracker/studio/sequence.h"
 #include "sag_hand_tracker/util/types.h"
@@ -86,6 +87,11 @@ std::string runRoomBenchmark(const BenchmarkOptions& options, std::ostream& log)
         for (const std::string segmentation : {"skin", "plate"}) {
           if (segmentation == std::string("plate") && !hand_free) continue;
           for (const bool cues : {false, true}) {
+            const std::string run_name = segmentation + (cues ? "+cues" : "");
+            if (std::find(options.room_configs.begin(), options.room_configs.end(), run_name) ==
+                options.room_configs.end()) {
+              continue;
+            }
             studio::RoomRunConfig run;
             run.model = model;
             run.pipeline.tracker.optimizer.iterations = options.iterations;

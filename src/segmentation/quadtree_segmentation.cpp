@@ -342,6 +342,13 @@ void validate(const SegmentationParams& params) {
   if (!(r.plate_adaptation_rate >= 0.0 && r.plate_adaptation_rate <= 1.0)) {
     fail("room.plate_adaptation_rate must be in [0, 1]");
   }
+  if (!(r.colour_ratio >= 0.0)) fail("room.colour_ratio must be >= 0 (0: off)");
+  if (!(r.colour_learning_rate > 0.0 && r.colour_learning_rate <= 1.0)) {
+    fail("room.colour_learning_rate must be in (0, 1]");
+  }
+  if (!(r.colour_core_depth > r.colour_rim_depth && r.colour_rim_depth >= 0.0)) {
+    fail("room.colour_core_depth > room.colour_rim_depth >= 0 is required");
+  }
 }
 
 ImageSoG quadtreeSegment(const cv::Mat& rgb, const QuadtreeParams& params,

@@ -2,6 +2,7 @@
 // connectivity, motion and plate adaptation on top of the plate and the skin gate.
 #include <algorithm>
 #include <cmath>
+#include <opencv2/imgproc.hpp>
 #include <vector>
 
 #include "sag_hand_tracker/segmentation/quadtree_segmentation.h"
@@ -112,6 +113,69 @@ void removeUnlikeLearnedSkin(const RoomCueParams& room, const std::vector<float>
   }
 }
 
+// Cue 6: the histogram bin of a cell's chromaticity; -1 for (near) black cells.
+int colourBin(const float* c) {
+  double r, g;
+  if (!chromaticity(c, &r, &g)) return -1;
+  constexpr int n = RoomCueState::kColourBins;
+  const int br = std::min(n - 1, static_cast<int>(r * n));
+  const int bg = std::min(n - 1, static_cast<int>(g * n));
+  return br * n + bg;
+}
+
+// The histogram's mass in the 3 x 3 bins around `bin` (a cell's colour is noisy by about a bin).
+double colourLikelihood(const std::vector<float>& histogram, int bin) {
+  constexpr int n = RoomCueState::kColourBins;
+  const int br = bin / n, bg = bin % n;
+  double sum = 0.0;
+  for (int r = std::max(0, br - 1); r <= std::min(n - 1, br + 1); ++r) {
+    for (int g = std::max(0, bg - 1); g <= std::min(n - 1, bg + 1); ++g)
+      sum += histogram[r * n + g];
+  }
+  return sum;
+}
+
+// Drops the cells whose colour is more than colour_ratio times as likely under the skin-coloured
+// background's histogram as under the hand's (once both are learned).
+void removeBackgroundColoured(const RoomCueParams& room, const std::vector<float>& means,
+                              const RoomCueState& state, const std::vector<float>& cell_depth,
+                              std::vector<unsigned char>& mask) {
+  if (room.colour_ratio <= 0.0 || state.hand_colour.empty() || state.background_colour.empty()) {
+    return;
+  }
+  for (size_t i = 0; i < mask.size(); ++i) {
+    if (!mask[i]) continue;
+    // Under the model the hand is kept whatever its colour (shading, mixed cells).
+    if (!cell_depth.empty() && cell_depth[i] >= room.colour_core_depth) continue;
+    const int bin = colourBin(&means[3 * i]);
+    if (bin < 0) continue;
+    const double background = colourLikelihood(state.background_colour, bin);
+    if (background > room.colour_ratio * colourLikelihood(state.hand_colour, bin)) mask[i] = 0;
+  }
+}
+
+// Blends the normalised histogram of the cells' colours into `histogram` at `rate` (all of it
+// when the histogram is still empty); nothing when there are fewer than min_cells cells.
+void learnColours(const std::vector<float>& means, const std::vector<int>& cells, int min_cells,
+                  double rate, std::vector<float>& histogram) {
+  std::vector<float> now(RoomCueState::kColourBins * RoomCueState::kColourBins, 0.0f);
+  int count = 0;
+  for (const int i : cells) {
+    const int bin = colourBin(&means[3 * i]);
+    if (bin < 0) continue;
+    now[bin] += 1.0f;
+    ++count;
+  }
+  if (count < min_cells) return;
+  for (float& v : now) v /= static_cast<float>(count);
+  if (histogram.empty()) {
+    histogram = std::move(now);
+    return;
+  }
+  const float a = static_cast<float>(rate);
+  for (size_t b = 0; b < now.size(); ++b) histogram[b] += a * (now[b] - histogram[b]);
+}
+
 // The connected components of `mask` with their cues; `labels` receives the component per cell.
 std::vector<Component> analyseComponents(const SegmentationParams& params,
                                          const std::vector<float>& means, int cells_x, int cells_y,
@@ -198,12 +262,29 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
     const int y = std::min(cy * cell_size + cell_size / 2, height - 1);
     return roi_mask.at<unsigned char>(y, x) != 0;
   };
+  // Cue 6: each cell's depth inside the region (pixels from its edge, at the cell's centre; 0
+  // outside).
+  std::vector<float> cell_depth;
+  if (has_roi && use_mask && room.colour_ratio > 0.0) {
+    cv::Mat depth;
+    cv::distanceTransform(roi_mask, depth, cv::DIST_L2, 3);
+    cell_depth.assign(cells, 0.0f);
+    for (int cy = 0; cy < cells_y; ++cy) {
+      for (int cx = 0; cx < cells_x; ++cx) {
+        if (!inRoi(cx, cy)) continue;
+        const int x = std::min(cx * cell_size + cell_size / 2, width - 1);
+        const int y = std::min(cy * cell_size + cell_size / 2, height - 1);
+        cell_depth[cy * cells_x + cx] = depth.at<float>(y, x);
+      }
+    }
+  }
   if (has_roi) {
     for (int cy = 0; cy < cells_y; ++cy) {
       for (int cx = 0; cx < cells_x; ++cx) {
         if (!inRoi(cx, cy)) mask[cy * cells_x + cx] = 0;
       }
     }
+    removeBackgroundColoured(room, means, state, cell_depth, mask);
   }
 
   // Connected components and their cues.
@@ -273,6 +354,36 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
         for (int k = 0; k < 3; ++k) state.skin_cov[k] += rate * (cov[k] - state.skin_cov[k]);
         ++state.skin_frames;
       }
+    }
+  }
+
+  // Cue 6: the hand's colours against the skin-coloured background, in this camera. The hand is
+  // sampled deep inside the tracked region (at least colour_core_depth pixels from its edge: under
+  // the model, not a wooden edge or a photograph the region also holds), the background outside
+  // the region and in its outer rim (less than colour_rim_depth from its edge: beyond the model's
+  // silhouette, where what touches the hand lies).
+  if (has_roi && learn_skin && !cell_depth.empty()) {
+    std::vector<int> hand_cells, background_cells;
+    for (int cy = 0; cy < cells_y; ++cy) {
+      for (int cx = 0; cx < cells_x; ++cx) {
+        const int i = cy * cells_x + cx;
+        const float* m = &means[3 * i];
+        if (!candidate[i] || !isSkinColour(Eigen::Vector3d(m[0], m[1], m[2]), params.skin)) {
+          continue;
+        }
+        const float d = cell_depth[i];
+        if (mask[i] && d >= room.colour_core_depth) {
+          hand_cells.push_back(i);
+        } else if (d < room.colour_rim_depth) {
+          background_cells.push_back(i);
+        }
+      }
+    }
+    // The background needs only a few cells to count: one photograph corner is evidence.
+    learnColours(means, hand_cells, room.skin_min_cells, room.colour_learning_rate,
+                 state.hand_colour);
+    if (!state.hand_colour.empty()) {
+      learnColours(means, background_cells, 4, room.colour_learning_rate, state.background_colour);
     }
   }
 

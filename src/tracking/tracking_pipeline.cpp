@@ -53,7 +53,8 @@ cv::Rect projectedHandBox(const HandModel& model, const Pose& pose, const Camera
   return cv::Rect(x0, y0, x1 - x0, y1 - y0) & cv::Rect(0, 0, camera.width, camera.height);
 }
 
-cv::Mat projectedHandMask(const PosedHand& hand, const Camera& camera, int margin_pixels) {
+cv::Mat projectedHandMask(const PosedHand& hand, const Camera& camera, int margin_pixels,
+                          double radius_scale) {
   cv::Mat mask(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
   for (const WorldGaussian& g : hand.gaussians) {
     const Eigen::Vector3d p = camera.world_to_camera * g.mean;
@@ -61,7 +62,8 @@ cv::Mat projectedHandMask(const PosedHand& hand, const Camera& camera, int margi
   }
   for (const WorldGaussian& g : hand.gaussians) {
     const Eigen::Vector3d p = camera.world_to_camera * g.mean;
-    const double radius = 2.5 * std::sqrt(g.cov.trace()) * camera.K(0, 0) / p.z() + margin_pixels;
+    const double radius =
+        radius_scale * std::sqrt(g.cov.trace()) * camera.K(0, 0) / p.z() + margin_pixels;
     const double u = camera.K(0, 0) * p.x() / p.z() + camera.K(0, 2);
     const double v = camera.K(1, 1) * p.y() / p.z() + camera.K(1, 2);
     if (std::fabs(u) > 4.0 * camera.width || std::fabs(v) > 4.0 * camera.height) continue;

@@ -478,6 +478,14 @@ TEST(BenchmarkArguments, BenchmarkParsesTheFittedOptions) {
   EXPECT_THROW(parseBenchmarkArguments({"--routine-frames", "0"}), UsageError);
 }
 
+TEST(BenchmarkArguments, RoomConfigsSelectTheRoomRuns) {
+  EXPECT_EQ(parseBenchmarkArguments({}).room_configs.size(), 4u);  // all four by default
+  const BenchmarkOptions o =
+      parseBenchmarkArguments({"--rooms", "office", "--room-configs", "skin+cues,plate"});
+  EXPECT_EQ(o.room_configs, (std::vector<std::string>{"skin+cues", "plate"}));
+  EXPECT_THROW(parseBenchmarkArguments({"--room-configs", "skin,cues"}), UsageError);
+}
+
 namespace {
 
 std::string readText(const fs::path& path) {

@@ -220,6 +220,46 @@ TEST(RoomCues, LearnedSkinColourRejectsWoodThatTheGatePasses) {
   EXPECT_TRUE(isSkinColour(Eigen::Vector3d(kWood[0], kWood[1], kWood[2]), SkinParams()));
 }
 
+TEST(RoomCues, TheHandsColourAgainstTheBackgroundsDropsAPhotographTouchingTheHand) {
+  // A photograph's skin tone: passes the generic gate and is near the user's skin (the learned
+  // chromaticity test is widened here so that only cue 6 can separate them), but its chromaticity
+  // lies three histogram bins from the hand's.
+  const cv::Vec3b kPortrait(215, 130, 95);
+  ASSERT_TRUE(
+      isSkinColour(Eigen::Vector3d(kPortrait[0], kPortrait[1], kPortrait[2]), SkinParams()));
+  cv::Mat image = greyImage();
+  disc(image, {100, 120}, 25, kSkin);      // the hand
+  disc(image, {240, 120}, 25, kPortrait);  // the photograph away from the hand
+  disc(image, {133, 120}, 8, kPortrait);   // and where it touches the hand
+  cv::Mat region(image.rows, image.cols, CV_8UC1, cv::Scalar(0));
+  cv::circle(region, {100, 120}, 35, cv::Scalar(255), cv::FILLED);  // the model, grown by 10 px
+  for (const double ratio : {1.0, 0.0}) {
+    SegmentationParams params = roomSkinParams();
+    params.room.skin_max_distance = 10.0;
+    params.room.colour_ratio = ratio;
+    ImageSegmenter segmenter(params);
+    for (int k = 0; k < 3; ++k) {
+      segmenter.setRegionOfInterest(region, RegionSource::kTrack);
+      segmenter.segmentFrame(image);
+    }
+    EXPECT_EQ(maskAt(segmenter, {100, 120}), 255) << "ratio " << ratio;  // the hand's core
+    EXPECT_EQ(maskAt(segmenter, {122, 120}), 255)
+        << "ratio " << ratio;                                          // its edge, not in the core
+    EXPECT_EQ(maskAt(segmenter, {240, 120}), 0) << "ratio " << ratio;  // outside the region
+    // The part of the photograph inside the region: dropped by its colour, kept without cue 6.
+    EXPECT_EQ(maskAt(segmenter, {131, 120}), ratio > 0.0 ? 0 : 255) << "ratio " << ratio;
+  }
+  // A region of candidates (before the start) learns nothing: the photograph stays.
+  SegmentationParams params = roomSkinParams();
+  params.room.skin_max_distance = 10.0;
+  ImageSegmenter segmenter(params);
+  for (int k = 0; k < 3; ++k) {
+    segmenter.setRegionOfInterest(region, RegionSource::kCandidates);
+    segmenter.segmentFrame(image);
+  }
+  EXPECT_EQ(maskAt(segmenter, {131, 120}), 255);
+}
+
 TEST(RoomCues, ThePlateFollowsTheLightWhereTheHandIsNot) {
   SegmentationParams params;
   params.mode = SegmentationMode::kPlate;
@@ -254,6 +294,14 @@ TEST(RoomCues, BadParametersAreNamed) {
     FAIL() << "motion_decay 1 accepted";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("room.motion_decay"), std::string::npos) << e.what();
+  }
+  SegmentationParams rim;
+  rim.room.colour_rim_depth = rim.room.colour_core_depth;  // the rim would reach the core
+  try {
+    validate(rim);
+    FAIL() << "colour_rim_depth == colour_core_depth accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("room.colour_core_depth"), std::string::npos) << e.what();
   }
 }
 

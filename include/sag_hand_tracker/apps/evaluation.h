@@ -55,6 +55,8 @@ struct BenchmarkOptions {
   // --rooms office,kitchen,daylight|all: instead of the bags, the studio rooms against the clean
   // studio (room_benchmark.h); its default sequences are adbadd and pinch.
   std::vector<std::string> rooms;
+  // --room-configs a,b: which of the room runs (skin, skin+cues, plate, plate+cues; default all).
+  std::vector<std::string> room_configs{"skin", "skin+cues", "plate", "plate+cues"};
   // --fitted: per hand shape, fit the model to the calibration routine rendered on that hand and
   // track with it too (tracker "fitted"); needs "sag" among the models, the default it starts from.
   bool fitted = false;

@@ -88,6 +88,18 @@ struct RoomCueParams {
   double motion_weight = 4.0;
   double sleeve_weight = 2.0;
   double plate_adaptation_rate = 0.05;
+  // 6. two-class colour (the user's skin against this camera's skin-coloured background): once the
+  //    hand is tracked (a region mask of RegionSource::kTrack), a chromaticity histogram of the
+  //    kept skin cells deep inside the region (at least colour_core_depth pixels from its edge:
+  //    under the model) and one of the skin-gate cells outside the region or in its rim (less than
+  //    colour_rim_depth from its edge: where a wooden edge or a photograph touches the hand) are
+  //    learned (colour_learning_rate per frame). A cell inside the region but not in its core is
+  //    dropped when its colour is more than colour_ratio times as likely under the background's
+  //    histogram as under the hand's (3 x 3 bins around it). 0 turns the cue off.
+  double colour_ratio = 1.0;
+  double colour_learning_rate = 0.05;
+  double colour_core_depth = 16.0;  // pixels inside the region's edge: the hand is sampled there
+  double colour_rim_depth = 5.0;    // pixels: the region's rim, sampled as background
 };
 
 struct SegmentationParams {
@@ -123,6 +135,10 @@ struct RoomCueState {
   int skin_frames = 0;                   // frames the skin colour was learned from
   double skin_mean[2] = {0.0, 0.0};      // chromaticity (r, g)
   double skin_cov[3] = {0.0, 0.0, 0.0};  // xx, xy, yy
+  // Cue 6: chromaticity histograms (kColourBins^2, sum 1) of the hand and of the skin-coloured
+  // background; empty until learned.
+  static constexpr int kColourBins = 64;
+  std::vector<float> hand_colour, background_colour;
 };
 
 // One hand candidate of a frame without a region of interest (RoomCueParams, cue 3): a connected

@@ -51,9 +51,12 @@ cv::Rect projectedHandBox(const HandModel& model, const Pose& pose, const Camera
 
 // The posed hand's silhouette in one camera, grown by a margin (CV_8UC1 at image size, 255 inside):
 // every model Gaussian whose centre is in front of the camera drawn as a disc of radius
-// 2.5 sqrt(trace Sigma) projected, plus margin_pixels. All zero when the hand is at or behind
-// the camera.
-cv::Mat projectedHandMask(const PosedHand& hand, const Camera& camera, int margin_pixels = 10);
+// radius_scale sqrt(trace Sigma) projected (1.5: about 2.6 sigma for a round Gaussian), plus
+// margin_pixels (one frame's motion). All zero when the hand is at or behind the camera.
+// (2.5 sqrt(trace Sigma) held much background between and around the fingers in the rooms:
+// doc/segmentation.md.)
+cv::Mat projectedHandMask(const PosedHand& hand, const Camera& camera, int margin_pixels = 10,
+                          double radius_scale = 1.5);
 
 class TrackingPipeline {
  public:
