@@ -137,7 +137,8 @@ struct BagReader::Impl {
 // header fields must fit in their header, a chunk's uncompressed size must be at most
 // kMaxChunkBytes, and index entries and chunk infos must point at records. Compressed chunks (lz4,
 // bz2) are decompressed here as rosbag will, and their records walked like an uncompressed
-// chunk's (a fuzz find: a message header in an lz4 chunk that made rosbag read past its buffer).
+// chunk's (a fuzz find: an index entry into a record of an lz4 chunk made rosbag parse message
+// bytes as a header and read past its buffer).
 // Returns "" or what is wrong.
 class BagRecordWalker {
  public:
