@@ -1,9 +1,11 @@
 #include "sag_hand_tracker/ros/bag_input.h"
 
+#include <bzlib.h>
 #include <ros/exception.h>
 #include <rosbag/bag.h>
 #include <rosbag/exceptions.h>
 #include <rosbag/view.h>
+#include <roslz4/lz4s.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <tf2_msgs/TFMessage.h>
@@ -16,6 +18,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <memory>
 #include <regex>
 #include <set>
 #include <sstream>
@@ -128,60 +131,105 @@ struct BagReader::Impl {
 };
 
 // rosbag allocates whatever a record's length fields say before it checks them against the file
-// (a flipped bit: gigabytes, or std::bad_alloc). So the record structure is walked first: every
-// record <header_len><header><data_len><data> must fit in the file (in its chunk for the records
-// of an uncompressed chunk), header fields must fit in their header, a chunk's uncompressed size
-// must be plausible, and index entries and chunk infos must point at records. Returns "" or what
-// is wrong.
+// (a flipped bit: gigabytes, or std::bad_alloc), and parses record headers where they lie, copying
+// whatever length a field claims. So the record structure is walked first: every record
+// <header_len><header><data_len><data> must fit in the file (a chunk's records in their chunk),
+// header fields must fit in their header, a chunk's uncompressed size must be at most
+// kMaxChunkBytes, and index entries and chunk infos must point at records. Compressed chunks (lz4,
+// bz2) are decompressed here as rosbag will, and their records walked like an uncompressed
+// chunk's (a fuzz find: an index entry into a record of an lz4 chunk made rosbag parse message
+// bytes as a header and read past its buffer).
+// Returns "" or what is wrong.
 class BagRecordWalker {
  public:
-  BagRecordWalker(const std::string& path) : file_(path, std::ios::binary) {}
+  explicit BagRecordWalker(const std::string& path) : file_(path, std::ios::binary) {}
 
-  std::string walk(std::uint64_t begin, std::uint64_t end, bool inside_chunk) {
+  // The records after the magic line "#ROSBAG V2.0\n" up to `size`; `index_pos` (from the bag
+  // header) must be where one of them starts, or the end of the file when the bag has no index
+  // records (rosbag reads a record header wherever it points: a header length from the middle of
+  // a record made it allocate 2.3 GB).
+  std::string walkFile(std::uint64_t size, std::uint64_t index_pos) {
+    const std::string problem = walk(Source{}, 13, size, nullptr);
+    if (!problem.empty()) return problem;
+    if (index_pos != size && !file_record_starts_.count(index_pos)) {
+      return "the bag is corrupt: its header's index position (byte " + std::to_string(index_pos) +
+             ") is not where a record starts";
+    }
+    return "";
+  }
+
+ private:
+  // rosbag's own limit is 4 GiB (a 32-bit size); a chunk is normally about 768 kB (rosbag's
+  // chunk threshold) plus one message. Checked before the decompressed chunk is allocated.
+  static constexpr std::uint32_t kMaxChunkBytes = 1u << 30;
+
+  // Where records are read from: the file (positions in it), or a decompressed chunk in memory
+  // (positions in its uncompressed data).
+  struct Source {
+    const char* memory = nullptr;  // null: the file
+    std::uint64_t size = 0;
+  };
+  // The chunk whose records are being walked.
+  struct Chunk {
+    std::uint64_t record_at = 0;  // file position of the chunk record
+    std::string compression;
+  };
+
+  std::string walk(const Source& source, std::uint64_t begin, std::uint64_t end,
+                   const Chunk* chunk) {
+    const std::string container = chunk ? "its chunk" : "the file";
+    const auto corrupt = [&](std::uint64_t pos, const std::string& what) {
+      return describe(chunk, pos, what);
+    };
     std::uint64_t pos = begin;
     while (pos < end) {
       std::uint32_t header_len = 0, data_len = 0;
-      if (end - pos < 4 || !readU32(pos, &header_len)) return corrupt(pos, "a cut record");
-      if (header_len > end - pos - 4) return corrupt(pos, "a record header longer than the file");
+      if (end - pos < 4 || !readU32(source, pos, &header_len)) return corrupt(pos, "a cut record");
+      if (header_len > end - pos - 4) {
+        return corrupt(pos, "a record header longer than " + container);
+      }
       std::string header(header_len, '\0');
-      if (!read(pos + 4, &header[0], header_len)) return corrupt(pos, "an unreadable header");
+      if (!read(source, pos + 4, &header[0], header_len)) {
+        return corrupt(pos, "an unreadable header");
+      }
       const std::uint64_t data_at = pos + 4 + header_len;
-      if (end - data_at < 4 || !readU32(data_at, &data_len)) return corrupt(pos, "a cut record");
-      if (data_len > end - data_at - 4) return corrupt(pos, "record data longer than the file");
+      if (end - data_at < 4 || !readU32(source, data_at, &data_len)) {
+        return corrupt(pos, "a cut record");
+      }
+      if (data_len > end - data_at - 4) return corrupt(pos, "record data longer than " + container);
       std::map<std::string, std::string> fields;
       if (!parseFields(header, &fields)) return corrupt(pos, "a record header with a cut field");
-      const std::string op = fields["op"], compression = fields["compression"];
-      std::uint32_t chunk_size = 0;
-      if (fields["size"].size() == 4) std::memcpy(&chunk_size, fields["size"].data(), 4);
+      const std::string op = fields["op"];
       if (op.size() != 1) return corrupt(pos, "a record without its op field");
+      if (op[0] == 0x03 && !chunk) {  // the bag header
+        const std::string encryptor = fields["encryptor"];
+        if (!encryptor.empty() && encryptor != "rosbag/NoEncryptor") {
+          return "the bag is encrypted (" + encryptor + "): encrypted bags are not supported";
+        }
+      }
       if (op[0] == 0x07) {  // connection: its data is a header too (topic, type, definition)
         std::string data(data_len, '\0');
         std::map<std::string, std::string> connection;
-        if (!read(data_at + 4, &data[0], data_len) || !parseFields(data, &connection)) {
+        if (!read(source, data_at + 4, &data[0], data_len) || !parseFields(data, &connection)) {
           return corrupt(pos, "a connection record with a cut field");
         }
       }
-      if (op[0] == 0x05) {  // chunk
-        if (inside_chunk) return corrupt(pos, "a chunk inside a chunk");
-        if (chunk_size > kMaxChunkBytes) return corrupt(pos, "a chunk larger than 1 GiB");
-        if (compression == "none") {
-          if (chunk_size != data_len) return corrupt(pos, "a chunk whose size disagrees");
-          const std::string inner = walk(data_at + 4, data_at + 4 + data_len, true);
-          if (!inner.empty()) return inner;
-        }
-      }
-      if (inside_chunk) record_starts_.insert(pos);
       if (op[0] == 0x05) {
+        if (chunk) return corrupt(pos, "a chunk inside a chunk");
+        const std::string problem = walkChunk(pos, fields, data_at + 4, data_len);
+        if (!problem.empty()) return problem;
         chunk_starts_.insert(pos);
-        chunk_data_at_ = data_at + 4;
-        chunk_uncompressed_ = compression == "none";
-        chunk_end_ = chunk_data_at_ + chunk_size;
       }
-      if (op[0] == 0x04 && !inside_chunk) {  // index of the chunk before: (time, offset) entries
-        const std::string problem = checkIndexOffsets(data_at + 4, data_len);
-        if (!problem.empty()) return corrupt(pos, problem);
+      if (chunk) {
+        record_offsets_.insert(pos - begin);
+      } else {
+        file_record_starts_.insert(pos);
       }
-      if (op[0] == 0x06 && !inside_chunk) {  // chunk info: where its chunk record starts
+      if (op[0] == 0x04 && !chunk) {  // index of the chunk before: (time, offset) entries
+        const std::string problem = checkIndexOffsets(pos, data_at + 4, data_len);
+        if (!problem.empty()) return problem;
+      }
+      if (op[0] == 0x06 && !chunk) {  // chunk info: where its chunk record starts
         std::uint64_t chunk_pos = 0;
         if (fields["chunk_pos"].size() != 8) return corrupt(pos, "a chunk info without chunk_pos");
         std::memcpy(&chunk_pos, fields["chunk_pos"].data(), 8);
@@ -194,31 +242,105 @@ class BagRecordWalker {
     return "";
   }
 
- private:
-  static constexpr std::uint32_t kMaxChunkBytes = 1u << 30;
+  // The records of the chunk record at `record_at`, whose data (as stored) is `data_len` bytes at
+  // file position `data_at`; its header's `size` is the uncompressed size rosbag will allocate.
+  std::string walkChunk(std::uint64_t record_at, std::map<std::string, std::string>& fields,
+                        std::uint64_t data_at, std::uint32_t data_len) {
+    const auto corrupt = [&](const std::string& what) {
+      return describe(nullptr, record_at, what);
+    };
+    const std::string compression = fields["compression"];
+    if (fields["size"].size() != 4) return corrupt("a chunk without its size");
+    std::uint32_t size = 0;
+    std::memcpy(&size, fields["size"].data(), 4);
+    record_offsets_.clear();
+    const Chunk chunk{record_at, compression};
+    latest_chunk_ = chunk;
+    if (compression == "none") {
+      if (size != data_len) return corrupt("a chunk whose size disagrees");
+      return walk(Source{}, data_at, data_at + data_len, &chunk);
+    }
+    if (compression != "lz4" && compression != "bz2") {
+      return corrupt("a chunk of unknown compression '" + compression + "'");
+    }
+    const auto bad_chunk = [&](const std::string& problem) {
+      return "the bag is corrupt: the " + compression + " chunk at byte " +
+             std::to_string(record_at) + " " + problem;
+    };
+    if (size > kMaxChunkBytes) {
+      return bad_chunk("declares " + std::to_string(size) +
+                       " uncompressed bytes (the limit is 1 GiB)");
+    }
+    // Not zero-filled: a chunk that declares much more than it holds costs no page.
+    const std::unique_ptr<char[]> stored(new char[data_len]);
+    if (!read(Source{}, data_at, stored.get(), data_len)) return bad_chunk("is unreadable");
+    const std::unique_ptr<char[]> plain(new char[size]);
+    unsigned int produced = size;
+    const std::string too_much =
+        "decompresses to more than the " + std::to_string(size) + " bytes it declares";
+    if (compression == "lz4") {
+      const int result =
+          roslz4_buffToBuffDecompress(stored.get(), data_len, plain.get(), &produced);
+      if (result == ROSLZ4_OUTPUT_SMALL) return bad_chunk(too_much);
+      if (result != ROSLZ4_OK) {
+        return bad_chunk("is not valid lz4 data (roslz4 error " + std::to_string(result) + ")");
+      }
+    } else {
+      const int result = BZ2_bzBuffToBuffDecompress(plain.get(), &produced, stored.get(), data_len,
+                                                    /*small=*/0, /*verbosity=*/0);
+      if (result == BZ_OUTBUFF_FULL) return bad_chunk(too_much);
+      if (result != BZ_OK) {
+        return bad_chunk("is not valid bzip2 data (bzip2 error " + std::to_string(result) + ")");
+      }
+    }
+    if (produced != size) {
+      return bad_chunk("decompresses to " + std::to_string(produced) + " bytes, not the " +
+                       std::to_string(size) + " it declares");
+    }
+    return walk(Source{plain.get(), size}, 0, size, &chunk);
+  }
 
   // rosbag parses a message's record header wherever an index entry's offset points (a fuzz find:
-  // an offset into the middle of a record read past a buffer). In an uncompressed chunk it must be
-  // the start of one of its records; in a compressed one, within its uncompressed size.
-  std::string checkIndexOffsets(std::uint64_t data_at, std::uint32_t data_len) {
-    if (data_len % 12 != 0) return "an index record of cut entries";
+  // an offset into the middle of a record read past a buffer): it must be the start of one of the
+  // records of its chunk (the chunk record just before the index record).
+  std::string checkIndexOffsets(std::uint64_t record_at, std::uint64_t data_at,
+                                std::uint32_t data_len) {
+    if (data_len % 12 != 0) return describe(nullptr, record_at, "an index record of cut entries");
     std::string data(data_len, '\0');
-    if (!read(data_at, &data[0], data_len)) return "an unreadable index record";
+    if (!read(Source{}, data_at, &data[0], data_len)) {
+      return describe(nullptr, record_at, "an unreadable index record");
+    }
     for (std::size_t at = 0; at < data.size(); at += 12) {
+      if (chunk_starts_.empty()) {
+        return describe(nullptr, record_at, "an index record before any chunk");
+      }
       std::uint32_t offset = 0;
       std::memcpy(&offset, &data[at + 8], 4);
-      const bool valid = chunk_uncompressed_ ? record_starts_.count(chunk_data_at_ + offset) > 0
-                                             : chunk_data_at_ + offset < chunk_end_;
-      if (chunk_starts_.empty() || !valid) return "an index entry pointing where no record starts";
+      if (!record_offsets_.count(offset)) {
+        return "the bag is corrupt: the index record at byte " + std::to_string(record_at) +
+               " points at byte " + std::to_string(offset) + " of the " +
+               latest_chunk_.compression + " chunk at byte " +
+               std::to_string(latest_chunk_.record_at) + ", where none of its records starts";
+      }
     }
     return "";
   }
 
-  std::set<std::uint64_t> chunk_starts_;   // file positions of chunk records
-  std::set<std::uint64_t> record_starts_;  // file positions of records inside uncompressed chunks
-  std::uint64_t chunk_data_at_ = 0;        // the latest chunk's data
-  std::uint64_t chunk_end_ = 0;            // ... and its end when uncompressed
-  bool chunk_uncompressed_ = false;
+  // Records of the file are named by their byte in it, records of an uncompressed chunk too;
+  // records of a compressed chunk by their chunk and their byte in its uncompressed data.
+  static std::string describe(const Chunk* chunk, std::uint64_t pos, const std::string& what) {
+    if (!chunk || chunk->compression == "none") {
+      return "the bag is corrupt: " + what + " at byte " + std::to_string(pos);
+    }
+    return "the bag is corrupt: in the " + chunk->compression + " chunk at byte " +
+           std::to_string(chunk->record_at) + ": " + what + " at byte " + std::to_string(pos) +
+           " of its uncompressed data";
+  }
+
+  std::set<std::uint64_t> file_record_starts_;  // file positions of the records outside chunks
+  std::set<std::uint64_t> chunk_starts_;        // ... of the chunk records among them
+  Chunk latest_chunk_;                          // the index records after a chunk are about it
+  std::set<std::uint64_t> record_offsets_;      // its records: offsets in its (uncompressed) data
 
   // A header: fields <len><name>=<value>, each within the header (rosbag copies whatever length
   // a field claims: a fuzz find). False when one is cut or has no '='.
@@ -238,27 +360,30 @@ class BagRecordWalker {
     return true;
   }
 
-  bool read(std::uint64_t pos, char* out, std::size_t n) {
+  bool read(const Source& source, std::uint64_t pos, char* out, std::size_t n) {
+    if (source.memory) {
+      if (pos > source.size || n > source.size - pos) return false;
+      std::memcpy(out, source.memory + pos, n);
+      return true;
+    }
     file_.clear();
     file_.seekg(static_cast<std::streamoff>(pos));
     file_.read(out, static_cast<std::streamsize>(n));
     return static_cast<std::size_t>(file_.gcount()) == n;
   }
-  bool readU32(std::uint64_t pos, std::uint32_t* value) {
+  bool readU32(const Source& source, std::uint64_t pos, std::uint32_t* value) {
     char bytes[4];
-    if (!read(pos, bytes, 4)) return false;
+    if (!read(source, pos, bytes, 4)) return false;
     std::memcpy(value, bytes, 4);  // little-endian, as the format and this machine
     return true;
-  }
-  static std::string corrupt(std::uint64_t pos, const std::string& what) {
-    return "the bag is corrupt: " + what + " at byte " + std::to_string(pos);
   }
 
   std::ifstream file_;
 };
 
-std::string describeCorruptRecords(const std::string& path, std::uint64_t size) {
-  return BagRecordWalker(path).walk(13, size, false);  // after "#ROSBAG V2.0\n"
+std::string describeCorruptRecords(const std::string& path, std::uint64_t size,
+                                   std::uint64_t index_pos) {
+  return BagRecordWalker(path).walkFile(size, index_pos);
 }
 
 // A bag (format 2.0) starts with "#ROSBAG V2.0\n" and a header record whose field index_pos is
@@ -297,7 +422,7 @@ std::string describeIncompleteBag(const std::string& path) {
     return "the bag is truncated: it has " + std::to_string(size) +
            " bytes, its index starts at byte " + std::to_string(index_pos);
   }
-  return describeCorruptRecords(path, size);
+  return describeCorruptRecords(path, size, index_pos);
 }
 
 void BagReader::Impl::open() {

@@ -11,8 +11,10 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <random>
+#include <utility>
 
 #include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/ros/bag_input.h"
@@ -69,6 +71,77 @@ bool sameImage(const cv::Mat& a, const cv::Mat& b) {
   return a.size() == b.size() && a.type() == b.type() && cv::norm(a, b, cv::NORM_INF) == 0.0;
 }
 
+// A bag's records as the walk in bag_input.cpp sees them: file positions of the chunk records, of
+// their header's size field and of their stored data.
+struct ChunkRecord {
+  std::uint64_t record_at = 0;
+  std::uint64_t size_field_at = 0;
+  std::uint64_t data_at = 0;
+  std::uint32_t data_len = 0;
+  std::string compression;
+};
+
+std::vector<ChunkRecord> chunkRecords(const std::string& bag) {
+  std::ifstream file(bag, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  const auto u32 = [&](std::uint64_t at) {
+    std::uint32_t value = 0;
+    std::memcpy(&value, &bytes[at], 4);
+    return value;
+  };
+  std::vector<ChunkRecord> chunks;
+  for (std::uint64_t pos = 13; pos + 8 <= bytes.size();) {  // after "#ROSBAG V2.0\n"
+    const std::uint32_t header_len = u32(pos);
+    ChunkRecord chunk;
+    bool is_chunk = false;
+    for (std::uint64_t at = pos + 4; at < pos + 4 + header_len;) {
+      const std::uint32_t field_len = u32(at);
+      const std::string field = bytes.substr(at + 4, field_len);
+      const std::size_t equals = field.find('=');
+      const std::string name = field.substr(0, equals);
+      if (name == "op") is_chunk = field[equals + 1] == 0x05;
+      if (name == "compression") chunk.compression = field.substr(equals + 1);
+      if (name == "size") chunk.size_field_at = at + 4 + equals + 1;
+      at += 4 + field_len;
+    }
+    chunk.record_at = pos;
+    chunk.data_at = pos + 4 + header_len + 4;
+    chunk.data_len = u32(pos + 4 + header_len);
+    if (is_chunk) chunks.push_back(chunk);
+    pos = chunk.data_at + chunk.data_len;
+  }
+  return chunks;
+}
+
+void overwrite(const std::string& file_path, std::uint64_t at, const void* bytes, std::size_t n) {
+  std::fstream file(file_path, std::ios::binary | std::ios::in | std::ios::out);
+  file.seekp(static_cast<std::streamoff>(at));
+  file.write(static_cast<const char*>(bytes), static_cast<std::streamsize>(n));
+}
+
+// Every set of the bag, with its images.
+std::vector<FrameSet> readAllSets(const std::string& bag) {
+  BagReader reader(bag);
+  std::vector<FrameSet> sets;
+  FrameSet set;
+  while (reader.next(&set)) sets.push_back(set);
+  return sets;
+}
+
+void expectSameSets(const std::vector<FrameSet>& expected, const std::vector<FrameSet>& actual,
+                    const std::string& what) {
+  ASSERT_EQ(actual.size(), expected.size()) << what;
+  for (std::size_t k = 0; k < expected.size(); ++k) {
+    EXPECT_EQ(actual[k].stamp_ns, expected[k].stamp_ns) << what << " set " << k;
+    ASSERT_EQ(actual[k].images.size(), expected[k].images.size()) << what << " set " << k;
+    for (std::size_t i = 0; i < expected[k].images.size(); ++i) {
+      EXPECT_EQ(actual[k].images[i].camera, expected[k].images[i].camera);
+      EXPECT_TRUE(sameImage(actual[k].images[i].rgb, expected[k].images[i].rgb))
+          << what << " set " << k << " image " << i;
+    }
+  }
+}
+
 class BagFiles : public sag_test::TempDirTest {
  protected:
   void SetUp() override {
@@ -87,8 +160,9 @@ class BagFiles : public sag_test::TempDirTest {
   }
 
   // The standard test bag: 4 frames of 3 cameras; cam1 misses frame 2; cam2 is bgr8.
-  std::string writeGoodBag(const std::string& name) const {
-    BagWriter writer(path(name));
+  std::string writeGoodBag(const std::string& name,
+                           BagCompression compression = BagCompression::kNone) const {
+    BagWriter writer(path(name), compression);
     writer.writeStaticTransforms("world", cameras_, frameTime(0));
     for (int frame = 0; frame < 4; ++frame) {
       for (int id = 0; id < 3; ++id) {
@@ -519,6 +593,139 @@ TEST_F(BagFiles, BagErrorCorruptRecordLengthIsCaughtBeforeRosbagAllocatesIt) {
   }
   EXPECT_EQ(readError(bag),
             bag + ": the bag is corrupt: a record header longer than the file at byte 4117");
+}
+
+// rosbag parses the records of a compressed chunk after decompressing it, where a check of the
+// file cannot see them: the reader decompresses lz4 and bz2 chunks itself and walks their records
+// first (a fuzz find). Well-formed compressed bags read exactly as uncompressed ones, also when
+// they span many chunks (each chunk's index is checked against that chunk's records).
+TEST_F(BagFiles, CompressedBagsReadTheSameFramesAsUncompressed) {
+  const std::vector<FrameSet> plain = readAllSets(writeGoodBag("none.bag"));
+  ASSERT_EQ(plain.size(), 4u);
+  for (const auto& [compression, name] : {std::pair{BagCompression::kLz4, std::string("lz4")},
+                                          std::pair{BagCompression::kBz2, std::string("bz2")}}) {
+    const std::string bag = writeGoodBag(name + ".bag", compression);
+    const std::vector<ChunkRecord> chunks = chunkRecords(bag);
+    ASSERT_FALSE(chunks.empty()) << name;
+    for (const ChunkRecord& chunk : chunks) EXPECT_EQ(chunk.compression, name);
+    expectSameSets(plain, readAllSets(bag), name);
+    BagReader reader(bag);
+    EXPECT_EQ(reader.rootFrame(), "world");
+    for (int id = 0; id < 3; ++id) {
+      EXPECT_TRUE(reader.cameras()[id].K.isApprox(cameras_[id].K, 1e-12)) << name;
+    }
+  }
+
+  // 6 frames of 3 cameras of 192 kB each: rosbag's 768 kB chunk threshold makes several chunks.
+  std::vector<Camera> large = cameras_;
+  for (Camera& camera : large) {
+    camera.width = 320;
+    camera.height = 200;
+  }
+  const auto write_large = [&](const std::string& name, BagCompression compression) {
+    BagWriter writer(path(name), compression);
+    writer.writeStaticTransforms("world", large, frameTime(0));
+    for (int frame = 0; frame < 6; ++frame) {
+      for (int id = 0; id < 3; ++id) {
+        cv::Mat image(200, 320, CV_8UC3);  // the same noise in every bag
+        cv::RNG(static_cast<std::uint64_t>(1 + 3 * frame + id))
+            .fill(image, cv::RNG::UNIFORM, cv::Scalar::all(0), cv::Scalar::all(256 / (1 + id)));
+        writer.writeCameraImage(large[id], image, frameTime(frame));
+      }
+    }
+    writer.close();
+    return path(name);
+  };
+  const std::vector<FrameSet> large_plain =
+      readAllSets(write_large("large_none.bag", BagCompression::kNone));
+  ASSERT_EQ(large_plain.size(), 6u);
+  for (const auto& [compression, name] : {std::pair{BagCompression::kLz4, std::string("lz4")},
+                                          std::pair{BagCompression::kBz2, std::string("bz2")}}) {
+    const std::string bag = write_large("large_" + name + ".bag", compression);
+    EXPECT_GE(chunkRecords(bag).size(), 3u) << name;
+    expectSameSets(large_plain, readAllSets(bag), "large " + name);
+  }
+}
+
+TEST_F(BagFiles, BagErrorCorruptCompressedChunkNamesTheChunkAndTheProblem) {
+  for (const auto& [compression, name] : {std::pair{BagCompression::kLz4, std::string("lz4")},
+                                          std::pair{BagCompression::kBz2, std::string("bz2")}}) {
+    SCOPED_TRACE(name);
+    const std::string original = writeGoodBag(name + ".bag", compression);
+    const std::vector<ChunkRecord> chunks = chunkRecords(original);
+    ASSERT_EQ(chunks.size(), 1u);
+    const ChunkRecord chunk = chunks[0];
+    const std::string where = ": the bag is corrupt: the " + name + " chunk at byte " +
+                              std::to_string(chunk.record_at) + " ";
+    std::uint32_t size = 0;
+    {
+      std::ifstream file(original, std::ios::binary);
+      file.seekg(static_cast<std::streamoff>(chunk.size_field_at));
+      file.read(reinterpret_cast<char*>(&size), 4);
+    }
+    ASSERT_GT(size, chunk.data_len);  // it is compressed
+
+    const auto edited = [&](const std::string& label, std::uint64_t at, std::uint32_t value) {
+      const std::string bag = path(name + "_" + label + ".bag");
+      fs::copy_file(original, bag);
+      overwrite(bag, at, &value, 4);
+      return bag;
+    };
+    // Bytes in the middle of the compressed data changed.
+    const std::string garbled = edited("garbled", chunk.data_at + chunk.data_len / 2, 0x5a5a5a5au);
+    const std::string garbled_error = readError(garbled);
+    EXPECT_EQ(garbled_error.rfind(
+                  garbled + where + "is not valid " +
+                      (name == "lz4" ? "lz4 data (roslz4 error " : "bzip2 data (bzip2 error "),
+                  0),
+              0u)
+        << garbled_error;
+    // Its declared uncompressed size one byte off either way.
+    const std::string larger = edited("larger", chunk.size_field_at, size + 1);
+    EXPECT_EQ(readError(larger), larger + where + "decompresses to " + std::to_string(size) +
+                                     " bytes, not the " + std::to_string(size + 1) +
+                                     " it declares");
+    const std::string smaller = edited("smaller", chunk.size_field_at, size - 1);
+    EXPECT_EQ(readError(smaller), smaller + where + "decompresses to more than the " +
+                                      std::to_string(size - 1) + " bytes it declares");
+    // A size above the limit is refused before anything is allocated.
+    const std::string huge = edited("huge", chunk.size_field_at, 0xfffffff0u);
+    EXPECT_EQ(readError(huge),
+              huge + where + "declares 4294967280 uncompressed bytes (the limit is 1 GiB)");
+  }
+}
+
+// rosbag reads the connection records and chunk infos from the header's index_pos on; pointing
+// into a record made it take a header length from that record's bytes and allocate 2.3 GB
+// (corpus/bag/crash_rosbag_index_pos_mid_record).
+TEST_F(BagFiles, BagErrorIndexPositionInsideARecordIsCaughtBeforeRosbagAllocates) {
+  const std::string bag = writeGoodBag("index.bag");
+  std::ifstream file(bag, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  const std::size_t field = bytes.find("index_pos=") + std::strlen("index_pos=");
+  std::uint64_t index_pos = 0;
+  std::memcpy(&index_pos, &bytes[field], 8);
+  for (const std::uint64_t moved : {index_pos + 1, index_pos + 5, index_pos - 4}) {
+    overwrite(bag, field, &moved, 8);
+    EXPECT_EQ(readError(bag), bag + ": the bag is corrupt: its header's index position (byte " +
+                                  std::to_string(moved) + ") is not where a record starts");
+  }
+  overwrite(bag, field, &index_pos, 8);
+  EXPECT_EQ(readAllSets(bag).size(), 4u);  // restored, it reads again
+}
+
+// The fuzzer's finding (session 6): an index entry pointing into a record of an lz4 chunk (2 bytes
+// before the next one) made rosbag parse message bytes as a record header, whose field length sent
+// ros::Header::parse 262 139 bytes past a 3 316-byte buffer. The chunk is now decompressed and its
+// records walked before rosbag opens the bag; the entry is refused with the chunk it points into.
+TEST(BagRecords, AnIndexEntryIntoAnLz4ChunkRecordIsRefusedBeforeRosbagParsesIt) {
+  const std::string bag =
+      std::string(SAG_SOURCE_DIR) + "/test/fuzz/corpus/bag/crash_lz4_chunk_message_header_overflow";
+  // Its chunk holds 14 records; the entry points 2 bytes before the one at byte 2355.
+  EXPECT_EQ(sag_test::inputErrorOf([&] { BagReader reader(bag); }),
+            bag +
+                ": the bag is corrupt: the index record at byte 5195 points at byte 2353 of the "
+                "lz4 chunk at byte 4117, where none of its records starts");
 }
 
 TEST_F(BagFiles, BagEmptyPlumbBobDistortionIsNoDistortion) {
