@@ -466,9 +466,10 @@ bool HandTracker::plausible(const Pose& pose,
 }
 
 std::optional<std::vector<OptimizationResult>> HandTracker::hypothesisSearch(
-    const PoseEnergy& energy, const std::vector<CameraObservation>& observations) {
-  if (!params_.asynchronous_search) {
-    return startFromHypotheses(model_, params_, energy, observations, current_);
+    const PoseEnergy& energy, const std::vector<CameraObservation>& observations,
+    const TrackerParams& search_params) {
+  if (!search_params.asynchronous_search) {
+    return startFromHypotheses(model_, search_params, energy, observations, current_);
   }
   // A worker takes this set over after the step (update); none while one is still running.
   if (!worker_) search_wanted_ = true;
@@ -708,12 +709,9 @@ std::optional<std::vector<OptimizationResult>> HandTracker::searchWithForearm(
   // wrist: on wristflex it called the true pose reversed, the track was declared lost and the
   // restart could only take reversed candidates (all hands: 37.8 mm, 7.6 % reversed with the
   // cue, 14.0 mm, 0 % without). The energy's forearm tells the ends apart instead.
-  const int min_arm_cells = params_.min_arm_cells;
-  if (forearm_present_) params_.min_arm_cells = 0;
-  std::optional<std::vector<OptimizationResult>> candidates =
-      hypothesisSearch(energy, observations);
-  params_.min_arm_cells = min_arm_cells;
-  return candidates;
+  TrackerParams search_params = params_;
+  if (forearm_present_) search_params.min_arm_cells = 0;
+  return hypothesisSearch(energy, observations, search_params);
 }
 
 void HandTracker::startWithForearmIfItIsBare(PoseEnergy& energy,

@@ -273,10 +273,12 @@ class HandTracker {
   static std::vector<OptimizationResult> startFromHypotheses(
       const HandModel& model, const TrackerParams& params, const PoseEnergy& energy,
       const std::vector<CameraObservation>& observations, const std::optional<Pose>& current);
-  // The search for this frame: the candidates, best first; or, with asynchronous_search, none
-  // (the set is handed to a worker after this step, see update).
+  // The search for this frame with `search_params` (the tracker's, but for the forearm cue): the
+  // candidates, best first; or, with asynchronous_search, none (the set is handed to a worker
+  // after this step, see update).
   std::optional<std::vector<OptimizationResult>> hypothesisSearch(
-      const PoseEnergy& energy, const std::vector<CameraObservation>& observations);
+      const PoseEnergy& energy, const std::vector<CameraObservation>& observations,
+      const TrackerParams& search_params);
   // The tracking of one set (update without the worker).
   FrameResult step(const std::vector<CameraObservation>& observations, double stamp);
   bool armSaysReversed(const Pose& pose, const std::vector<CameraObservation>& observations) const;
