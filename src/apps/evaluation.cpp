@@ -1040,9 +1040,10 @@ BenchmarkOptions parseBenchmarkArguments(const std::vector<std::string>& args) {
     } else if (arg == "--rooms") {
       options.rooms = parseListOption(arg, value());
     } else if (arg == "--room-configs") {
+      const std::vector<std::string> known = BenchmarkOptions().room_configs;  // all runs
       options.room_configs = parseListOption(arg, value());
       for (const std::string& name : options.room_configs) {
-        if (name != "skin" && name != "skin+cues" && name != "plate" && name != "plate+cues") {
+        if (std::find(known.begin(), known.end(), name) == known.end()) {
           throw UsageError("--room-configs: unknown run '" + name +
                            "' (expected skin, skin+cues, plate or plate+cues)");
         }

@@ -13,12 +13,9 @@ struct NormalisedEllipse {
   double x0, y0, s_xx, s_xy, s_yy;
 };
 
-bool isFiniteEllipse(const NormalisedEllipse& e) {
-  return std::isfinite(e.x0) && std::isfinite(e.y0) && std::isfinite(e.s_xx) &&
-         std::isfinite(e.s_xy) && std::isfinite(e.s_yy);
-}
-
-// Through the intrinsics to pixels (linear: J_pixels = L J_normalised, row by row).
+// Through the intrinsics to pixels (linear: J_pixels = L J_normalised, row by row). Valid only
+// when finite and positive definite (a NaN or infinite ellipse fails these tests); the Jacobian is
+// written only then.
 ProjectedGaussian toPixels(const NormalisedEllipse& e, const Eigen::Matrix3d& K,
                            const Eigen::Matrix<double, 5, 9>* normalised_jacobian,
                            ProjectionJacobian* jacobian) {
@@ -73,7 +70,6 @@ ProjectedGaussian projectPerspective(const Eigen::Vector3d& mean, const Eigen::M
   e.s_xx = e.x0 * e.x0 - b_xx * inv_d;
   e.s_xy = e.x0 * e.y0 - b_xy * inv_d;
   e.s_yy = e.y0 * e.y0 - b_yy * inv_d;
-  if (!isFiniteEllipse(e)) return invalid;
   if (!jacobian) return toPixels(e, K, nullptr, nullptr);
 
   // d(x0, y0, S) / d(b_xx, b_xy, b_yy, c_x, c_y, d), chained with d(b, c, d) / d(mu, Sigma):

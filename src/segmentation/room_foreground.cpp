@@ -255,12 +255,15 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
   // With a mask, a cell is in the region when the mask is set at the cell's centre.
   const bool use_mask =
       has_roi && !roi_mask.empty() && roi_mask.cols == width && roi_mask.rows == height;
+  // The pixel at a cell's centre, where the region's mask is read.
+  auto cellCentre = [&](int cx, int cy) {
+    return cv::Point(std::min(cx * cell_size + cell_size / 2, width - 1),
+                     std::min(cy * cell_size + cell_size / 2, height - 1));
+  };
   auto inRoi = [&](int cx, int cy) {
     if (!(cx >= rx0 && cx <= rx1 && cy >= ry0 && cy <= ry1)) return false;
     if (!use_mask) return true;
-    const int x = std::min(cx * cell_size + cell_size / 2, width - 1);
-    const int y = std::min(cy * cell_size + cell_size / 2, height - 1);
-    return roi_mask.at<unsigned char>(y, x) != 0;
+    return roi_mask.at<unsigned char>(cellCentre(cx, cy)) != 0;
   };
   // Cue 6: each cell's depth inside the region (pixels from its edge, at the cell's centre; 0
   // outside).
@@ -271,10 +274,7 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
     cell_depth.assign(cells, 0.0f);
     for (int cy = 0; cy < cells_y; ++cy) {
       for (int cx = 0; cx < cells_x; ++cx) {
-        if (!inRoi(cx, cy)) continue;
-        const int x = std::min(cx * cell_size + cell_size / 2, width - 1);
-        const int y = std::min(cy * cell_size + cell_size / 2, height - 1);
-        cell_depth[cy * cells_x + cx] = depth.at<float>(y, x);
+        if (inRoi(cx, cy)) cell_depth[cy * cells_x + cx] = depth.at<float>(cellCentre(cx, cy));
       }
     }
   }
