@@ -179,6 +179,9 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
   // 1. Track the routine with the start model, as track_bag does, keeping what the tracker saw.
   PipelineParams pipeline_params;
   pipeline_params.background_frames = options.background_frames;
+  // The start model's colours, as before the tracker learnt colours (session 8): the fit takes
+  // its own from the images, at its own poses.
+  pipeline_params.tracker.colour_adaptation.enabled = false;
   TrackingPipeline pipeline(start, reader.cameras(), pipeline_params);
   std::vector<CalibrationFrame> frames;
   FrameSet set;

@@ -71,6 +71,8 @@ Options:
   --room-cues              the room cues: region of interest around the tracked hand, the
                            multi-view check before the start and its re-check
                            (doc/segmentation.md; the live graph's room_cues)
+  --fixed-colours          keep the model's colours (default: learnt while tracking, palm
+                           Gaussians each, fingers together; the live graph's colour_adaptation)
   --quiet                  no progress bar
   --help                   this text
 )";
@@ -96,6 +98,8 @@ TrackBagOptions parseTrackBagArguments(const std::vector<std::string>& args) {
       options.root_frame = value();
     } else if (arg == "--room-cues") {
       options.room_cues = true;
+    } else if (arg == "--fixed-colours") {
+      options.fixed_colours = true;
     } else {
       throw UsageError("unknown argument '" + arg + "'");
     }
@@ -256,6 +260,7 @@ PipelineParams trackBagPipelineParams(const TrackBagOptions& options) {
   params.tracker.optimizer.step_control = parseStepControl(options.step_control);
   params.background_frames = options.background_frames;
   params.segmentation.room.enabled = options.room_cues;
+  params.tracker.colour_adaptation.enabled = !options.fixed_colours;
   return params;
 }
 

@@ -8,9 +8,11 @@
 #include <sstream>
 
 #include "sag_hand_tracker/energy/colour.h"
+#include "sag_hand_tracker/energy/hand_projection.h"
 #include "sag_hand_tracker/energy/projection.h"
 #include "sag_hand_tracker/model/kinematics.h"
 #include "sag_hand_tracker/studio/hand_surface.h"
+#include "sag_hand_tracker/tracking/colour_adaptation.h"
 
 namespace sag_hand_tracker {
 namespace {
@@ -18,27 +20,6 @@ namespace {
 constexpr double kRadToDeg = 180.0 / M_PI;
 
 bool positiveFactor(double value) { return std::isfinite(value) && value > 0.0; }
-
-// A model Gaussian in one camera: projected ellipse and the depth of its mean.
-struct CameraGaussian {
-  ProjectedGaussian projected;
-  double depth = 0.0;
-};
-
-std::vector<CameraGaussian> projectModel(const HandModel& model, const PosedHand& hand,
-                                         const Camera& camera) {
-  const Eigen::Matrix3d R = camera.world_to_camera.linear();
-  std::vector<CameraGaussian> result(hand.gaussians.size());
-  for (size_t p = 0; p < hand.gaussians.size(); ++p) {
-    const Eigen::Vector3d mean = camera.world_to_camera * hand.gaussians[p].mean;
-    const Eigen::Matrix3d cov = R * hand.gaussians[p].cov * R.transpose();
-    result[p].depth = mean.z();
-    result[p].projected = model.projection == ProjectionMode::kPerspective
-                              ? projectPerspective(mean, cov, camera.K)
-                              : projectScaledOrthographic(mean, cov, camera.K);
-  }
-  return result;
-}
 
 // The mean over the frames of the shape score at the given poses.
 double meanShapeScore(const HandModel& model, const HandFitParams& params,
@@ -81,14 +62,6 @@ double meanEnergy(const HandModel& model, const EnergyParams& params,
     sum += energy.evaluate(poses[f]);
   }
   return frames.empty() ? 0.0 : sum / frames.size();
-}
-
-// A joint's flexion by name, 0 when the model has no such joint.
-double jointByName(const HandModel& model, const Pose& pose, const std::string& name) {
-  for (size_t j = 0; j < model.joints.size(); ++j) {
-    if (model.joints[j].name == name) return pose.joints[static_cast<int>(j)];
-  }
-  return 0.0;
 }
 
 }  // namespace
@@ -201,43 +174,12 @@ double shapeScore(const HandModel& model, const EnergyParams& params,
 
 void sampleGaussianColours(const std::vector<CalibrationFrame>& frames,
                            const std::vector<Pose>& poses, HandModel* model) {
-  const size_t n = model->gaussians.size();
-  std::vector<double> weight(n, 0.0), hue_x(n, 0.0), hue_y(n, 0.0), saturation(n, 0.0),
-      value(n, 0.0);
+  GaussianColourStatistics statistics(model->gaussians.size());
   for (size_t f = 0; f < frames.size() && f < poses.size(); ++f) {
-    const PosedHand hand = forwardKinematics(*model, poses[f]);
-    for (const CameraObservation& observation : frames[f].observations) {
-      const std::vector<CameraGaussian> projected = projectModel(*model, hand, observation.camera);
-      std::vector<Eigen::Matrix2d> inverse(n);
-      for (size_t p = 0; p < n; ++p) {
-        if (projected[p].projected.valid) inverse[p] = projected[p].projected.cov.inverse();
-      }
-      for (const ImageGaussian& q : observation.sog.gaussians) {
-        int nearest = -1;
-        for (size_t p = 0; p < n; ++p) {
-          if (!projected[p].projected.valid) continue;
-          const Eigen::Vector2d d = q.mean - projected[p].projected.mean;
-          if (d.dot(inverse[p] * d) > 1.0) continue;
-          if (nearest < 0 || projected[p].depth < projected[nearest].depth) {
-            nearest = static_cast<int>(p);
-          }
-        }
-        if (nearest < 0 || !q.hsv.allFinite()) continue;
-        const double w = q.sigma * q.sigma;
-        const double h = q.hsv[0] / kRadToDeg;
-        weight[nearest] += w;
-        hue_x[nearest] += w * std::cos(h);
-        hue_y[nearest] += w * std::sin(h);
-        saturation[nearest] += w * q.hsv[1];
-        value[nearest] += w * q.hsv[2];
-      }
-    }
+    statistics.add(*model, poses[f], frames[f].observations);
   }
-  for (size_t p = 0; p < n; ++p) {
-    if (weight[p] <= 0.0) continue;
-    double hue = std::atan2(hue_y[p], hue_x[p]) * kRadToDeg;
-    if (hue < 0.0) hue += 360.0;
-    model->gaussians[p].hsv = Hsv(hue, saturation[p] / weight[p], value[p] / weight[p]);
+  for (size_t p = 0; p < model->gaussians.size(); ++p) {
+    if (const std::optional<Hsv> colour = statistics.mean(p)) model->gaussians[p].hsv = *colour;
   }
 }
 
@@ -251,7 +193,6 @@ RoutineCheck checkCalibrationRoutine(const HandModel& model,
 
   // Views: cameras (by name) that see the hand in at least a third of the frames.
   std::vector<std::pair<std::string, int>> seen;
-  static const char* kFingers[] = {"index", "middle", "ring", "pinky"};
   for (const CalibrationFrame& frame : frames) {
     for (const CameraObservation& observation : frame.observations) {
       if (static_cast<int>(observation.sog.gaussians.size()) <
@@ -283,12 +224,7 @@ RoutineCheck checkCalibrationRoutine(const HandModel& model,
       if (facing >= requirements.facing_cos) back_seen = true;
       if (-facing >= requirements.facing_cos) palm_seen = true;
     }
-    double flexion = 0.0;
-    for (const char* finger : kFingers) {
-      flexion += jointByName(model, frame.pose, std::string(finger) + "_mcp_flex") +
-                 jointByName(model, frame.pose, std::string(finger) + "_pip_flex");
-    }
-    flexion = flexion / 4.0 * kRadToDeg;
+    const double flexion = meanFingerFlexion(model, frame.pose) * kRadToDeg;
     if (palm_seen) ++check.palm_frames;
     if (back_seen) ++check.back_frames;
     if (flexion >= requirements.fist_flexion_deg) ++check.fist_frames;
@@ -386,6 +322,7 @@ HandFitResult fitHandModel(const HandModel& start, const std::vector<Calibration
     sampleGaussianColours(view, poses, &coloured);
     for (size_t g = 0; g < model.gaussians.size(); ++g)
       model.gaussians[g].hsv = coloured.gaussians[g].hsv;
+    model.colours_fitted = true;
   };
   // Colours first: the overlap of eq. 8 weighs every pair by d(c_p, c_q), so the shape search
   // needs the person's colours.

@@ -51,6 +51,14 @@ class ModelParser {
       projection.fail("must be 'perspective' or 'scaled_orthographic', not '" + projection.text() +
                       "'");
     }
+    if (root.has("colours")) {
+      const YamlValue colours = root["colours"];
+      if (colours.text() == "fitted") {
+        model.colours_fitted = true;
+      } else if (colours.text() != "model") {
+        colours.fail("must be 'model' or 'fitted', not '" + colours.text() + "'");
+      }
+    }
     parseBones(root["bones"], &model);
     parseGaussians(root["gaussians"], &model);
     parseFingertips(root["fingertips"], &model);
@@ -358,6 +366,7 @@ std::string formatHandModel(const HandModel& model, const std::string& comment) 
   out << "projection: "
       << (model.projection == ProjectionMode::kPerspective ? "perspective" : "scaled_orthographic")
       << "\n";
+  if (model.colours_fitted) out << "colours: fitted\n";
   out << "bones:\n";
   for (const Bone& bone : model.bones) {
     out << "  - name: " << bone.name << "\n";

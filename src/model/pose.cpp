@@ -56,6 +56,19 @@ Pose extrapolatePose(const Pose& previous, const Pose& current) {
   return predicted;
 }
 
+double meanFingerFlexion(const HandModel& model, const Pose& pose) {
+  static const char* kFlexions[] = {"index_mcp_flex",  "index_pip_flex", "middle_mcp_flex",
+                                    "middle_pip_flex", "ring_mcp_flex",  "ring_pip_flex",
+                                    "pinky_mcp_flex",  "pinky_pip_flex"};
+  double sum = 0.0;
+  for (const char* name : kFlexions) {
+    for (size_t j = 0; j < model.joints.size() && j < static_cast<size_t>(kNumJointDof); ++j) {
+      if (model.joints[j].name == name) sum += pose.joints[static_cast<int>(j)];
+    }
+  }
+  return sum / 4.0;
+}
+
 void clampToLimits(const HandModel& model, Pose* pose) {
   for (int j = 0; j < kNumJointDof; ++j) {
     pose->joints[j] = std::clamp(pose->joints[j], model.joints[j].min, model.joints[j].max);

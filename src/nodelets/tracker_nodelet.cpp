@@ -309,6 +309,7 @@ class TrackerNodelet : public nodelet::Nodelet {
     params.energy.colour.hue_radius_deg = config.hue_radius_deg;
     params.energy.colour.saturation_radius = config.saturation_radius;
     params.energy.correct_colour_cast = config.correct_colour_cast;
+    params.colour_adaptation.enabled = config.colour_adaptation;
     params.energy.model_weight = config.model_weight;
     params.lost_similarity = config.lost_similarity;
     params.min_foreground_gaussians = config.min_foreground_gaussians;

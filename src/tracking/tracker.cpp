@@ -275,7 +275,9 @@ bool HandTracker::sameTrackState(const TrackState& a, const TrackState& b) {
          a.frames_since_start == b.frames_since_start && same_alternative &&
          a.arm_reversed_streak == b.arm_reversed_streak && a.forearm_present == b.forearm_present &&
          sameVector(a.forearm, b.forearm) &&
-         sameVector(a.alternative_forearm, b.alternative_forearm);
+         sameVector(a.alternative_forearm, b.alternative_forearm) &&
+         a.tracked_streak == b.tracked_streak && a.colour_samples == b.colour_samples &&
+         a.colour_statistics == b.colour_statistics && a.colours == b.colours;
 }
 
 // A set the frame path has stepped, for the worker.
@@ -357,7 +359,10 @@ struct HandTracker::Worker {
 };
 
 HandTracker::HandTracker(const HandModel& model, const TrackerParams& params)
-    : model_(model), params_(params), energy_(model, params.energy) {}
+    : model_(model),
+      params_(params),
+      energy_(model, params.energy),
+      start_colours_(modelColours(model)) {}
 
 HandTracker::~HandTracker() = default;
 HandTracker::HandTracker(HandTracker&&) noexcept = default;
@@ -381,6 +386,10 @@ HandTracker::TrackState HandTracker::trackState() const {
   state.forearm_present = forearm_present_;
   state.forearm = forearm_;
   state.alternative_forearm = alternative_forearm_;
+  state.tracked_streak = tracked_streak_;
+  state.colour_samples = colour_samples_;
+  state.colour_statistics = colour_statistics_;
+  state.colours = colours_;
   return state;
 }
 
@@ -395,6 +404,46 @@ void HandTracker::setTrackState(const TrackState& state) {
   forearm_present_ = state.forearm_present;
   forearm_ = state.forearm;
   alternative_forearm_ = state.alternative_forearm;
+  tracked_streak_ = state.tracked_streak;
+  colour_samples_ = state.colour_samples;
+  colour_statistics_ = state.colour_statistics;
+  setColours(state.colours);
+}
+
+void HandTracker::setColours(const std::vector<Hsv>& colours) {
+  const std::vector<Hsv>& wanted = colours.empty() ? start_colours_ : colours;
+  if (wanted == modelColours(model_)) {
+    colours_ = colours;
+    return;
+  }
+  for (size_t p = 0; p < model_.gaussians.size() && p < wanted.size(); ++p) {
+    model_.gaussians[p].hsv = wanted[p];
+  }
+  colours_ = colours;
+  energy_ = PoseEnergy(model_, params_.energy);
+}
+
+void HandTracker::adaptColours(const FrameResult& result,
+                               const std::vector<CameraObservation>& observations) {
+  const ColourAdaptationParams& adaptation = params_.colour_adaptation;
+  if (!adaptation.enabled || model_.colours_fitted) return;
+  if (result.status != TrackStatus::kTracking || result.flipped || alternative_) {
+    tracked_streak_ = 0;
+    return;
+  }
+  if (++tracked_streak_ <= adaptation.min_tracked_frames ||
+      result.energy.similarity < adaptation.min_similarity_ratio * typical_similarity_) {
+    return;
+  }
+  if (colour_statistics_.size() != model_.gaussians.size()) {
+    colour_statistics_ = GaussianColourStatistics(model_.gaussians.size());
+  }
+  if (adaptation.memory > 1.0) colour_statistics_.scale(1.0 - 1.0 / adaptation.memory);
+  colour_statistics_.add(model_, result.pose, observations);
+  if (++colour_samples_ < adaptation.update_interval) return;
+  colour_samples_ = 0;
+  setColours(
+      adaptedColours(model_, start_colours_, colour_statistics_, adaptation.min_weight_share));
 }
 
 bool HandTracker::looksLost(double similarity) const {
@@ -406,6 +455,11 @@ void HandTracker::setModel(const HandModel& model) {
   stopWorker();
   model_ = model;
   energy_ = PoseEnergy(model_, params_.energy);
+  start_colours_ = modelColours(model_);
+  colours_.clear();
+  colour_statistics_ = GaussianColourStatistics();
+  colour_samples_ = 0;
+  tracked_streak_ = 0;
   if (current_) clampToLimits(model_, &*current_);
   if (previous_) clampToLimits(model_, &*previous_);
   alternative_.reset();
@@ -417,6 +471,13 @@ void HandTracker::setModel(const HandModel& model) {
 void HandTracker::setParams(const TrackerParams& params) {
   params_ = params;
   energy_ = PoseEnergy(model_, params_.energy);
+  if (!params_.colour_adaptation.enabled) {
+    // Off: the model's own colours again, and nothing learnt kept for later.
+    colour_statistics_ = GaussianColourStatistics();
+    colour_samples_ = 0;
+    tracked_streak_ = 0;
+    setColours({});
+  }
 }
 
 namespace {
@@ -602,6 +663,7 @@ void HandTracker::startWorker(const TrackState& state, HandedFrame frame, int ni
   synchronous.asynchronous_search = false;
   auto worker = std::make_unique<Worker>();
   worker->tracker = std::make_unique<HandTracker>(model_, synchronous);
+  worker->tracker->start_colours_ = start_colours_;
   worker->tracker->setTrackState(state);
   worker->frame_path_after_first = trackState();  // called after the frame path's step
   worker->queue.push_back(std::move(frame));
@@ -934,6 +996,7 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
   previous_ = (started || flipped) ? std::optional<Pose>() : current_;
   current_ = optimized->pose;
   forearm_ = forearm;
+  adaptColours(result, observations);
   return result;
 }
 

@@ -68,6 +68,7 @@ void expectSameModel(const HandModel& a, const HandModel& b) {
     EXPECT_LT((a.gaussians[g].hsv - b.gaussians[g].hsv).norm(), 1e-4);
   }
   EXPECT_EQ(a.fingertip_gaussians, b.fingertip_gaussians);
+  EXPECT_EQ(a.colours_fitted, b.colours_fitted);
 }
 
 class HandModelWriter : public sag_test::TempDirTest {};
@@ -75,6 +76,16 @@ class HandModelWriter : public sag_test::TempDirTest {};
 TEST_F(HandModelWriter, WrittenModelLoadsBackTheSame) {
   const HandModel& model = handModel();
   expectSameModel(model, loadFromText(this, formatHandModel(model, "a comment"), path("m.yaml")));
+}
+
+// A fitted model's colours are the user's: the file says so, and the tracker then keeps them.
+TEST_F(HandModelWriter, FittedColoursAreMarkedAndRoundTrip) {
+  HandModel model = handModel();
+  EXPECT_EQ(formatHandModel(model).find("colours:"), std::string::npos);
+  model.colours_fitted = true;
+  const std::string text = formatHandModel(model);
+  EXPECT_NE(text.find("colours: fitted\n"), std::string::npos);
+  expectSameModel(model, loadFromText(this, text, path("fitted.yaml")));
 }
 
 TEST_F(HandModelWriter, MirroredAndRotatedGaussiansRoundTrip) {

@@ -115,6 +115,16 @@ TEST(HandModel, MissingKeyNamesKeyAndLine) {
       << message;
 }
 
+TEST(HandModel, UnknownColoursValueIsNamed) {
+  std::string text = readFile(modelPath("sag"));
+  text = std::regex_replace(text, std::regex("projection: perspective\n"),
+                            "projection: perspective\ncolours: learnt\n");
+  const std::string message = loadError(text);
+  EXPECT_NE(message.find("'colours'"), std::string::npos) << message;
+  EXPECT_NE(message.find("must be 'model' or 'fitted', not 'learnt'"), std::string::npos)
+      << message;
+}
+
 TEST(HandModel, NonPositiveDefiniteCovarianceIsRejected) {
   std::string text = readFile(modelPath("sag"));
   text = std::regex_replace(text, std::regex("sigma: \\[0.030, 0.030, 0.014\\]"),

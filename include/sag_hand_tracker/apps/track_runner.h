@@ -32,6 +32,8 @@ struct TrackBagOptions {
   int background_frames = 10;            // --background-frames N (>= 0)
   Handedness hand = Handedness::kRight;  // --hand left|right
   bool room_cues = false;  // --room-cues: SegmentationParams::room.enabled (doc/segmentation.md)
+  // --fixed-colours: TrackerParams::colour_adaptation off (the model's colours as loaded)
+  bool fixed_colours = false;
   std::string root_frame;  // --root-frame FRAME (empty: the root of the bag's tf tree)
   bool quiet = false;      // --quiet: no progress bar
   bool help = false;       // --help

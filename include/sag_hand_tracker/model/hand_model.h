@@ -51,6 +51,10 @@ struct HandModel {
   std::string name;
   Handedness handedness = Handedness::kRight;
   ProjectionMode projection = ProjectionMode::kPerspective;
+  // The Gaussians' colours were taken from the user's images (calibrate_hand; YAML `colours:
+  // fitted`): the tracker keeps them instead of learning its own
+  // (TrackerParams::colour_adaptation).
+  bool colours_fitted = false;
   std::vector<Bone> bones;       // parents before children; bones[0] is the palm
   std::vector<JointDof> joints;  // kNumJointDof entries, parameter order 6..25
   std::vector<ModelGaussian> gaussians;

@@ -36,6 +36,10 @@ Pose extrapolatePose(const Pose& previous, const Pose& current);
 // Clamps the joint angles into their anatomical limits [l_min, l_max].
 void clampToLimits(const HandModel& model, Pose* pose);
 
+// The mean over the four fingers of MCP plus PIP flexion (radians): about 0 for an open hand,
+// above 1.9 (110 degrees) for a fist. Joints the model lacks count as 0.
+double meanFingerFlexion(const HandModel& model, const Pose& pose);
+
 // E_lim of paper eq. 9: quadratic penalty outside the limits; optional gradient (joint part).
 double limitPenalty(const HandModel& model, const Pose& pose, PoseVector* gradient);
 
