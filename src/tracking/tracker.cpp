@@ -389,7 +389,7 @@ HandTracker::TrackState HandTracker::trackState() const {
   state.tracked_streak = tracked_streak_;
   state.colour_samples = colour_samples_;
   state.colour_statistics = colour_statistics_;
-  state.colours = colours_;
+  state.colours = modelColours(model_);
   return state;
 }
 
@@ -412,14 +412,10 @@ void HandTracker::setTrackState(const TrackState& state) {
 
 void HandTracker::setColours(const std::vector<Hsv>& colours) {
   const std::vector<Hsv>& wanted = colours.empty() ? start_colours_ : colours;
-  if (wanted == modelColours(model_)) {
-    colours_ = colours;
-    return;
-  }
+  if (wanted == modelColours(model_)) return;
   for (size_t p = 0; p < model_.gaussians.size() && p < wanted.size(); ++p) {
     model_.gaussians[p].hsv = wanted[p];
   }
-  colours_ = colours;
   energy_ = PoseEnergy(model_, params_.energy);
 }
 
@@ -456,7 +452,6 @@ void HandTracker::setModel(const HandModel& model) {
   model_ = model;
   energy_ = PoseEnergy(model_, params_.energy);
   start_colours_ = modelColours(model_);
-  colours_.clear();
   colour_statistics_ = GaussianColourStatistics();
   colour_samples_ = 0;
   tracked_streak_ = 0;

@@ -355,8 +355,8 @@ class HandTracker {
     std::optional<Eigen::Vector3d> forearm;
     std::optional<Eigen::Vector3d> alternative_forearm;
     // TrackerParams::colour_adaptation: tracked frames without a start, flip or alternative; the
-    // sampled frames since the colours were last updated; the samples; the model's colours (empty:
-    // its start colours).
+    // sampled frames since the colours were last updated; the samples; the model's colours (empty,
+    // as in a fresh state: its start colours).
     int tracked_streak = 0;
     int colour_samples = 0;
     GaussianColourStatistics colour_statistics;
@@ -394,11 +394,11 @@ class HandTracker {
   std::optional<Eigen::Vector3d> forearm_;
   std::optional<Eigen::Vector3d> alternative_forearm_;
   int arm_reversed_streak_ = 0;
-  // TrackerParams::colour_adaptation (TrackState); start_colours_: the model's own.
+  // TrackerParams::colour_adaptation (TrackState; the learnt colours are model_'s);
+  // start_colours_: the model's own.
   int tracked_streak_ = 0;
   int colour_samples_ = 0;
   GaussianColourStatistics colour_statistics_;
-  std::vector<Hsv> colours_;
   std::vector<Hsv> start_colours_;
   // asynchronous_search: step() asked for a search; update then hands the set to a worker.
   bool search_wanted_ = false;
