@@ -419,6 +419,13 @@ void HandTracker::setColours(const std::vector<Hsv>& colours) {
   energy_ = PoseEnergy(model_, params_.energy);
 }
 
+void HandTracker::forgetLearntColours() {
+  colour_statistics_ = GaussianColourStatistics();
+  colour_samples_ = 0;
+  tracked_streak_ = 0;
+  setColours({});
+}
+
 void HandTracker::adaptColours(const FrameResult& result,
                                const std::vector<CameraObservation>& observations) {
   const ColourAdaptationParams& adaptation = params_.colour_adaptation;
@@ -452,9 +459,7 @@ void HandTracker::setModel(const HandModel& model) {
   model_ = model;
   energy_ = PoseEnergy(model_, params_.energy);
   start_colours_ = modelColours(model_);
-  colour_statistics_ = GaussianColourStatistics();
-  colour_samples_ = 0;
-  tracked_streak_ = 0;
+  forgetLearntColours();
   if (current_) clampToLimits(model_, &*current_);
   if (previous_) clampToLimits(model_, &*previous_);
   alternative_.reset();
@@ -466,13 +471,7 @@ void HandTracker::setModel(const HandModel& model) {
 void HandTracker::setParams(const TrackerParams& params) {
   params_ = params;
   energy_ = PoseEnergy(model_, params_.energy);
-  if (!params_.colour_adaptation.enabled) {
-    // Off: the model's own colours again, and nothing learnt kept for later.
-    colour_statistics_ = GaussianColourStatistics();
-    colour_samples_ = 0;
-    tracked_streak_ = 0;
-    setColours({});
-  }
+  if (!params_.colour_adaptation.enabled) forgetLearntColours();
 }
 
 namespace {

@@ -304,6 +304,8 @@ class HandTracker {
   void adaptColours(const FrameResult& result, const std::vector<CameraObservation>& observations);
   // The model's colours set to `colours` (empty: its start colours), the energy rebuilt with them.
   void setColours(const std::vector<Hsv>& colours);
+  // Drops what colour_adaptation learnt: its samples, and the model's own colours again.
+  void forgetLearntColours();
   // The warm-started optimisation of a frame from `current` (and the turn since `previous`):
   // from the prediction, bounded (boundRotation), and with counter_turn_start also from the
   // counter-turned prediction; the better result.
