@@ -71,9 +71,24 @@ struct BagReader::Impl {
     std::vector<CameraImage> images;  // sorted by camera index
   };
 
+  Impl(const std::string& bag_path, const BagReaderOptions& bag_options, rosbag::Bag* reused_bag)
+      : path(bag_path),
+        options(bag_options),
+        own_bag(reused_bag ? nullptr : std::make_unique<rosbag::Bag>()),
+        bag(reused_bag ? *reused_bag : *own_bag) {
+    options.max_pending_sets = std::max(1, options.max_pending_sets);
+  }
+
   std::string path;
   BagReaderOptions options;
-  rosbag::Bag bag;
+  std::unique_ptr<rosbag::Bag> own_bag;  // null when reading through a caller's bag
+  rosbag::Bag& bag;
+  // Closes the bag when the reader goes (after the views on it, declared below), so that a
+  // caller's reused bag is closed for its next file whether this one was read or refused.
+  struct CloseBag {
+    rosbag::Bag& bag;
+    ~CloseBag() { bag.close(); }
+  } close_bag{bag};
   std::string root_frame;
   std::vector<Camera> cameras;
   std::vector<int> ids;
@@ -729,10 +744,13 @@ bool BagReader::Impl::step(FrameSet* set) {
 }
 
 BagReader::BagReader(const std::string& path, const BagReaderOptions& options)
-    : impl_(std::make_unique<Impl>()) {
-  impl_->path = path;
-  impl_->options = options;
-  impl_->options.max_pending_sets = std::max(1, options.max_pending_sets);
+    : impl_(std::make_unique<Impl>(path, options, nullptr)) {
+  impl_->translateErrors([this] { impl_->open(); });
+}
+
+BagReader::BagReader(const std::string& path, rosbag::Bag& reused_bag,
+                     const BagReaderOptions& options)
+    : impl_(std::make_unique<Impl>(path, options, &reused_bag)) {
   impl_->translateErrors([this] { impl_->open(); });
 }
 

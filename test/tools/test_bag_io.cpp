@@ -2,6 +2,7 @@
 // input gets its one-line message.
 #include <gtest/gtest.h>
 
+#include <rosbag/bag.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <std_msgs/String.h>
@@ -178,8 +179,9 @@ class BagFiles : public sag_test::TempDirTest {
   // A bag of 2 frames of the 3 cameras where `edit` may change each image message and camera_info
   // before it is written, or return false to leave it out.
   template <typename Edit>
-  std::string writeEditedBag(const std::string& name, Edit edit, bool with_tf = true) const {
-    BagWriter writer(path(name));
+  std::string writeEditedBag(const std::string& name, Edit edit, bool with_tf = true,
+                             BagCompression compression = BagCompression::kNone) const {
+    BagWriter writer(path(name), compression);
     if (with_tf) writer.writeStaticTransforms("world", cameras_, frameTime(0));
     for (int frame = 0; frame < 2; ++frame) {
       for (int id = 0; id < 3; ++id) {
@@ -726,6 +728,91 @@ TEST(BagRecords, AnIndexEntryIntoAnLz4ChunkRecordIsRefusedBeforeRosbagParsesIt) 
             bag +
                 ": the bag is corrupt: the index record at byte 5195 points at byte 2353 of the "
                 "lz4 chunk at byte 4117, where none of its records starts");
+}
+
+// The bag fuzz target reads every input through one rosbag::Bag (BagReader's constructor with a
+// reused bag). A bag refused half way, inside rosbag's open or while frames are read, must leave
+// nothing behind in it: each gives the error a fresh reader gives, and the good bag read next
+// gives what a fresh reader gives. The bags are lz4 bags whose chunk starts at the same byte, so a
+// chunk that rosbag kept decompressed from the file before would be read again.
+TEST_F(BagFiles, AReusedRosbagBagReadsAGoodBagAfterMalformedOnesAsAFreshReaderDoes) {
+  const std::string good = writeGoodBag("good.bag", BagCompression::kLz4);
+  // Refused while frames are read, after rosbag has opened it and decompressed its chunk.
+  const std::string yuv = writeEditedBag(
+      "yuv.bag",
+      [](int frame, int id, sensor_msgs::Image* image, sensor_msgs::CameraInfo*, bool*, bool*) {
+        if (id == 0 && frame == 1) image->encoding = "yuv422";
+      },
+      true, BagCompression::kLz4);
+  ASSERT_EQ(chunkRecords(yuv).at(0).record_at, chunkRecords(good).at(0).record_at);
+  // Refused by rosbag half way through opening it: the header declares one connection more than
+  // the bag has, so rosbag reads the chunk info after the 7 connection records as an 8th.
+  const std::string connections = path("connections.bag");
+  fs::copy_file(good, connections);
+  {
+    std::ifstream file(connections, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(file)),
+                            std::istreambuf_iterator<char>());
+    const std::size_t field = bytes.find("conn_count=") + std::strlen("conn_count=");
+    std::uint32_t count = 0;
+    std::memcpy(&count, &bytes[field], 4);
+    ASSERT_EQ(count, 7u);
+    ++count;
+    overwrite(connections, field, &count, 4);
+  }
+  // Refused before rosbag sees it.
+  const std::string cut = path("cut.bag");
+  fs::copy_file(good, cut);
+  fs::resize_file(cut, fs::file_size(cut) / 2);
+
+  BagReader fresh(good);
+  const std::vector<FrameSet> fresh_sets = readAllSets(good);
+  ASSERT_EQ(fresh_sets.size(), 4u);
+  rosbag::Bag reused;
+  const auto expect_as_fresh = [&](const std::string& after) {
+    SCOPED_TRACE("the good bag after " + after);
+    BagReader reader(good, reused);
+    EXPECT_EQ(reader.rootFrame(), fresh.rootFrame());
+    EXPECT_EQ(reader.cameraIds(), fresh.cameraIds());
+    ASSERT_EQ(reader.cameras().size(), fresh.cameras().size());
+    for (std::size_t i = 0; i < fresh.cameras().size(); ++i) {
+      const Camera& camera = reader.cameras()[i];
+      EXPECT_EQ(camera.name, fresh.cameras()[i].name);
+      EXPECT_EQ(camera.width, fresh.cameras()[i].width);
+      EXPECT_EQ(camera.height, fresh.cameras()[i].height);
+      EXPECT_EQ(camera.K, fresh.cameras()[i].K);
+      EXPECT_EQ(camera.distortion, fresh.cameras()[i].distortion);
+      EXPECT_EQ(camera.world_to_camera.matrix(), fresh.cameras()[i].world_to_camera.matrix());
+    }
+    std::vector<FrameSet> sets;
+    FrameSet set;
+    while (reader.next(&set)) sets.push_back(set);
+    expectSameSets(fresh_sets, sets, "reused bag after " + after);
+    EXPECT_EQ(reader.statistics().image_messages, 11u);
+    EXPECT_EQ(reader.statistics().images_read, 11u);
+    EXPECT_EQ(reader.statistics().sets, 4u);
+    EXPECT_EQ(reader.statistics().incomplete_sets, 1u);
+    EXPECT_EQ(reader.statistics().dropped_images, 0u);
+  };
+  expect_as_fresh("nothing");
+  EXPECT_FALSE(reused.isOpen());
+  for (const std::string& bad : {yuv, connections, cut, path("missing.bag")}) {
+    const std::string reused_error = sag_test::inputErrorOf([&] {
+      BagReader reader(bad, reused);
+      FrameSet set;
+      while (reader.next(&set)) {
+      }
+    });
+    EXPECT_EQ(reused_error, readError(bad));
+    EXPECT_FALSE(reused.isOpen()) << bad;
+    expect_as_fresh(bad);
+  }
+  EXPECT_EQ(readError(yuv), yuv +
+                                ": /cam0/image_raw at 100.040000: unsupported image encoding "
+                                "'yuv422' (expected rgb8 or bgr8)");
+  const std::string connections_error = readError(connections);
+  EXPECT_EQ(connections_error.rfind(connections + ": cannot read the bag: ", 0), 0u)
+      << connections_error;
 }
 
 TEST_F(BagFiles, BagEmptyPlumbBobDistortionIsNoDistortion) {
