@@ -15,6 +15,7 @@
 #include <iterator>
 #include <limits>
 #include <random>
+#include <tuple>
 #include <utility>
 
 #include "sag_hand_tracker/camera/calibration.h"
@@ -714,6 +715,85 @@ TEST_F(BagFiles, BagErrorIndexPositionInsideARecordIsCaughtBeforeRosbagAllocates
   }
   overwrite(bag, field, &index_pos, 8);
   EXPECT_EQ(readAllSets(bag).size(), 4u);  // restored, it reads again
+}
+
+// Two fuzz finds in what rosbag reads from the index records and chunk infos as it opens a bag.
+// It reads as many index entries (12 bytes) and chunk info entries (8 bytes) as the record's count
+// field says, whatever the record holds: a count above it made rosbag read on into the next record
+// and take a header length from its middle (2.3 GB allocated,
+// corpus/bag/crash_rosbag_index_count_beyond_data); the count must match the data. And it makes a
+// ros::Time of each index entry's time, which throws std::runtime_error when the nanoseconds carry
+// the seconds past 32 bits (corpus/bag/crash_rosbag_index_time_out_of_range).
+TEST_F(BagFiles, BagErrorIndexRecordsRosbagWouldMisreadAreCaughtBeforeItReadsThem) {
+  const std::string good = writeGoodBag("counts.bag");
+  std::ifstream file(good, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  // The count fields (<length 10>count=<uint32>) of the first index record and of the chunk info,
+  // the last record; a record's header starts 4 bytes after the record.
+  const std::string count_field("\x0a\0\0\0count=", 10);
+  const std::size_t index_count = bytes.find(count_field);
+  const std::size_t chunk_info_count = bytes.rfind(count_field);
+  ASSERT_NE(index_count, std::string::npos);
+  ASSERT_NE(index_count, chunk_info_count);
+  const auto record_of = [&](std::size_t field) {  // the record whose header holds `field`
+    for (std::uint64_t pos = 13; pos < bytes.size();) {
+      std::uint32_t header_len = 0, data_len = 0;
+      std::memcpy(&header_len, &bytes[pos], 4);
+      std::memcpy(&data_len, &bytes[pos + 4 + header_len], 4);
+      if (field > pos && field < pos + 4 + header_len) return std::pair{pos, data_len};
+      // Into an uncompressed chunk's records, over any other record.
+      const bool chunk =
+          bytes.substr(pos + 4, header_len).find(std::string("op=\x05", 4)) != std::string::npos;
+      pos += 4 + header_len + 4 + (chunk ? 0 : data_len);
+    }
+    ADD_FAILURE() << "no record holds byte " << field;
+    return std::pair{std::uint64_t{0}, std::uint32_t{0}};
+  };
+  for (const auto& [field, entry_bytes, what] :
+       {std::tuple{index_count, 12u, std::string("an index record")},
+        std::tuple{chunk_info_count, 8u, std::string("a chunk info")}}) {
+    const auto [record_at, data_len] = record_of(field);
+    const std::uint32_t entries = data_len / entry_bytes;
+    ASSERT_EQ(data_len, entries * entry_bytes) << what;
+    for (const std::uint32_t count : {entries + 1, entries - 1, entries + 1000000}) {
+      const std::string bag = path("count.bag");
+      fs::copy_file(good, bag, fs::copy_options::overwrite_existing);
+      overwrite(bag, field + count_field.size(), &count, 4);
+      EXPECT_EQ(readError(bag), bag + ": the bag is corrupt: " + what + " of " +
+                                    std::to_string(count) + " entries (" +
+                                    std::to_string(std::uint64_t{count} * entry_bytes) +
+                                    " bytes) in " + std::to_string(data_len) +
+                                    " bytes of data at byte " + std::to_string(record_at));
+    }
+  }
+  const std::string found =
+      std::string(SAG_SOURCE_DIR) + "/test/fuzz/corpus/bag/crash_rosbag_index_count_beyond_data";
+  EXPECT_EQ(sag_test::inputErrorOf([&] { BagReader reader(found); }),
+            found +
+                ": the bag is corrupt: an index record of 9 entries (108 bytes) in 24 bytes of "
+                "data at byte 7549");
+
+  // The first entry's time: the largest second, and nanoseconds that carry a second.
+  const std::uint64_t index_at = record_of(index_count).first;
+  std::uint32_t header_len = 0;
+  std::memcpy(&header_len, &bytes[index_at], 4);
+  const std::uint64_t entry_at = index_at + 4 + header_len + 4;
+  const std::string bag = path("time.bag");
+  for (const std::uint32_t nsec : {1000000000u, 3105751039u}) {
+    fs::copy_file(good, bag, fs::copy_options::overwrite_existing);
+    const std::uint32_t entry_time[2] = {0xffffffffu, nsec};
+    overwrite(bag, entry_at, entry_time, 8);
+    EXPECT_EQ(readError(bag),
+              bag + ": the bag is corrupt: the index record at byte " + std::to_string(index_at) +
+                  " has a time out of range (4294967295 s " + std::to_string(nsec) + " ns)");
+  }
+  const std::string time_found =
+      std::string(SAG_SOURCE_DIR) + "/test/fuzz/corpus/bag/crash_rosbag_index_time_out_of_range";
+  EXPECT_EQ(sag_test::inputErrorOf([&] { BagReader reader(time_found); }),
+            time_found +
+                ": the bag is corrupt: the index record at byte 7786 has a time out of range "
+                "(4294967295 s 3105751039 ns)");
+  EXPECT_EQ(readAllSets(good).size(), 4u);
 }
 
 // The fuzzer's finding (session 6): an index entry pointing into a record of an lz4 chunk (2 bytes
