@@ -71,9 +71,24 @@ struct BagReader::Impl {
     std::vector<CameraImage> images;  // sorted by camera index
   };
 
+  Impl(const std::string& bag_path, const BagReaderOptions& bag_options, rosbag::Bag* reused_bag)
+      : path(bag_path),
+        options(bag_options),
+        own_bag(reused_bag ? nullptr : std::make_unique<rosbag::Bag>()),
+        bag(reused_bag ? *reused_bag : *own_bag) {
+    options.max_pending_sets = std::max(1, options.max_pending_sets);
+  }
+
   std::string path;
   BagReaderOptions options;
-  rosbag::Bag bag;
+  std::unique_ptr<rosbag::Bag> own_bag;  // null when reading through a caller's bag
+  rosbag::Bag& bag;
+  // Closes the bag when the reader goes (after the views on it, declared below), so that a
+  // caller's reused bag is closed for its next file whether this one was read or refused.
+  struct CloseBag {
+    rosbag::Bag& bag;
+    ~CloseBag() { bag.close(); }
+  } close_bag{bag};
   std::string root_frame;
   std::vector<Camera> cameras;
   std::vector<int> ids;
@@ -135,7 +150,8 @@ struct BagReader::Impl {
 // whatever length a field claims. So the record structure is walked first: every record
 // <header_len><header><data_len><data> must fit in the file (a chunk's records in their chunk),
 // header fields must fit in their header, a chunk's uncompressed size must be at most
-// kMaxChunkBytes, and index entries and chunk infos must point at records. Compressed chunks (lz4,
+// kMaxChunkBytes, index records and chunk infos must hold the number of entries their count
+// says, and index entries and chunk infos must point at records. Compressed chunks (lz4,
 // bz2) are decompressed here as rosbag will, and their records walked like an uncompressed
 // chunk's (a fuzz find: an index entry into a record of an lz4 chunk made rosbag parse message
 // bytes as a header and read past its buffer).
@@ -224,6 +240,21 @@ class BagRecordWalker {
         record_offsets_.insert(pos - begin);
       } else {
         file_record_starts_.insert(pos);
+      }
+      if ((op[0] == 0x04 || op[0] == 0x06) && !chunk) {
+        // rosbag reads as many entries as the header's count says, not as the data holds: more
+        // made it read on into the next records and take a header length from the middle of one
+        // (a fuzz find: 2.3 GB allocated).
+        const std::string record = op[0] == 0x04 ? "an index record" : "a chunk info";
+        const std::uint64_t entry_bytes = op[0] == 0x04 ? 12 : 8;
+        std::uint32_t count = 0;
+        if (fields["count"].size() != 4) return corrupt(pos, record + " without its count");
+        std::memcpy(&count, fields["count"].data(), 4);
+        if (count * entry_bytes != data_len) {
+          return corrupt(pos, record + " of " + std::to_string(count) + " entries (" +
+                                  std::to_string(count * entry_bytes) + " bytes) in " +
+                                  std::to_string(data_len) + " bytes of data");
+        }
       }
       if (op[0] == 0x04 && !chunk) {  // index of the chunk before: (time, offset) entries
         const std::string problem = checkIndexOffsets(pos, data_at + 4, data_len);
@@ -314,8 +345,17 @@ class BagRecordWalker {
       if (chunk_starts_.empty()) {
         return describe(nullptr, record_at, "an index record before any chunk");
       }
-      std::uint32_t offset = 0;
+      // rosbag makes a ros::Time of each entry's (sec, nsec), which throws std::runtime_error when
+      // nsec carries the seconds past 32 bits (a fuzz find: an exception other than InputError).
+      std::uint32_t sec = 0, nsec = 0, offset = 0;
+      std::memcpy(&sec, &data[at], 4);
+      std::memcpy(&nsec, &data[at + 4], 4);
       std::memcpy(&offset, &data[at + 8], 4);
+      if (sec + std::uint64_t{nsec / 1000000000u} > std::numeric_limits<std::uint32_t>::max()) {
+        return "the bag is corrupt: the index record at byte " + std::to_string(record_at) +
+               " has a time out of range (" + std::to_string(sec) + " s " + std::to_string(nsec) +
+               " ns)";
+      }
       if (!record_offsets_.count(offset)) {
         return "the bag is corrupt: the index record at byte " + std::to_string(record_at) +
                " points at byte " + std::to_string(offset) + " of the " +
@@ -729,10 +769,13 @@ bool BagReader::Impl::step(FrameSet* set) {
 }
 
 BagReader::BagReader(const std::string& path, const BagReaderOptions& options)
-    : impl_(std::make_unique<Impl>()) {
-  impl_->path = path;
-  impl_->options = options;
-  impl_->options.max_pending_sets = std::max(1, options.max_pending_sets);
+    : impl_(std::make_unique<Impl>(path, options, nullptr)) {
+  impl_->translateErrors([this] { impl_->open(); });
+}
+
+BagReader::BagReader(const std::string& path, rosbag::Bag& reused_bag,
+                     const BagReaderOptions& options)
+    : impl_(std::make_unique<Impl>(path, options, &reused_bag)) {
   impl_->translateErrors([this] { impl_->open(); });
 }
 

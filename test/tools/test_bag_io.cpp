@@ -2,6 +2,7 @@
 // input gets its one-line message.
 #include <gtest/gtest.h>
 
+#include <rosbag/bag.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <std_msgs/String.h>
@@ -14,6 +15,7 @@
 #include <iterator>
 #include <limits>
 #include <random>
+#include <tuple>
 #include <utility>
 
 #include "sag_hand_tracker/camera/calibration.h"
@@ -178,8 +180,9 @@ class BagFiles : public sag_test::TempDirTest {
   // A bag of 2 frames of the 3 cameras where `edit` may change each image message and camera_info
   // before it is written, or return false to leave it out.
   template <typename Edit>
-  std::string writeEditedBag(const std::string& name, Edit edit, bool with_tf = true) const {
-    BagWriter writer(path(name));
+  std::string writeEditedBag(const std::string& name, Edit edit, bool with_tf = true,
+                             BagCompression compression = BagCompression::kNone) const {
+    BagWriter writer(path(name), compression);
     if (with_tf) writer.writeStaticTransforms("world", cameras_, frameTime(0));
     for (int frame = 0; frame < 2; ++frame) {
       for (int id = 0; id < 3; ++id) {
@@ -714,6 +717,85 @@ TEST_F(BagFiles, BagErrorIndexPositionInsideARecordIsCaughtBeforeRosbagAllocates
   EXPECT_EQ(readAllSets(bag).size(), 4u);  // restored, it reads again
 }
 
+// Two fuzz finds in what rosbag reads from the index records and chunk infos as it opens a bag.
+// It reads as many index entries (12 bytes) and chunk info entries (8 bytes) as the record's count
+// field says, whatever the record holds: a count above it made rosbag read on into the next record
+// and take a header length from its middle (2.3 GB allocated,
+// corpus/bag/crash_rosbag_index_count_beyond_data); the count must match the data. And it makes a
+// ros::Time of each index entry's time, which throws std::runtime_error when the nanoseconds carry
+// the seconds past 32 bits (corpus/bag/crash_rosbag_index_time_out_of_range).
+TEST_F(BagFiles, BagErrorIndexRecordsRosbagWouldMisreadAreCaughtBeforeItReadsThem) {
+  const std::string good = writeGoodBag("counts.bag");
+  std::ifstream file(good, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  // The count fields (<length 10>count=<uint32>) of the first index record and of the chunk info,
+  // the last record; a record's header starts 4 bytes after the record.
+  const std::string count_field("\x0a\0\0\0count=", 10);
+  const std::size_t index_count = bytes.find(count_field);
+  const std::size_t chunk_info_count = bytes.rfind(count_field);
+  ASSERT_NE(index_count, std::string::npos);
+  ASSERT_NE(index_count, chunk_info_count);
+  const auto record_of = [&](std::size_t field) {  // the record whose header holds `field`
+    for (std::uint64_t pos = 13; pos < bytes.size();) {
+      std::uint32_t header_len = 0, data_len = 0;
+      std::memcpy(&header_len, &bytes[pos], 4);
+      std::memcpy(&data_len, &bytes[pos + 4 + header_len], 4);
+      if (field > pos && field < pos + 4 + header_len) return std::pair{pos, data_len};
+      // Into an uncompressed chunk's records, over any other record.
+      const bool chunk =
+          bytes.substr(pos + 4, header_len).find(std::string("op=\x05", 4)) != std::string::npos;
+      pos += 4 + header_len + 4 + (chunk ? 0 : data_len);
+    }
+    ADD_FAILURE() << "no record holds byte " << field;
+    return std::pair{std::uint64_t{0}, std::uint32_t{0}};
+  };
+  for (const auto& [field, entry_bytes, what] :
+       {std::tuple{index_count, 12u, std::string("an index record")},
+        std::tuple{chunk_info_count, 8u, std::string("a chunk info")}}) {
+    const auto [record_at, data_len] = record_of(field);
+    const std::uint32_t entries = data_len / entry_bytes;
+    ASSERT_EQ(data_len, entries * entry_bytes) << what;
+    for (const std::uint32_t count : {entries + 1, entries - 1, entries + 1000000}) {
+      const std::string bag = path("count.bag");
+      fs::copy_file(good, bag, fs::copy_options::overwrite_existing);
+      overwrite(bag, field + count_field.size(), &count, 4);
+      EXPECT_EQ(readError(bag), bag + ": the bag is corrupt: " + what + " of " +
+                                    std::to_string(count) + " entries (" +
+                                    std::to_string(std::uint64_t{count} * entry_bytes) +
+                                    " bytes) in " + std::to_string(data_len) +
+                                    " bytes of data at byte " + std::to_string(record_at));
+    }
+  }
+  const std::string found =
+      std::string(SAG_SOURCE_DIR) + "/test/fuzz/corpus/bag/crash_rosbag_index_count_beyond_data";
+  EXPECT_EQ(sag_test::inputErrorOf([&] { BagReader reader(found); }),
+            found +
+                ": the bag is corrupt: an index record of 9 entries (108 bytes) in 24 bytes of "
+                "data at byte 7549");
+
+  // The first entry's time: the largest second, and nanoseconds that carry a second.
+  const std::uint64_t index_at = record_of(index_count).first;
+  std::uint32_t header_len = 0;
+  std::memcpy(&header_len, &bytes[index_at], 4);
+  const std::uint64_t entry_at = index_at + 4 + header_len + 4;
+  const std::string bag = path("time.bag");
+  for (const std::uint32_t nsec : {1000000000u, 3105751039u}) {
+    fs::copy_file(good, bag, fs::copy_options::overwrite_existing);
+    const std::uint32_t entry_time[2] = {0xffffffffu, nsec};
+    overwrite(bag, entry_at, entry_time, 8);
+    EXPECT_EQ(readError(bag),
+              bag + ": the bag is corrupt: the index record at byte " + std::to_string(index_at) +
+                  " has a time out of range (4294967295 s " + std::to_string(nsec) + " ns)");
+  }
+  const std::string time_found =
+      std::string(SAG_SOURCE_DIR) + "/test/fuzz/corpus/bag/crash_rosbag_index_time_out_of_range";
+  EXPECT_EQ(sag_test::inputErrorOf([&] { BagReader reader(time_found); }),
+            time_found +
+                ": the bag is corrupt: the index record at byte 7786 has a time out of range "
+                "(4294967295 s 3105751039 ns)");
+  EXPECT_EQ(readAllSets(good).size(), 4u);
+}
+
 // The fuzzer's finding (session 6): an index entry pointing into a record of an lz4 chunk (2 bytes
 // before the next one) made rosbag parse message bytes as a record header, whose field length sent
 // ros::Header::parse 262 139 bytes past a 3 316-byte buffer. The chunk is now decompressed and its
@@ -726,6 +808,91 @@ TEST(BagRecords, AnIndexEntryIntoAnLz4ChunkRecordIsRefusedBeforeRosbagParsesIt) 
             bag +
                 ": the bag is corrupt: the index record at byte 5195 points at byte 2353 of the "
                 "lz4 chunk at byte 4117, where none of its records starts");
+}
+
+// The bag fuzz target reads every input through one rosbag::Bag (BagReader's constructor with a
+// reused bag). A bag refused half way, inside rosbag's open or while frames are read, must leave
+// nothing behind in it: each gives the error a fresh reader gives, and the good bag read next
+// gives what a fresh reader gives. The bags are lz4 bags whose chunk starts at the same byte, so a
+// chunk that rosbag kept decompressed from the file before would be read again.
+TEST_F(BagFiles, AReusedRosbagBagReadsAGoodBagAfterMalformedOnesAsAFreshReaderDoes) {
+  const std::string good = writeGoodBag("good.bag", BagCompression::kLz4);
+  // Refused while frames are read, after rosbag has opened it and decompressed its chunk.
+  const std::string yuv = writeEditedBag(
+      "yuv.bag",
+      [](int frame, int id, sensor_msgs::Image* image, sensor_msgs::CameraInfo*, bool*, bool*) {
+        if (id == 0 && frame == 1) image->encoding = "yuv422";
+      },
+      true, BagCompression::kLz4);
+  ASSERT_EQ(chunkRecords(yuv).at(0).record_at, chunkRecords(good).at(0).record_at);
+  // Refused by rosbag half way through opening it: the header declares one connection more than
+  // the bag has, so rosbag reads the chunk info after the 7 connection records as an 8th.
+  const std::string connections = path("connections.bag");
+  fs::copy_file(good, connections);
+  {
+    std::ifstream file(connections, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(file)),
+                            std::istreambuf_iterator<char>());
+    const std::size_t field = bytes.find("conn_count=") + std::strlen("conn_count=");
+    std::uint32_t count = 0;
+    std::memcpy(&count, &bytes[field], 4);
+    ASSERT_EQ(count, 7u);
+    ++count;
+    overwrite(connections, field, &count, 4);
+  }
+  // Refused before rosbag sees it.
+  const std::string cut = path("cut.bag");
+  fs::copy_file(good, cut);
+  fs::resize_file(cut, fs::file_size(cut) / 2);
+
+  BagReader fresh(good);
+  const std::vector<FrameSet> fresh_sets = readAllSets(good);
+  ASSERT_EQ(fresh_sets.size(), 4u);
+  rosbag::Bag reused;
+  const auto expect_as_fresh = [&](const std::string& after) {
+    SCOPED_TRACE("the good bag after " + after);
+    BagReader reader(good, reused);
+    EXPECT_EQ(reader.rootFrame(), fresh.rootFrame());
+    EXPECT_EQ(reader.cameraIds(), fresh.cameraIds());
+    ASSERT_EQ(reader.cameras().size(), fresh.cameras().size());
+    for (std::size_t i = 0; i < fresh.cameras().size(); ++i) {
+      const Camera& camera = reader.cameras()[i];
+      EXPECT_EQ(camera.name, fresh.cameras()[i].name);
+      EXPECT_EQ(camera.width, fresh.cameras()[i].width);
+      EXPECT_EQ(camera.height, fresh.cameras()[i].height);
+      EXPECT_EQ(camera.K, fresh.cameras()[i].K);
+      EXPECT_EQ(camera.distortion, fresh.cameras()[i].distortion);
+      EXPECT_EQ(camera.world_to_camera.matrix(), fresh.cameras()[i].world_to_camera.matrix());
+    }
+    std::vector<FrameSet> sets;
+    FrameSet set;
+    while (reader.next(&set)) sets.push_back(set);
+    expectSameSets(fresh_sets, sets, "reused bag after " + after);
+    EXPECT_EQ(reader.statistics().image_messages, 11u);
+    EXPECT_EQ(reader.statistics().images_read, 11u);
+    EXPECT_EQ(reader.statistics().sets, 4u);
+    EXPECT_EQ(reader.statistics().incomplete_sets, 1u);
+    EXPECT_EQ(reader.statistics().dropped_images, 0u);
+  };
+  expect_as_fresh("nothing");
+  EXPECT_FALSE(reused.isOpen());
+  for (const std::string& bad : {yuv, connections, cut, path("missing.bag")}) {
+    const std::string reused_error = sag_test::inputErrorOf([&] {
+      BagReader reader(bad, reused);
+      FrameSet set;
+      while (reader.next(&set)) {
+      }
+    });
+    EXPECT_EQ(reused_error, readError(bad));
+    EXPECT_FALSE(reused.isOpen()) << bad;
+    expect_as_fresh(bad);
+  }
+  EXPECT_EQ(readError(yuv), yuv +
+                                ": /cam0/image_raw at 100.040000: unsupported image encoding "
+                                "'yuv422' (expected rgb8 or bgr8)");
+  const std::string connections_error = readError(connections);
+  EXPECT_EQ(connections_error.rfind(connections + ": cannot read the bag: ", 0), 0u)
+      << connections_error;
 }
 
 TEST_F(BagFiles, BagEmptyPlumbBobDistortionIsNoDistortion) {

@@ -21,6 +21,10 @@
 #include "sag_hand_tracker/camera/camera.h"
 #include "sag_hand_tracker/tracking/frame_set.h"
 
+namespace rosbag {
+class Bag;
+}
+
 namespace sag_hand_tracker {
 
 struct BagReaderOptions {
@@ -60,6 +64,13 @@ class BagReader {
   // message type, an unsupported (for example mono) encoding, an image whose size differs from
   // its camera_info, a camera_info whose size changes mid-bag, or a truncated or unclosed bag.
   explicit BagReader(const std::string& path, const BagReaderOptions& options = {});
+  // The same, reading through the caller's `reused_bag` instead of a rosbag::Bag of its own. It
+  // must be closed (the reader made with it before is gone) and outlive the reader, which closes it
+  // again when destroyed, also when this constructor throws; rosbag's close() resets all that
+  // reading set, so the next reader can open the next file in it. For callers that read many small
+  // bags (the bag fuzz target): making a rosbag::Bag (pluginlib's search for encryptor plugins, a
+  // 1 MB lz4 buffer) costs more than reading such a bag. Every check is the same.
+  BagReader(const std::string& path, rosbag::Bag& reused_bag, const BagReaderOptions& options = {});
   ~BagReader();
   BagReader(BagReader&&) noexcept;
   BagReader& operator=(BagReader&&) noexcept;
