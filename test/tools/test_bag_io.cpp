@@ -73,9 +73,16 @@ bool sameImage(const cv::Mat& a, const cv::Mat& b) {
   return a.size() == b.size() && a.type() == b.type() && cv::norm(a, b, cv::NORM_INF) == 0.0;
 }
 
-// A bag's records as the walk in bag_input.cpp sees them: file positions of the chunk records, of
-// their header's size field and of their stored data.
-struct ChunkRecord {
+std::string fileBytes(const std::string& file_path) {
+  std::ifstream file(file_path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+}
+
+// A bag's top-level records as the walk in bag_input.cpp sees them (a chunk's own records are
+// inside its data): file positions of the record, of its data, and for chunks of their header's
+// size field.
+struct BagRecord {
+  int op = -1;
   std::uint64_t record_at = 0;
   std::uint64_t size_field_at = 0;
   std::uint64_t data_at = 0;
@@ -83,36 +90,47 @@ struct ChunkRecord {
   std::string compression;
 };
 
-std::vector<ChunkRecord> chunkRecords(const std::string& bag) {
-  std::ifstream file(bag, std::ios::binary);
-  const std::string bytes((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+std::vector<BagRecord> bagRecords(const std::string& bag) {
+  const std::string bytes = fileBytes(bag);
   const auto u32 = [&](std::uint64_t at) {
     std::uint32_t value = 0;
     std::memcpy(&value, &bytes[at], 4);
     return value;
   };
-  std::vector<ChunkRecord> chunks;
+  std::vector<BagRecord> records;
   for (std::uint64_t pos = 13; pos + 8 <= bytes.size();) {  // after "#ROSBAG V2.0\n"
     const std::uint32_t header_len = u32(pos);
-    ChunkRecord chunk;
-    bool is_chunk = false;
+    BagRecord record;
     for (std::uint64_t at = pos + 4; at < pos + 4 + header_len;) {
       const std::uint32_t field_len = u32(at);
       const std::string field = bytes.substr(at + 4, field_len);
       const std::size_t equals = field.find('=');
       const std::string name = field.substr(0, equals);
-      if (name == "op") is_chunk = field[equals + 1] == 0x05;
-      if (name == "compression") chunk.compression = field.substr(equals + 1);
-      if (name == "size") chunk.size_field_at = at + 4 + equals + 1;
+      if (name == "op") record.op = static_cast<unsigned char>(field[equals + 1]);
+      if (name == "compression") record.compression = field.substr(equals + 1);
+      if (name == "size") record.size_field_at = at + 4 + equals + 1;
       at += 4 + field_len;
     }
-    chunk.record_at = pos;
-    chunk.data_at = pos + 4 + header_len + 4;
-    chunk.data_len = u32(pos + 4 + header_len);
-    if (is_chunk) chunks.push_back(chunk);
-    pos = chunk.data_at + chunk.data_len;
+    record.record_at = pos;
+    record.data_at = pos + 4 + header_len + 4;
+    record.data_len = u32(pos + 4 + header_len);
+    records.push_back(record);
+    pos = record.data_at + record.data_len;
+  }
+  return records;
+}
+
+std::vector<BagRecord> chunkRecords(const std::string& bag) {
+  std::vector<BagRecord> chunks;
+  for (const BagRecord& record : bagRecords(bag)) {
+    if (record.op == 0x05) chunks.push_back(record);
   }
   return chunks;
+}
+
+// A saved fuzz finding (test/fuzz/corpus/bag/).
+std::string corpusBag(const std::string& name) {
+  return std::string(SAG_SOURCE_DIR) + "/test/fuzz/corpus/bag/" + name;
 }
 
 void overwrite(const std::string& file_path, std::uint64_t at, const void* bytes, std::size_t n) {
@@ -608,9 +626,9 @@ TEST_F(BagFiles, CompressedBagsReadTheSameFramesAsUncompressed) {
   for (const auto& [compression, name] : {std::pair{BagCompression::kLz4, std::string("lz4")},
                                           std::pair{BagCompression::kBz2, std::string("bz2")}}) {
     const std::string bag = writeGoodBag(name + ".bag", compression);
-    const std::vector<ChunkRecord> chunks = chunkRecords(bag);
+    const std::vector<BagRecord> chunks = chunkRecords(bag);
     ASSERT_FALSE(chunks.empty()) << name;
-    for (const ChunkRecord& chunk : chunks) EXPECT_EQ(chunk.compression, name);
+    for (const BagRecord& chunk : chunks) EXPECT_EQ(chunk.compression, name);
     expectSameSets(plain, readAllSets(bag), name);
     BagReader reader(bag);
     EXPECT_EQ(reader.rootFrame(), "world");
@@ -655,9 +673,9 @@ TEST_F(BagFiles, BagErrorCorruptCompressedChunkNamesTheChunkAndTheProblem) {
                                           std::pair{BagCompression::kBz2, std::string("bz2")}}) {
     SCOPED_TRACE(name);
     const std::string original = writeGoodBag(name + ".bag", compression);
-    const std::vector<ChunkRecord> chunks = chunkRecords(original);
+    const std::vector<BagRecord> chunks = chunkRecords(original);
     ASSERT_EQ(chunks.size(), 1u);
-    const ChunkRecord chunk = chunks[0];
+    const BagRecord chunk = chunks[0];
     const std::string where = ": the bag is corrupt: the " + name + " chunk at byte " +
                               std::to_string(chunk.record_at) + " ";
     std::uint32_t size = 0;
@@ -703,8 +721,7 @@ TEST_F(BagFiles, BagErrorCorruptCompressedChunkNamesTheChunkAndTheProblem) {
 // (corpus/bag/crash_rosbag_index_pos_mid_record).
 TEST_F(BagFiles, BagErrorIndexPositionInsideARecordIsCaughtBeforeRosbagAllocates) {
   const std::string bag = writeGoodBag("index.bag");
-  std::ifstream file(bag, std::ios::binary);
-  const std::string bytes((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  const std::string bytes = fileBytes(bag);
   const std::size_t field = bytes.find("index_pos=") + std::strlen("index_pos=");
   std::uint64_t index_pos = 0;
   std::memcpy(&index_pos, &bytes[field], 8);
@@ -726,8 +743,7 @@ TEST_F(BagFiles, BagErrorIndexPositionInsideARecordIsCaughtBeforeRosbagAllocates
 // the seconds past 32 bits (corpus/bag/crash_rosbag_index_time_out_of_range).
 TEST_F(BagFiles, BagErrorIndexRecordsRosbagWouldMisreadAreCaughtBeforeItReadsThem) {
   const std::string good = writeGoodBag("counts.bag");
-  std::ifstream file(good, std::ios::binary);
-  const std::string bytes((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  const std::string bytes = fileBytes(good);
   // The count fields (<length 10>count=<uint32>) of the first index record and of the chunk info,
   // the last record; a record's header starts 4 bytes after the record.
   const std::string count_field("\x0a\0\0\0count=", 10);
@@ -735,16 +751,12 @@ TEST_F(BagFiles, BagErrorIndexRecordsRosbagWouldMisreadAreCaughtBeforeItReadsThe
   const std::size_t chunk_info_count = bytes.rfind(count_field);
   ASSERT_NE(index_count, std::string::npos);
   ASSERT_NE(index_count, chunk_info_count);
+  const std::vector<BagRecord> records = bagRecords(good);
   const auto record_of = [&](std::size_t field) {  // the record whose header holds `field`
-    for (std::uint64_t pos = 13; pos < bytes.size();) {
-      std::uint32_t header_len = 0, data_len = 0;
-      std::memcpy(&header_len, &bytes[pos], 4);
-      std::memcpy(&data_len, &bytes[pos + 4 + header_len], 4);
-      if (field > pos && field < pos + 4 + header_len) return std::pair{pos, data_len};
-      // Into an uncompressed chunk's records, over any other record.
-      const bool chunk =
-          bytes.substr(pos + 4, header_len).find(std::string("op=\x05", 4)) != std::string::npos;
-      pos += 4 + header_len + 4 + (chunk ? 0 : data_len);
+    for (const BagRecord& record : records) {
+      if (field > record.record_at && field < record.data_at) {
+        return std::pair{record.record_at, record.data_len};
+      }
     }
     ADD_FAILURE() << "no record holds byte " << field;
     return std::pair{std::uint64_t{0}, std::uint32_t{0}};
@@ -766,9 +778,8 @@ TEST_F(BagFiles, BagErrorIndexRecordsRosbagWouldMisreadAreCaughtBeforeItReadsThe
                                     " bytes of data at byte " + std::to_string(record_at));
     }
   }
-  const std::string found =
-      std::string(SAG_SOURCE_DIR) + "/test/fuzz/corpus/bag/crash_rosbag_index_count_beyond_data";
-  EXPECT_EQ(sag_test::inputErrorOf([&] { BagReader reader(found); }),
+  const std::string found = corpusBag("crash_rosbag_index_count_beyond_data");
+  EXPECT_EQ(readError(found),
             found +
                 ": the bag is corrupt: an index record of 9 entries (108 bytes) in 24 bytes of "
                 "data at byte 7549");
@@ -787,9 +798,8 @@ TEST_F(BagFiles, BagErrorIndexRecordsRosbagWouldMisreadAreCaughtBeforeItReadsThe
               bag + ": the bag is corrupt: the index record at byte " + std::to_string(index_at) +
                   " has a time out of range (4294967295 s " + std::to_string(nsec) + " ns)");
   }
-  const std::string time_found =
-      std::string(SAG_SOURCE_DIR) + "/test/fuzz/corpus/bag/crash_rosbag_index_time_out_of_range";
-  EXPECT_EQ(sag_test::inputErrorOf([&] { BagReader reader(time_found); }),
+  const std::string time_found = corpusBag("crash_rosbag_index_time_out_of_range");
+  EXPECT_EQ(readError(time_found),
             time_found +
                 ": the bag is corrupt: the index record at byte 7786 has a time out of range "
                 "(4294967295 s 3105751039 ns)");
@@ -800,9 +810,8 @@ TEST_F(BagFiles, BagErrorIndexRecordsRosbagWouldMisreadAreCaughtBeforeItReadsThe
 // before the next one) made rosbag parse message bytes as a record header, whose field length sent
 // ros::Header::parse 262 139 bytes past a 3 316-byte buffer. The chunk is now decompressed and its
 // records walked before rosbag opens the bag; the entry is refused with the chunk it points into.
-TEST(BagRecords, AnIndexEntryIntoAnLz4ChunkRecordIsRefusedBeforeRosbagParsesIt) {
-  const std::string bag =
-      std::string(SAG_SOURCE_DIR) + "/test/fuzz/corpus/bag/crash_lz4_chunk_message_header_overflow";
+TEST(BagRecords, AnIndexEntryIntoAnLz4BagRecordIsRefusedBeforeRosbagParsesIt) {
+  const std::string bag = corpusBag("crash_lz4_chunk_message_header_overflow");
   // Its chunk holds 14 records; the entry points 2 bytes before the one at byte 2355.
   EXPECT_EQ(sag_test::inputErrorOf([&] { BagReader reader(bag); }),
             bag +
@@ -830,9 +839,7 @@ TEST_F(BagFiles, AReusedRosbagBagReadsAGoodBagAfterMalformedOnesAsAFreshReaderDo
   const std::string connections = path("connections.bag");
   fs::copy_file(good, connections);
   {
-    std::ifstream file(connections, std::ios::binary);
-    const std::string bytes((std::istreambuf_iterator<char>(file)),
-                            std::istreambuf_iterator<char>());
+    const std::string bytes = fileBytes(connections);
     const std::size_t field = bytes.find("conn_count=") + std::strlen("conn_count=");
     std::uint32_t count = 0;
     std::memcpy(&count, &bytes[field], 4);
@@ -1170,8 +1177,7 @@ TEST(MessageBounds, TruncatedAndOverlongMessagesAreRefused) {
 // The fuzzer's finding: a bag whose camera_info declares 1.8e9 distortion coefficients made roscpp
 // allocate 14.7 GB; it is now refused with the topic and the field.
 TEST(MessageBounds, TheBagWithAHugeDeclaredArrayIsRefusedWithoutAllocatingIt) {
-  const std::string bag =
-      std::string(SAG_SOURCE_DIR) + "/test/fuzz/corpus/bag/crash_camera_info_huge_array_length";
+  const std::string bag = corpusBag("crash_camera_info_huge_array_length");
   try {
     BagReader reader(bag);
     FAIL() << "the bag was accepted";
