@@ -33,10 +33,11 @@
 // checked against the same choice and the track is reset when the choice replaces it.
 //
 // Late results (catch-up, TrackerParams::catch_up_seconds): a set that got no pose while the
-// worker had the search (no track, or it was lost) was published with a status without pose; the
-// next set first publishes the poses the worker has found for such sets since (joint_states, tf,
-// fingertips, markers and a second status with has_pose and late true), each with its own image
-// stamp, oldest first, then its own. Sets beyond the bound stay lost. Late sets get no overlay
+// worker had the search (no track, or it was lost) was published with a status without pose; its
+// pose is published as soon as the worker has found it (joint_states, tf, fingertips, markers and
+// a second status with has_pose and late true), with its own image stamp, oldest first, by a
+// thread of the nodelet that the worker wakes (the frame path collects any it has not published
+// before its own set). Sets beyond the bound stay lost. Late sets get no overlay
 // images; a running ~calibrate collects them (it keeps the observations of the sets it saw
 // without a pose until their late results come).
 //
@@ -93,6 +94,7 @@
 #include <mutex>
 #include <optional>
 #include <sstream>
+#include <thread>
 
 #include "sag_hand_tracker/Calibrate.h"
 #include "sag_hand_tracker/TrackerConfig.h"
@@ -121,6 +123,12 @@ class TrackerNodelet : public nodelet::Nodelet {
     recording_done_.notify_all();
     if (calibration_spinner_) calibration_spinner_->stop();
     calibrate_srv_.shutdown();
+    {
+      std::lock_guard<std::mutex> lock(late_signal_->mutex);
+      late_signal_->stop = true;
+    }
+    late_signal_->changed.notify_all();
+    if (late_thread_.joinable()) late_thread_.join();
   }
 
  private:
@@ -204,6 +212,14 @@ class TrackerNodelet : public nodelet::Nodelet {
     }
     model_label_ = model_name;
     tracker_ = std::make_unique<HandTracker>(model_, liveTrackerParams());
+    // The worker signals each late result; this thread publishes it at once (header comment).
+    tracker_->setLateResultCallback([signal = late_signal_]() {
+      {
+        std::lock_guard<std::mutex> lock(signal->mutex);
+        signal->ready = true;
+      }
+      signal->changed.notify_one();
+    });
     fit_params_.max_frames = pnh.param("calibration_max_frames", fit_params_.max_frames);
     fit_params_.rounds = pnh.param("calibration_rounds", fit_params_.rounds);
     if (fit_params_.max_frames < 1 || fit_params_.rounds < 1) {
@@ -278,6 +294,7 @@ class TrackerNodelet : public nodelet::Nodelet {
                                   }
                                   onTimer();
                                 });
+    late_thread_ = std::thread([this]() { publishLateResultsAsTheyCome(); });
     NODELET_INFO("tracker: %d cameras, root frame '%s', model '%s' (%zu Gaussians)", num_cameras_,
                  root_frame_.c_str(), model_.name.c_str(), model_.gaussians.size());
   }
@@ -514,6 +531,31 @@ class TrackerNodelet : public nodelet::Nodelet {
       region.header.frame_id = observations[o].camera.name + "_optical_frame";
       region.candidates_wanted = room_.candidatesWanted();
       cameras_[observation_camera[o]].region_pub.publish(region);
+    }
+  }
+
+  // late_thread_: waits for the worker's signal, then publishes the late results it has found.
+  void publishLateResultsAsTheyCome() {
+    LateSignal& signal = *late_signal_;
+    for (;;) {
+      {
+        std::unique_lock<std::mutex> lock(signal.mutex);
+        signal.changed.wait(lock, [&signal] { return signal.ready || signal.stop; });
+        if (signal.stop) return;
+        signal.ready = false;
+      }
+      std::lock_guard<std::mutex> lock(mutex_);
+      std::vector<FrameResult> late_results;
+      try {
+        late_results = tracker_->takeReadyLateResults();
+      } catch (const std::exception& e) {
+        NODELET_ERROR_THROTTLE(2.0, "tracker failed while collecting late results: %s", e.what());
+        continue;
+      }
+      for (const FrameResult& late : late_results) {
+        publishLateResult(late);
+        if (recording_) recordLate(late);
+      }
     }
   }
 
@@ -1008,6 +1050,17 @@ class TrackerNodelet : public nodelet::Nodelet {
   ros::CallbackQueue calibration_queue_;
   ros::ServiceServer calibrate_srv_;
   std::unique_ptr<ros::AsyncSpinner> calibration_spinner_;
+
+  // The worker's signal that a late result is ready (HandTracker::setLateResultCallback), shared
+  // with the callback, which a worker may call until it has ended.
+  struct LateSignal {
+    std::mutex mutex;
+    std::condition_variable changed;
+    bool ready = false;
+    bool stop = false;
+  };
+  std::shared_ptr<LateSignal> late_signal_ = std::make_shared<LateSignal>();
+  std::thread late_thread_;  // publishLateResultsAsTheyCome
 };
 
 }  // namespace sag_hand_tracker

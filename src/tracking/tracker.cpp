@@ -220,6 +220,24 @@ AlternativeVerdict judgeAlternative(double track_energy, double challenger_energ
   return AlternativeVerdict::kKeep;
 }
 
+bool forearmMayBeBare(const HandModel& model, const PoseEnergy& energy, const Pose& pose,
+                      double min_gain) {
+  // The forearm straight on from the pose's palm, and from the same hand reversed about its centre
+  // (fingers where its wrist is, open): a reversed start is what the second search corrects, and
+  // at a reversed pose a bare forearm gains little. A sleeved forearm gains about 0.01 at the
+  // pose but up to 0.1 reversed, where it lies over the real fingers
+  // (TrackerParams::forearm_start_gain).
+  const Eigen::Matrix3d reversed =
+      pose.rotation * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const Pose twin = neutralPose(model, rootAt(handCentre(pose), reversed), reversed);
+  for (const Pose* candidate : {&pose, &twin}) {
+    const double gain = energy.evaluateWithForearm(*candidate, -candidate->rotation.col(0)) -
+                        energy.evaluate(*candidate);
+    if (gain > min_gain) return true;
+  }
+  return false;
+}
+
 bool isPlausiblePose(const Pose& pose, const std::vector<CameraObservation>& observations,
                      double min_camera_depth, int min_cameras) {
   if (!pose.allFinite()) return false;
@@ -306,6 +324,7 @@ struct HandTracker::Worker {
   bool unchanged = false;
   std::exception_ptr error;  // what ended it early; rethrown by the update that adopts it
   std::future<void> done;
+  std::function<void()> on_late_result;  // HandTracker::setLateResultCallback
 
   bool idle() const { return (queue.empty() && !busy) || error; }  // with `mutex` held
 
@@ -347,12 +366,18 @@ struct HandTracker::Worker {
         error = failure;
         return;
       }
+      const bool late = !frame.reported_pose && result->has_pose;
       results.emplace_back(frame.reported_pose, std::move(*result));
       // Only while no set waits for it (every set handed since had its pose on the frame path).
       if (same && std::all_of(queue.begin(), queue.end(),
                               [](const HandedFrame& next) { return next.reported_pose; })) {
         unchanged = true;
         queue.clear();
+      }
+      if (late && on_late_result) {
+        lock.unlock();
+        on_late_result();
+        lock.lock();
       }
     }
   }
@@ -661,6 +686,7 @@ void HandTracker::startWorker(const TrackState& state, HandedFrame frame, int ni
   worker->tracker->setTrackState(state);
   worker->frame_path_after_first = trackState();  // called after the frame path's step
   worker->queue.push_back(std::move(frame));
+  if (params_.catch_up_seconds > 0.0) worker->on_late_result = late_result_callback_;
   Worker* running = worker.get();
   worker->done = std::async(std::launch::async, [running, gate = search_gate_, niceness]() {
     running->run(gate, niceness);
@@ -723,6 +749,13 @@ int HandTracker::keptFrames() const {
   return static_cast<int>(worker_->queue.size());
 }
 
+std::vector<FrameResult> HandTracker::takeReadyLateResults() {
+  // late_results_ is empty here but for those of the last update that were not taken: they go
+  // first, as they are older.
+  if (worker_) collectWorker(/*adopt=*/false);
+  return takeLateResults();
+}
+
 std::vector<FrameResult> HandTracker::takeLateResults() {
   std::vector<FrameResult> results;
   results.swap(late_results_);
@@ -777,7 +810,10 @@ void HandTracker::startWithForearmIfItIsBare(PoseEnergy& energy,
   if (params_.energy.forearm_gaussians <= 0 || params_.asynchronous_search) return;
   // The second search doubled every start's time (in the live graph, the sets that wait for it);
   // it is skipped when a cheap test says that its candidates would be discarded anyway.
-  if (!candidates->empty() && !forearmMayBeBare(energy, candidates->front().pose)) return;
+  if (!candidates->empty() &&
+      !forearmMayBeBare(model_, energy, candidates->front().pose, params_.forearm_start_gain)) {
+    return;
+  }
   forearm_present_ = true;
   energy.setForearmPresent(true);
   std::optional<std::vector<OptimizationResult>> with_forearm =
@@ -796,21 +832,6 @@ void HandTracker::startWithForearmIfItIsBare(PoseEnergy& energy,
     forearm_present_ = false;
     energy.setForearmPresent(false);
   }
-}
-
-bool HandTracker::forearmMayBeBare(const PoseEnergy& energy, const Pose& pose) const {
-  // The forearm straight on from the pose's palm, and from the same hand reversed about its centre
-  // (fingers where its wrist is, open): a reversed start is what the second search corrects, and
-  // at a reversed pose a bare forearm gains little. Sleeved forearms gain about 0.01 at either.
-  const Eigen::Matrix3d reversed =
-      pose.rotation * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  const Pose twin = neutralPose(model_, rootAt(handCentre(pose), reversed), reversed);
-  for (const Pose* candidate : {&pose, &twin}) {
-    const double gain = energy.evaluateWithForearm(*candidate, -candidate->rotation.col(0)) -
-                        energy.evaluate(*candidate);
-    if (gain > 0.5 * params_.forearm_min_gain) return true;
-  }
-  return false;
 }
 
 Eigen::Vector3d HandTracker::fitForearm(const PoseEnergy& energy, OptimizationResult* result,

@@ -5,6 +5,7 @@
 // (HandTracker::holdSearchesUntil), so that the tests decide how many sets arrive meanwhile.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <future>
 #include <map>
 #include <vector>
@@ -388,4 +389,71 @@ TEST(TrackerCatchUp, AfterARedetectionTheFramePathGoesOnAsTheSynchronousTracker)
   EXPECT_EQ(held, 3);
   EXPECT_TRUE(adopted);
   EXPECT_GT(adopted_then_compared, 10);
+}
+
+// The live graph publishes a late result as soon as the worker has it: the worker calls the late
+// result callback once per set it found a pose for that the frame path had reported without one,
+// and takeReadyLateResults hands those results over between updates, in order, equal to the ones
+// the next update would have returned; that update then returns none, and goes on from the
+// worker's track. Sets the frame path had a pose for (a re-detection's) call it not.
+TEST(TrackerCatchUp, LateResultsAreReadyBeforeTheNextSetAndAreSignalled) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  TrackerParams params;
+  params.asynchronous_search = true;
+  params.redetect_interval = 3;
+  HandTracker tracker(model, params);
+  std::atomic<int> signals{0};
+  tracker.setLateResultCallback([&signals]() { ++signals; });
+  std::promise<void> gate;
+  tracker.holdSearchesUntil(gate.get_future().share());
+  HandTracker reference(model, params);  // collects its late results at the next update
+  std::promise<void> reference_gate;
+  reference.holdSearchesUntil(reference_gate.get_future().share());
+
+  constexpr int kHeld = 4;
+  auto observationsOf = [&](int frame) {
+    return modelObservations(model, movingHand(model, frame), cameras, 3.0);
+  };
+  for (int frame = 0; frame < kHeld; ++frame) {
+    EXPECT_FALSE(
+        tracker.update(observationsOf(frame), frame * kFramePeriod, kFirstId + frame).has_pose);
+    reference.update(observationsOf(frame), frame * kFramePeriod, kFirstId + frame);
+  }
+  EXPECT_TRUE(tracker.takeReadyLateResults().empty());  // the worker is held
+  EXPECT_EQ(signals.load(), 0);
+  gate.set_value();
+  reference_gate.set_value();
+  tracker.waitForSearch();
+  reference.waitForSearch();
+  EXPECT_EQ(signals.load(), kHeld);
+  const std::vector<FrameResult> ready = tracker.takeReadyLateResults();
+  EXPECT_TRUE(tracker.takeReadyLateResults().empty());  // taken once
+  ASSERT_EQ(ready.size(), static_cast<size_t>(kHeld));
+
+  const FrameResult next =
+      tracker.update(observationsOf(kHeld), kHeld * kFramePeriod, kFirstId + kHeld);
+  EXPECT_TRUE(tracker.takeLateResults().empty());
+  const FrameResult reference_next =
+      reference.update(observationsOf(kHeld), kHeld * kFramePeriod, kFirstId + kHeld);
+  const std::vector<FrameResult> reference_late = reference.takeLateResults();
+  ASSERT_EQ(reference_late.size(), static_cast<size_t>(kHeld));
+  for (int i = 0; i < kHeld; ++i) {
+    EXPECT_TRUE(ready[i].late);
+    EXPECT_EQ(ready[i].frame_id, kFirstId + i);
+    EXPECT_EQ(ready[i].status, reference_late[i].status) << "set " << i;
+    EXPECT_LT(fingertipDifference(ready[i], reference_late[i]), 1e-9) << "set " << i;
+  }
+  ASSERT_TRUE(next.has_pose);
+  ASSERT_TRUE(reference_next.has_pose);
+  EXPECT_LT(fingertipDifference(next, reference_next), 1e-9);
+
+  // Re-detections (every 3rd set) run on workers while the frame path has a pose: no signal.
+  for (int frame = kHeld + 1; frame < kHeld + 10; ++frame) {
+    EXPECT_TRUE(
+        tracker.update(observationsOf(frame), frame * kFramePeriod, kFirstId + frame).has_pose);
+    tracker.waitForSearch();
+    EXPECT_TRUE(tracker.takeReadyLateResults().empty()) << "frame " << frame;
+  }
+  EXPECT_EQ(signals.load(), kHeld);
 }

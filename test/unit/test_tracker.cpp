@@ -698,3 +698,31 @@ TEST(TrackerForearm, IsUsedForABareForearmOnly) {
   const ForearmRun hand_only_hard = trackFlexingWrist(no_forearm, true);
   EXPECT_GT(hand_only_hard.worst_error, 0.03) << hand_only_hard.worst_error * 1000 << " mm";
 }
+
+// The cheap test before the first start's second search (TrackerParams::forearm_start_gain): a
+// bare forearm says yes at the true hand and at the hand reversed (the start the second search
+// corrects); a sleeved one says no at either, also where the reversed hand's forearm lies over
+// the real fingers (about 0.1 with the studio's hands: the old test, 0.05, said yes to every
+// start, and each start searched twice).
+TEST(TrackerForearm, TheStartSearchesAgainWithTheForearmOnlyWhenItMayBeBare) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  const TrackerParams params;
+  const Pose truth = typicalPose(model);
+  const Pose wrong = reorientedAboutCentre(truth, reversed(truth.rotation));
+  PoseEnergy energy(model, params.energy);
+  auto gain = [&](const Pose& pose) {
+    return energy.evaluateWithForearm(pose, -pose.rotation.col(0)) - energy.evaluate(pose);
+  };
+  energy.setFrame(modelObservations(model, truth, cameras, 3.0));
+  EXPECT_FALSE(forearmMayBeBare(model, energy, truth, params.forearm_start_gain))
+      << "gain " << gain(truth);
+  EXPECT_FALSE(forearmMayBeBare(model, energy, wrong, params.forearm_start_gain))
+      << "gain " << gain(wrong);
+  const HandModel bare_arm = withForearm(model, EnergyParams(), -Eigen::Vector3d::UnitX());
+  energy.setFrame(modelObservations(bare_arm, truth, cameras, 3.0));
+  EXPECT_TRUE(forearmMayBeBare(model, energy, truth, params.forearm_start_gain))
+      << "gain " << gain(truth);
+  EXPECT_TRUE(forearmMayBeBare(model, energy, wrong, params.forearm_start_gain))
+      << "gain " << gain(wrong);
+}

@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <future>
 #include <memory>
 #include <optional>
@@ -121,6 +122,14 @@ struct TrackerParams {
   // (a wrong track, e.g. a hand pointing along its own arm, more: 0.05 switched it on in
   // `fastturn`); a sleeved forearm does not switch it on, so those tracks are unchanged.
   double forearm_min_gain = 0.1;
+  // A first start searches a second time with the forearm in the energy when the forearm gains
+  // more than this at the best candidate or at it reversed (forearmMayBeBare); otherwise that
+  // search would only be discarded. On the benchmark's 84 bags (12 sequences x 7 hands, session
+  // 10) sleeved forearms gained at most 0.014 at the candidate and 0.103 reversed (where the
+  // forearm lies over the fingers), and the bare ones of `wristflex` at least 0.141 at one of
+  // them (0.052 and 0.23 on the one hand started reversed); the old test, 0.05 at either, ran the
+  // second search, which doubles the start, on all 84 starts, and kept it on the 7 bare ones.
+  double forearm_start_gain = 0.12;
   // Plausibility: the hand centre must lie at least `min_camera_depth` (m) in front of every
   // camera and inside the image of at least `min_cameras_for_start` cameras; a pose that is not is
   // never reported (the frame is lost).
@@ -152,8 +161,8 @@ struct TrackerParams {
   // kept for it only while they are within `catch_up_seconds` (by stamp) of the newest set (at
   // most kMaxCatchUpFrames; older ones are skipped, as a synchronous tracker skips a camera set
   // that never came). A set that the frame path reported without a pose and the worker tracked
-  // comes back as a late result (HandTracker::takeLateResults). 0: only the newest set is kept,
-  // and no late results.
+  // comes back as a late result (HandTracker::takeLateResults; takeReadyLateResults as soon as the
+  // worker has it). 0: only the newest set is kept, and no late results.
   double catch_up_seconds = 0.25;
   // The model's colours learnt from the frames it tracks well (colour_adaptation.h); reset() and
   // setModel() go back to the model's own. Not for a model whose colours were fitted to the user
@@ -215,6 +224,12 @@ enum class AlternativeVerdict { kKeep, kConfirm, kDrop };
 AlternativeVerdict judgeAlternative(double track_energy, double challenger_energy,
                                     const TrackerParams& params, int* wins, int* frames);
 
+// Whether a bare forearm may be in the frame of `energy` (TrackerParams::forearm_start_gain): the
+// forearm, straight on from the palm, adds more than `min_gain` to the energy at `pose` or at the
+// open hand reversed about its centre (fingers where its wrist is).
+bool forearmMayBeBare(const HandModel& model, const PoseEnergy& energy, const Pose& pose,
+                      double min_gain);
+
 // Honesty (TrackerParams::min_camera_depth): the hand centre is in front of every camera and
 // inside the image of at least `min_cameras` of them.
 bool isPlausiblePose(const Pose& pose, const std::vector<CameraObservation>& observations,
@@ -253,6 +268,17 @@ class HandTracker {
   // The late results collected by the last update (TrackerParams::catch_up_seconds), oldest
   // first, all of sets before that update's own; moved out (the next update replaces them).
   std::vector<FrameResult> takeLateResults();
+  // Between updates: the late results the worker has found since the last update or call, oldest
+  // first, so that they need not wait for the next set (the live graph publishes them as they
+  // come); the worker goes on.
+  std::vector<FrameResult> takeReadyLateResults();
+  // Called on the worker's thread each time it has found the pose of a set reported without one:
+  // takeReadyLateResults then has a late result. It must return at once and not call the tracker
+  // (it only signals the thread that does); kept through reset, setModel and setParams, and given
+  // to the workers started from then on.
+  void setLateResultCallback(std::function<void()> callback) {
+    late_result_callback_ = std::move(callback);
+  }
 
   void reset();
   // Switches to another model of the same hand (a fitted one, issue 10) and keeps tracking from
@@ -325,9 +351,7 @@ class HandTracker {
   // when its best one gains more than forearm_min_gain by it. The first start on a bare forearm
   // otherwise has only the hand-only energy and the sleeve cue, which on a flexed wrist can pick
   // a reversed hand that the forearm's gain at that pose never corrects.
-  // Whether a bare forearm may be in the images: the forearm in the energy gains more than half
-  // of forearm_min_gain at `pose` or at it reversed (the cheap test before that second search).
-  bool forearmMayBeBare(const PoseEnergy& energy, const Pose& pose) const;
+  // The cheap test before that second search: forearmMayBeBare.
   void startWithForearmIfItIsBare(PoseEnergy& energy,
                                   const std::vector<CameraObservation>& observations,
                                   std::vector<OptimizationResult>* candidates);
@@ -408,6 +432,7 @@ class HandTracker {
   std::unique_ptr<Worker> retired_;  // adopted, its thread still ending
   std::vector<FrameResult> late_results_;
   std::shared_future<void> search_gate_;
+  std::function<void()> late_result_callback_;
 };
 
 }  // namespace sag_hand_tracker
