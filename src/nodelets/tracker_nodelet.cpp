@@ -459,10 +459,7 @@ class TrackerNodelet : public nodelet::Nodelet {
     }
     const double seconds = secondsSince(start);
     // The catch-up's sets first, oldest first, each with its own stamp.
-    for (const FrameResult& late : late_results) {
-      publishLateResult(late);
-      if (recording_) recordLate(late);
-    }
+    publishLateResults(late_results);
     ++frames_;
     seconds_sum_ += seconds;
     last_result_ = result;
@@ -552,10 +549,16 @@ class TrackerNodelet : public nodelet::Nodelet {
         NODELET_ERROR_THROTTLE(2.0, "tracker failed while collecting late results: %s", e.what());
         continue;
       }
-      for (const FrameResult& late : late_results) {
-        publishLateResult(late);
-        if (recording_) recordLate(late);
-      }
+      publishLateResults(late_results);
+    }
+  }
+
+  // The catch-up's results, oldest first, each with its own stamp; a running ~calibrate keeps
+  // them. Caller holds mutex_.
+  void publishLateResults(const std::vector<FrameResult>& late_results) {
+    for (const FrameResult& late : late_results) {
+      publishLateResult(late);
+      if (recording_) recordLate(late);
     }
   }
 
