@@ -105,6 +105,8 @@ std::string renderBagUsage() {
          "  --preview-frame N  the frame of the contact sheet (default: the middle one)\n"
          "  --start-stamp T    stamp of the first frame in seconds (default 1400000000)\n"
          "  --compression C    bag compression: none (default), lz4 or bz2\n"
+         "  --threads N        threads rendering a frame's views (default 2, 1-16; the images\n"
+         "                     do not depend on it)\n"
          "  --room R           a studio room (office, kitchen, daylight; doc/segmentation.md):\n"
          "                     photographs, props, changing light; kitchen has no frames without\n"
          "                     the hand\n"
@@ -210,6 +212,9 @@ RenderBagOptions parseRenderBagArguments(const std::vector<std::string>& args) {
     } else if (a == "--start-stamp") {
       options.start_stamp = number(&i);
       if (!(options.start_stamp > 0.0)) throw UsageError("--start-stamp must be positive");
+    } else if (a == "--threads") {
+      options.threads = static_cast<int>(integer(&i, 1));
+      if (options.threads > 16) throw UsageError("--threads must be at most 16");
     } else if (a == "--compression") {
       const std::string mode = value(&i);
       if (mode == "none") {
@@ -304,7 +309,8 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
   sensor.noise_sigma = options.noise;
 
   const auto setup_start = std::chrono::steady_clock::now();
-  const studio::StudioRenderer renderer(rig.cameras, scene, sensor);
+  studio::StudioRenderer renderer(rig.cameras, scene, sensor);
+  renderer.setRenderThreads(options.threads);
   const double setup_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - setup_start).count();
 

@@ -28,6 +28,10 @@
 //     nodelets learn their background plate (default 10 frames) on frames without the hand
 //   wait_for_subscribers (10.0 s): before the first frame, wait until every camera's image_raw
 //     has a subscriber (at most this long; 0 = do not wait)
+//   render_threads (1): threads that render a set's views (StudioRenderer::setRenderThreads; the
+//     images are the same for any number); 1-16. Two keep 60 sets/s on a 2-core machine, but the
+//     renderer then takes both cores while the graph works on the last set: in the headless demo
+//     the p99 latency went from 8.8-8.9 to 12.4-13.6 ms (doc/demo.md, session 10)
 //   model ("sag"): the skeleton the hand is rendered on; config_dir (the package's config/)
 // Rendering runs on a callback queue and thread of its own, so it does not take one of the
 // manager's worker threads away from the segmentation and the tracker.
@@ -83,6 +87,11 @@ class StudioDriverNodelet : public nodelet::Nodelet {
     lead_in_frames_ = std::max(0, pnh.param("lead_in_frames", 15));
     motion_blur_ = std::max(1, pnh.param("motion_blur", 1));
     wait_for_subscribers_ = pnh.param("wait_for_subscribers", 10.0);
+    render_threads_ = pnh.param("render_threads", 1);
+    if (!(render_threads_ >= 1 && render_threads_ <= 16)) {
+      NODELET_ERROR("render_threads must be in [1, 16] (got %d); using 1", render_threads_);
+      render_threads_ = 1;
+    }
     const std::string config_dir = packageConfigDir(pnh.param<std::string>("config_dir", ""));
 
     if (!readStringList(pnh, "sequences", &sequence_names_)) return;
@@ -104,6 +113,7 @@ class StudioDriverNodelet : public nodelet::Nodelet {
       }
       renderer_ = std::make_unique<studio::StudioRenderer>(rig_.cameras,
                                                            studio::StudioSceneParams(), sensor);
+      renderer_->setRenderThreads(render_threads_);
     } catch (const std::exception& e) {
       NODELET_FATAL("studio set-up failed: %s; the studio does nothing", e.what());
       return;
@@ -310,6 +320,7 @@ class StudioDriverNodelet : public nodelet::Nodelet {
   std::vector<std::string> joint_names_;
   std::vector<studio::Motion> motions_;
   std::unique_ptr<studio::StudioRenderer> renderer_;
+  int render_threads_ = 1;
   std::unique_ptr<studio::StudioSequence> sequence_;
   size_t sequence_index_ = 0;
   int frame_ = 0;

@@ -724,13 +724,20 @@ std::vector<StudioImage> StudioRenderer::render(
     const std::vector<std::vector<SurfacePart>>& subframes, std::uint64_t noise_seed,
     double light_gain) const {
   const std::vector<ShadowMap> shadows = computeShadows(subframes);
-  std::vector<StudioImage> images;
-  images.reserve(cameras_.size());
-  for (size_t c = 0; c < cameras_.size(); ++c) {
-    images.push_back(
-        renderCamera(static_cast<int>(c), subframes, shadows, noise_seed, light_gain, false));
+  std::vector<StudioImage> images(cameras_.size());
+  const auto render_view = [&](int c) {
+    images[c] = renderCamera(c, subframes, shadows, noise_seed, light_gain, false);
+  };
+  if (pool_) {
+    pool_->run(static_cast<int>(cameras_.size()), render_view);
+  } else {
+    for (size_t c = 0; c < cameras_.size(); ++c) render_view(static_cast<int>(c));
   }
   return images;
+}
+
+void StudioRenderer::setRenderThreads(int threads) {
+  pool_ = threads > 1 ? std::make_shared<ThreadPool>(threads) : nullptr;
 }
 
 cv::Mat contactSheet(const std::vector<StudioImage>& images, const std::vector<Camera>& cameras,

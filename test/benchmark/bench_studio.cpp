@@ -31,7 +31,8 @@ studio::StudioSequence makeSequence(int motion_blur_samples) {
 
 // Surfaces + 5 images (shadow, shading, blur, noise) per frame, over the frames of `random`.
 void BM_StudioFrame(benchmark::State& state) {
-  const studio::StudioRenderer renderer(rigCameras());
+  studio::StudioRenderer renderer(rigCameras());
+  renderer.setRenderThreads(static_cast<int>(state.range(1)));
   const studio::StudioSequence sequence = makeSequence(static_cast<int>(state.range(0)));
   int frame = 10;
   for (auto _ : state) {
@@ -42,7 +43,13 @@ void BM_StudioFrame(benchmark::State& state) {
   state.counters["frames/s"] =
       benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
-BENCHMARK(BM_StudioFrame)->Arg(1)->Arg(4)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_StudioFrame)
+    ->ArgNames({"subframes", "threads"})
+    ->Args({1, 1})
+    ->Args({1, 2})
+    ->Args({4, 1})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 void BM_StudioSetup(benchmark::State& state) {
   for (auto _ : state) {

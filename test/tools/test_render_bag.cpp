@@ -133,6 +133,23 @@ TEST_F(RenderBagTool, WritesTheTrackBagInterfaceWithAgreeingGroundTruth) {
   EXPECT_EQ(sheet.rows, 480);
 }
 
+// --threads renders a frame's views at once; the bag and its ground truth are the same bytes.
+TEST_F(RenderBagTool, TheBagDoesNotDependOnTheThreads) {
+  for (const std::string threads : {"1", "3"}) {
+    const ToolRun run = renderBag("--sequence random --frames 14 --seed 5 --quiet --threads " +
+                                  threads + " --out '" + path("t" + threads + ".bag") + "'");
+    ASSERT_EQ(run.status, 0) << run.err;
+  }
+  auto bytes = [](const std::string& file) {
+    std::ifstream in(file, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  };
+  const std::string one = bytes(path("t1.bag"));
+  EXPECT_GT(one.size(), 1000000u);
+  EXPECT_TRUE(one == bytes(path("t3.bag")));
+  EXPECT_EQ(bytes(path("t1.gt.csv")), bytes(path("t3.gt.csv")));
+}
+
 TEST_F(RenderBagTool, BadInputGetsAOneLineErrorAndNonZeroExit) {
   const std::string out = " --out '" + path("x.bag") + "'";
   struct Case {
@@ -164,6 +181,8 @@ TEST_F(RenderBagTool, BadInputGetsAOneLineErrorAndNonZeroExit) {
       {"--sequence pinch --frames two" + out, 2, "--frames needs a number, not 'two'"},
       {"--sequence pinch --colour red" + out, 2, "unknown argument '--colour'"},
       {"--sequence pinch --room attic" + out, 2, "--room: unknown studio room 'attic' (known: "},
+      {"--sequence pinch --threads 0" + out, 2, "--threads needs an integer >= 1"},
+      {"--sequence pinch --threads 17" + out, 2, "--threads must be at most 16"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.arguments);

@@ -387,6 +387,28 @@ TEST(StudioRender, DeterministicFromTheSeed) {
   EXPECT_EQ(cv::norm(x.labels, z.labels, cv::NORM_L1), 0.0);
 }
 
+// The views of a set rendered on kept threads (StudioRenderer::setRenderThreads, the live
+// studio's render_threads) are the one-thread images, byte for byte: each view has its own noise
+// seed and its own buffers. Several frames, so that the threads reuse their buffers.
+TEST(StudioRender, RenderThreadsGiveTheSameImages) {
+  SequenceParams params;
+  const StudioSequence sequence(handModel(), builtinMotion("random", 3), params);
+  StudioRenderer threaded = sharedRenderer();
+  threaded.setRenderThreads(3);
+  for (int index : {20, 40, 60}) {
+    const auto one = sharedRenderer().render(sequence.surfaces(index), sequence.noiseSeed(index));
+    const auto three = threaded.render(sequence.surfaces(index), sequence.noiseSeed(index));
+    ASSERT_EQ(one.size(), three.size());
+    for (size_t k = 0; k < one.size(); ++k) {
+      ASSERT_EQ(one[k].rgb.total(), three[k].rgb.total());
+      EXPECT_EQ(std::memcmp(one[k].rgb.data, three[k].rgb.data, one[k].rgb.total() * 3), 0)
+          << "frame " << index << ", view " << k;
+      EXPECT_EQ(cv::norm(one[k].labels, three[k].labels, cv::NORM_L1), 0.0);
+      EXPECT_EQ(cv::norm(one[k].depth, three[k].depth, cv::NORM_L1), 0.0);
+    }
+  }
+}
+
 TEST(StudioRender, HandCastsAShadowOnTheTable) {
   const HandModel& model = handModel();
   Pose pose;

@@ -14,12 +14,14 @@
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
 #include "sag_hand_tracker/camera/camera.h"
 #include "sag_hand_tracker/studio/hand_surface.h"
+#include "sag_hand_tracker/util/thread_pool.h"
 
 namespace sag_hand_tracker {
 namespace studio {
@@ -86,6 +88,10 @@ class StudioRenderer {
                                     const std::vector<std::vector<SurfacePart>>& subframes,
                                     std::uint64_t noise_seed, double light_gain = 1.0) const;
 
+  // render() shades the views on this many threads, kept from frame to frame (the images are the
+  // same for any number: each view has its own noise seed). 1, the default: the calling thread.
+  void setRenderThreads(int threads);
+
   const std::vector<Camera>& cameras() const { return cameras_; }
   const StudioSceneParams& scene() const { return scene_; }
   const SensorParams& sensor() const { return sensor_; }
@@ -120,6 +126,7 @@ class StudioRenderer {
   SensorParams sensor_;
   Eigen::Vector3d light_;  // unit, towards the light, root frame
   std::vector<CameraData> data_;
+  std::shared_ptr<ThreadPool> pool_;  // setRenderThreads; shared by copies (its runs take turns)
 };
 
 // The background colour of a root-frame point on the table, walls, floor or ceiling (linear RGB
