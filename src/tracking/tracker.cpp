@@ -309,6 +309,15 @@ struct HandTracker::HandedFrame {
 // The worker of asynchronous_search: a synchronous tracker on its own thread that tracks the sets
 // handed to it, in order, and then waits for more, until the frame path adopts it (`finish`, only
 // when it is idle) or drops it (`cancelled`).
+namespace {
+
+// A worker's result is a late result when the frame path had reported its set without a pose.
+bool isLateResult(bool reported_pose, const FrameResult& result) {
+  return !reported_pose && result.has_pose;
+}
+
+}  // namespace
+
 struct HandTracker::Worker {
   std::unique_ptr<HandTracker> tracker;
   mutable std::mutex mutex;
@@ -366,7 +375,7 @@ struct HandTracker::Worker {
         error = failure;
         return;
       }
-      const bool late = !frame.reported_pose && result->has_pose;
+      const bool late = isLateResult(frame.reported_pose, *result);
       results.emplace_back(frame.reported_pose, std::move(*result));
       // Only while no set waits for it (every set handed since had its pose on the frame path).
       if (same && std::all_of(queue.begin(), queue.end(),
@@ -727,7 +736,7 @@ void HandTracker::collectWorker(bool adopt) {
     }
   }
   for (auto& [reported_pose, result] : results) {
-    if (reported_pose || !result.has_pose || !(params_.catch_up_seconds > 0.0)) continue;
+    if (!isLateResult(reported_pose, result) || !(params_.catch_up_seconds > 0.0)) continue;
     result.late = true;
     late_results_.push_back(std::move(result));
   }

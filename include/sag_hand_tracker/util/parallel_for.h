@@ -12,6 +12,8 @@ namespace sag_hand_tracker {
 // the calls is not fixed: `body` must touch only what belongs to its index (then the result does
 // not depend on `threads`). The first exception thrown by a call is rethrown here after all
 // threads have ended; the remaining indices are then skipped. threads <= 1: a plain loop.
+// A ThreadPool (util/thread_pool.h) made for the call: for work repeated frame after frame, keep
+// a pool instead.
 void parallelFor(int count, int threads, const std::function<void(int)>& body);
 
 }  // namespace sag_hand_tracker
