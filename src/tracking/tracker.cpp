@@ -369,10 +369,10 @@ struct HandTracker::Worker {
                         sameTrackState(tracker->trackState(), *frame_path_after_first);
       frame_path_after_first.reset();
       lock.lock();
-      busy = false;
-      changed.notify_all();
       if (failure) {
+        busy = false;
         error = failure;
+        changed.notify_all();
         return;
       }
       const bool late = isLateResult(frame.reported_pose, *result);
@@ -388,6 +388,9 @@ struct HandTracker::Worker {
         on_late_result();
         lock.lock();
       }
+      // Idle only after the signal, so that waitForSearch returns with every set signalled.
+      busy = false;
+      changed.notify_all();
     }
   }
 };
