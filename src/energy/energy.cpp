@@ -4,6 +4,7 @@
 #include <algorithm>
 
 #include "sag_hand_tracker/energy/projection.h"
+#include "sag_hand_tracker/energy/visibility.h"
 
 namespace sag_hand_tracker {
 
@@ -47,7 +48,10 @@ struct EvaluationScratch {
   std::vector<ProjectionWithJacobian> projections;
   std::vector<OverlapTerm> overlap_terms;
   std::vector<OverlapRange> ranges;
-  std::vector<double> weighted, active, sums, area;
+  std::vector<double> weighted, active, sums;
+  std::vector<double> depths, visibility, d_visibility;  // EnergyParams::occlusion_depth_scale
+  std::vector<char> valid;
+  std::vector<ProjectedGradient> visibility_gradient;
 };
 
 EvaluationScratch& evaluationScratch() {
@@ -73,6 +77,22 @@ PoseEnergy::PoseEnergy(const HandModel& model, const EnergyParams& params)
     const std::string dip_name = name.substr(0, at) + "_dip_flex";
     for (int dip = 0; dip < kNumJointDof; ++dip) {
       if (model_.joints[dip].name == dip_name) pip_dip_pairs_.emplace_back(pip, dip);
+    }
+  }
+  // Which Gaussian may hide which (EnergyParams::occlusion_depth_scale): not on one bone, nor on
+  // a bone and its parent; the forearm's (after the hand's, bone -1 here) only the palm's children
+  // and beyond.
+  const size_t count = numGaussians();
+  auto boneOf = [this](size_t p) {
+    return p < model_.gaussians.size() ? model_.gaussians[p].bone : -1;
+  };
+  auto parentOf = [this](int bone) { return bone >= 0 ? model_.bones[bone].parent : 0; };
+  occluding_pairs_.assign(count * count, 0);
+  for (size_t p = 0; p < count; ++p) {
+    for (size_t r = 0; r < count; ++r) {
+      const int a = boneOf(p), b = boneOf(r);
+      const bool one_surface = a == b || parentOf(a) == b || parentOf(b) == a;
+      occluding_pairs_[p * count + r] = p != r && !one_surface ? 1 : 0;
     }
   }
   // The model's mean colour, each Gaussian weighted by its largest cross-section (the area it
@@ -112,6 +132,10 @@ PoseEnergy::PoseEnergy(const HandModel& model, const EnergyParams& params)
   if (!(params_.model_area_weight >= 0.0) || !std::isfinite(params_.model_area_weight)) {
     throw InputError("energy: model_area_weight must be a finite number >= 0, got " +
                      std::to_string(params_.model_area_weight));
+  }
+  if (!(params_.occlusion_depth_scale >= 0.0) || !std::isfinite(params_.occlusion_depth_scale)) {
+    throw InputError("energy: occlusion_depth_scale must be a finite number >= 0 (m), got " +
+                     std::to_string(params_.occlusion_depth_scale));
   }
 }
 
@@ -265,8 +289,23 @@ double PoseEnergy::evaluateImpl(const Pose& pose, bool with_forearm,
   const double lambda = params_.model_area_weight;
   double weight_sum = 0.0;
   for (size_t p = 0; p < num_gaussians; ++p) weight_sum += modelWeight(p);
-  std::vector<double>& area = scratch.area;
-  area.assign(num_gaussians, 0.0);
+  // EnergyParams::occlusion_depth_scale: each model Gaussian counts, in the overlap and in M_c,
+  // with the share v_p of it a camera sees past the model Gaussians in front of it.
+  const bool occluding = params_.occlusion_depth_scale > 0.0;
+  std::vector<double>& depths = scratch.depths;
+  std::vector<char>& valid = scratch.valid;
+  std::vector<double>& visibility = scratch.visibility;
+  std::vector<double>& d_visibility = scratch.d_visibility;
+  std::vector<ProjectedGradient>& visibility_gradient = scratch.visibility_gradient;
+  depths.assign(num_gaussians, 0.0);
+  valid.assign(num_gaussians, 0);
+  visibility.assign(num_gaussians, 1.0);
+  const VisibilityInputs visibility_inputs{&overlap_terms,
+                                           &depths,
+                                           &valid,
+                                           &occluding_pairs_,
+                                           params_.occlusion_depth_scale,
+                                           params_.max_mahalanobis_sq};
   for (size_t c = 0; c < cameras_.size(); ++c) {
     const FrameCamera& camera = cameras_[c];
     const ImageGaussianArrays& q = camera.image_gaussians;
@@ -279,6 +318,8 @@ double PoseEnergy::evaluateImpl(const Pose& pose, bool with_forearm,
       const Eigen::Matrix3d cov =
           camera.rotation * hand.gaussians[p].cov * camera.rotation.transpose();
       projections[p] = projectInCamera(model_.projection, mean, cov, camera.K, with_gradient);
+      depths[p] = mean.z();
+      valid[p] = projections[p].projected.valid ? 1 : 0;
       if (!projections[p].projected.valid) {
         // It cannot be seen where the camera sees foreground: a fixed share of the image's area
         // against the pose (no gradient; the optimizer's step control and the start's scoring
@@ -288,15 +329,24 @@ double PoseEnergy::evaluateImpl(const Pose& pose, bool with_forearm,
         continue;
       }
       overlap_terms[p] = prepareOverlapTerm(projections[p].projected);
-      area[p] = 2.0 * M_PI * overlap_terms[p].sqrt_det;  // integral of the projected Gaussian
-      model_area += modelWeight(p) * area[p];
       // Only the image Gaussians within reach: the others' D_pq is 0.
       const OverlapRange range = ranges[p] =
           overlapRange(overlap_terms[p], q, params_.max_mahalanobis_sq);
-      double* row = weighted.data() + p * n;
       overlapRow(overlap_terms[p], q, range, camera.weights.data() + p * n,
-                 params_.max_mahalanobis_sq, row);
-      for (int i = range.begin; i < range.end; ++i) sums[i] += row[i];
+                 params_.max_mahalanobis_sq, weighted.data() + p * n);
+    }
+    if (occluding) softVisibility(visibility_inputs, &visibility);
+    for (size_t p = 0; p < num_gaussians; ++p) {
+      if (!valid[p]) continue;
+      double* row = weighted.data() + p * n;
+      if (occluding) {
+        for (int i = ranges[p].begin; i < ranges[p].end; ++i) row[i] *= visibility[p];
+      }
+      for (int i = ranges[p].begin; i < ranges[p].end; ++i) sums[i] += row[i];
+      // M_c, only where it counts (lambda > 0): the integral of the projected Gaussian.
+      if (lambda > 0.0) {
+        model_area += modelWeight(p) * 2.0 * M_PI * overlap_terms[p].sqrt_det * visibility[p];
+      }
     }
 
     // Paper eq. 8: sum over image Gaussians of min(sum_p w_p E_pq, E_qq). A saturated image
@@ -323,10 +373,26 @@ double PoseEnergy::evaluateImpl(const Pose& pose, bool with_forearm,
     if (terms) terms->per_camera[c] = camera_similarity;
     if (!with_gradient) continue;
 
+    if (occluding) {
+      // dE_c/dv_p = a sum_q f'(S_q) w_pq E_pq + b w_p A_p, then through v_p to every Gaussian.
+      d_visibility.assign(num_gaussians, 0.0);
+      for (size_t p = 0; p < num_gaussians; ++p) {
+        if (!valid[p] || !(visibility[p] > 0.0)) continue;
+        const double* row = weighted.data() + p * n;
+        double credited = 0.0;
+        for (int i = ranges[p].begin; i < ranges[p].end; ++i) credited += active[i] * row[i];
+        d_visibility[p] = d_overlap * credited / visibility[p] +
+                          d_area * modelWeight(p) * 2.0 * M_PI * overlap_terms[p].sqrt_det;
+      }
+      visibility_gradient.assign(num_gaussians, ProjectedGradient::Zero());
+      accumulateVisibilityGradient(visibility_inputs, visibility, d_visibility,
+                                   &visibility_gradient);
+    }
+
     // Accumulate dE/d(mu_p, Sigma_p) over all image Gaussians, then chain once per (Gaussian,
     // camera) through the projection (its exact Jacobian) and the camera rotation.
     for (size_t p = 0; p < num_gaussians; ++p) {
-      if (!projections[p].projected.valid) continue;
+      if (!valid[p]) continue;
       Eigen::Matrix<double, 5, 1> g_projected = Eigen::Matrix<double, 5, 1>::Zero();
       accumulateOverlapGradient(overlap_terms[p], q, ranges[p], weighted.data() + p * n,
                                 active.data(), g_projected.data());
@@ -335,13 +401,15 @@ double PoseEnergy::evaluateImpl(const Pose& pose, bool with_forearm,
         // d(2 pi sqrt|S|) over (S_xx, S_xy as one entry, S_yy) = area/2 (S^-1)_xx, area (S^-1)_xy,
         // area/2 (S^-1)_yy.
         const OverlapTerm& t = overlap_terms[p];
-        const double scale = d_area * modelWeight(p) * area[p];
+        const double scale = d_area * modelWeight(p) * 2.0 * M_PI * t.sqrt_det * visibility[p];
         g_projected[2] += scale * 0.5 * t.inv_xx;
         g_projected[3] += scale * t.inv_xy;
         g_projected[4] += scale * 0.5 * t.inv_yy;
       }
+      if (occluding) g_projected += visibility_gradient[p].head<5>();
       const Eigen::Matrix<double, 9, 1> g_input = projections[p].jacobian.transpose() * g_projected;
-      const Eigen::Vector3d g_mean_camera = g_input.head<3>();
+      Eigen::Vector3d g_mean_camera = g_input.head<3>();
+      if (occluding) g_mean_camera.z() += visibility_gradient[p][5];  // the depth order
       Eigen::Matrix3d g_cov_camera;
       g_cov_camera << g_input[3], 0.5 * g_input[6], 0.5 * g_input[7],  //
           0.5 * g_input[6], g_input[4], 0.5 * g_input[8],              //

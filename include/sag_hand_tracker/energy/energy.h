@@ -63,6 +63,14 @@ struct EnergyParams {
   // flexex1 and tigergrasp worst; README "Where it falls short"), so it is opt-in until the
   // double-counted area of overlapping model Gaussians is handled.
   double model_area_weight = 0.0;
+  // Occlusion (visibility.h): each model Gaussian counts, in eq. 8's overlap and in M_c, with the
+  // share v_p of it that the camera sees past the model Gaussians in front of it, in a soft depth
+  // order of this scale (m); 0: every v_p = 1, the paper's eq. 8. Gaussians of one bone, or of a
+  // bone and its parent, are one surface and do not hide each other (nor the forearm and the
+  // palm), so that an open hand counts as without occlusion. Eq. 8's cap alone lets a model
+  // Gaussian hidden behind the palm still take credit, and M_c without it counts a finger curled
+  // over the palm as much area as one straight out over the background.
+  double occlusion_depth_scale = 0.0;
   // The forearm (issue 9). A bare forearm is skin-coloured foreground that a hand-only model
   // cannot explain; with the capped overlap of eq. 8 the fingers and the palm then slide onto it
   // whenever the hand's own foreground is smaller (a fist, a flexed wrist): the studio's
@@ -167,6 +175,8 @@ class PoseEnergy {
   EnergyParams params_;
   std::vector<std::vector<int>> ancestor_dofs_;     // per bone
   std::vector<std::pair<int, int>> pip_dip_pairs_;  // joint indices of coupled PIP, DIP
+  // occluding_pairs_[p * numGaussians() + r]: whether r may hide p (visibility.h).
+  std::vector<char> occluding_pairs_;
   std::vector<FrameCamera> cameras_;
   bool forearm_present_ = false;
   std::optional<Eigen::Vector3d> forearm_direction_;
