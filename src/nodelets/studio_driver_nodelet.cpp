@@ -5,7 +5,7 @@
 // Topics (relative to the nodelet's namespace), <name> = the rig's camera names (cam<i>):
 //   out: <name>/image_raw (rgb8) + <name>/camera_info (image_transport::CameraPublisher; frame_id
 //        <name>_optical_frame; every image of a set has the same stamp, ros::Time::now() taken
-//        when the set has been rendered, i.e. when a real camera set would have been read out)
+//        when the set is published, i.e. when a real camera set would have been read out)
 //        /tf_static: the rig's extrinsics, root_frame -> <name>_optical_frame
 //        ground_truth/joint_states (sensor_msgs/JointState: the 26 pose parameters, metres and
 //          radians, HandModel::parameterNames() order), ground_truth/fingertips
@@ -29,12 +29,17 @@
 //   wait_for_subscribers (10.0 s): before the first frame, wait until every camera's image_raw
 //     has a subscriber (at most this long; 0 = do not wait)
 //   render_threads (1): threads that render a set's views (StudioRenderer::setRenderThreads; the
-//     images are the same for any number); 1-16. Two keep 60 sets/s on a 2-core machine, but the
-//     renderer then takes both cores while the graph works on the last set: in the headless demo
-//     the p99 latency went from 8.8-8.9 to 12.4-13.6 ms (doc/demo.md, session 10)
+//     images are the same for any number); 1-16
+//   render_ahead (2): sets rendered ahead of the timer, 1-16
+//   render_niceness (10): how much lower than the process the rendering threads run (nice
+//     increment, 0-19), so that the graph's segmentation and tracking take the CPU first; a
+//     real camera costs the host no CPU, and with the renderer at the graph's priority the
+//     headless demo's p99 latency followed the renderer (doc/demo.md, sessions 10 and 11)
 //   model ("sag"): the skeleton the hand is rendered on; config_dir (the package's config/)
-// Rendering runs on a callback queue and thread of its own, so it does not take one of the
-// manager's worker threads away from the segmentation and the tracker.
+// Rendering runs ahead on a thread of its own (ProduceAhead, at render_niceness) and the timer,
+// on a callback queue and thread of its own, publishes one rendered set per tick; neither takes
+// one of the manager's worker threads away from the segmentation and the tracker. A set that is
+// not ready at its tick goes out at the next one (the rate drops; no set is skipped).
 #include <geometry_msgs/PoseArray.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <image_transport/image_transport.h>
@@ -61,6 +66,7 @@
 #include "sag_hand_tracker/studio/motion.h"
 #include "sag_hand_tracker/studio/renderer.h"
 #include "sag_hand_tracker/studio/sequence.h"
+#include "sag_hand_tracker/util/produce_ahead.h"
 #include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
@@ -70,6 +76,7 @@ class StudioDriverNodelet : public nodelet::Nodelet {
   ~StudioDriverNodelet() override {
     timer_.stop();
     if (spinner_) spinner_->stop();
+    ahead_.reset();  // joins the rendering thread before the renderer and the sequence go
   }
 
  private:
@@ -92,6 +99,16 @@ class StudioDriverNodelet : public nodelet::Nodelet {
       NODELET_ERROR("render_threads must be in [1, 16] (got %d); using 1", render_threads_);
       render_threads_ = 1;
     }
+    render_ahead_ = pnh.param("render_ahead", 2);
+    if (!(render_ahead_ >= 1 && render_ahead_ <= 16)) {
+      NODELET_ERROR("render_ahead must be in [1, 16] (got %d); using 2", render_ahead_);
+      render_ahead_ = 2;
+    }
+    render_niceness_ = pnh.param("render_niceness", 10);
+    if (!(render_niceness_ >= 0 && render_niceness_ <= 19)) {
+      NODELET_ERROR("render_niceness must be in [0, 19] (got %d); using 10", render_niceness_);
+      render_niceness_ = 10;
+    }
     const std::string config_dir = packageConfigDir(pnh.param<std::string>("config_dir", ""));
 
     if (!readStringList(pnh, "sequences", &sequence_names_)) return;
@@ -113,7 +130,6 @@ class StudioDriverNodelet : public nodelet::Nodelet {
       }
       renderer_ = std::make_unique<studio::StudioRenderer>(rig_.cameras,
                                                            studio::StudioSceneParams(), sensor);
-      renderer_->setRenderThreads(render_threads_);
     } catch (const std::exception& e) {
       NODELET_FATAL("studio set-up failed: %s; the studio does nothing", e.what());
       return;
@@ -144,7 +160,10 @@ class StudioDriverNodelet : public nodelet::Nodelet {
                  rig_name.c_str(), rig_.cameras.size(), rig_.cameras[0].width,
                  rig_.cameras[0].height, list.c_str(), loop_ ? " looped" : "", fps_, setup_seconds);
 
-    // Rendering on its own queue and thread (see the header comment).
+    // Rendering ahead, and the timer on its own queue and thread (see the header comment).
+    motions_frame_counts_.assign(motions_.size(), 0);
+    ahead_ = std::make_unique<ProduceAhead<RenderedSet>>([this] { return renderNext(); },
+                                                         render_ahead_, render_niceness_);
     render_nh_ = ros::NodeHandle(nh);
     render_nh_.setCallbackQueue(&render_queue_);
     spinner_ = std::make_unique<ros::AsyncSpinner>(1, &render_queue_);
@@ -210,6 +229,57 @@ class StudioDriverNodelet : public nodelet::Nodelet {
     return true;
   }
 
+  // A rendered set and where it is in the play list.
+  struct RenderedSet {
+    std::vector<studio::StudioImage> images;
+    studio::StudioFrame frame;
+    bool lead_in = false;
+    std::optional<size_t> starts_sequence;  // the first set of this sequence (index)
+  };
+
+  // On the rendering thread (ProduceAhead), which owns the play state: the next set, or nothing
+  // after the last sequence (without loop).
+  std::optional<RenderedSet> renderNext() {
+    if (!sequence_) {
+      // Here, so that the renderer's helper threads start at this thread's lower priority.
+      renderer_->setRenderThreads(render_threads_);
+      lead_in_left_ = lead_in_frames_;
+      startSequence(0);
+    } else if (lead_in_left_ == 0 && frame_ >= sequence_->frameCount()) {
+      if (sequence_index_ + 1 < motions_.size()) {
+        startSequence(sequence_index_ + 1);
+      } else if (loop_) {
+        startSequence(0);
+      } else {
+        return std::nullopt;
+      }
+    }
+    RenderedSet set;
+    if (frame_ == 0 && !sequence_announced_) {
+      set.starts_sequence = sequence_index_;
+      sequence_announced_ = true;
+    }
+    // Lead-in frames: the studio without the hand, before the first sequence's own empty frames.
+    set.lead_in = lead_in_left_ > 0;
+    const int k = set.lead_in ? 0 : frame_;
+    set.frame = sequence_->frame(k);
+    try {
+      set.images = renderer_->render(
+          set.lead_in ? std::vector<std::vector<studio::SurfacePart>>() : sequence_->surfaces(k),
+          set.lead_in ? studio::mixSeed(sequence_->noiseSeed(0), 1000 + lead_in_left_)
+                      : sequence_->noiseSeed(k));
+    } catch (const std::exception& e) {
+      throw std::runtime_error("rendering frame " + std::to_string(k) + " of '" +
+                               sequence_names_[sequence_index_] + "' failed: " + e.what());
+    }
+    if (set.lead_in) {
+      --lead_in_left_;
+    } else {
+      ++frame_;
+    }
+    return set;
+  }
+
   void startSequence(size_t index) {
     studio::SequenceParams params;
     params.fps = fps_;
@@ -219,17 +289,21 @@ class StudioDriverNodelet : public nodelet::Nodelet {
     params.exposure = std::min(params.exposure, 1.0 / fps_);
     sequence_index_ = index;
     sequence_ = std::make_unique<studio::StudioSequence>(model_, motions_[index], params);
+    motions_frame_counts_[index] = sequence_->frameCount();  // read by the timer once announced
     frame_ = 0;
+    sequence_announced_ = false;
+  }
+
+  void announceSequence(size_t index) {
     std_msgs::String name;
     name.data = sequence_names_[index];
     sequence_pub_.publish(name);
     NODELET_INFO("studio: sequence %zu of %zu, '%s': %d frames (%.1f s)", index + 1,
-                 motions_.size(), name.data.c_str(), sequence_->frameCount(),
-                 sequence_->frameCount() / fps_);
+                 motions_.size(), name.data.c_str(), motions_frame_counts_[index],
+                 motions_frame_counts_[index] / fps_);
   }
 
-  // One frame per timer event. A frame that takes longer than the period delays the next ones
-  // (no frame is skipped: every set of the sequence is published, the rate drops).
+  // One rendered set per timer event.
   void tick() {
     if (!started_) {
       const double waited = (ros::WallTime::now() - wait_start_).toSec();
@@ -239,58 +313,38 @@ class StudioDriverNodelet : public nodelet::Nodelet {
                      waited);
       }
       started_ = true;
-      lead_in_left_ = lead_in_frames_;
-      startSequence(0);
       rate_start_ = ros::WallTime::now();
     }
     if (finished_) return;
-    if (frame_ >= sequence_->frameCount()) {
-      if (sequence_index_ + 1 < motions_.size()) {
-        startSequence(sequence_index_ + 1);
-      } else if (loop_) {
-        startSequence(0);
-      } else {
-        finished_ = true;
-        std_msgs::String done;
-        done.data = "done";
-        sequence_pub_.publish(done);
-        NODELET_INFO("studio: all %zu sequences played (%ld sets published)", motions_.size(),
-                     sets_published_);
-        timer_.stop();
+    std::optional<RenderedSet> set = ahead_->tryTake();
+    if (!set) {
+      if (!ahead_->finished()) return;  // not rendered yet: it goes out at the next tick
+      finished_ = true;
+      timer_.stop();
+      const std::string error = ahead_->error();
+      if (!error.empty()) {
+        NODELET_ERROR("studio: %s; the studio stops", error.c_str());
         return;
       }
-    }
-    // Lead-in frames: the studio without the hand, before the first sequence's own empty frames.
-    const bool lead_in = lead_in_left_ > 0;
-    const int k = lead_in ? 0 : frame_;
-    const studio::StudioFrame frame = sequence_->frame(k);
-    std::vector<studio::StudioImage> images;
-    try {
-      images = renderer_->render(
-          lead_in ? std::vector<std::vector<studio::SurfacePart>>() : sequence_->surfaces(k),
-          lead_in ? studio::mixSeed(sequence_->noiseSeed(0), 1000 + lead_in_left_)
-                  : sequence_->noiseSeed(k));
-    } catch (const std::exception& e) {
-      NODELET_ERROR("studio: rendering frame %d failed: %s; the studio stops", k, e.what());
-      timer_.stop();
+      std_msgs::String done;
+      done.data = "done";
+      sequence_pub_.publish(done);
+      NODELET_INFO("studio: all %zu sequences played (%ld sets published)", motions_.size(),
+                   sets_published_);
       return;
     }
+    if (set->starts_sequence) announceSequence(*set->starts_sequence);
     std_msgs::Header header;
-    header.stamp = ros::Time::now();  // one stamp per set, when the set is complete
-    for (size_t i = 0; i < images.size(); ++i) {
+    header.stamp = ros::Time::now();  // one stamp per set, when it goes out
+    for (size_t i = 0; i < set->images.size(); ++i) {
       header.frame_id = outputs_[i].frame_id;
-      auto image = boost::make_shared<sensor_msgs::Image>(toImageMsg(images[i].rgb, header));
+      auto image = boost::make_shared<sensor_msgs::Image>(toImageMsg(set->images[i].rgb, header));
       auto info = boost::make_shared<sensor_msgs::CameraInfo>(outputs_[i].info);
       info->header = header;
       outputs_[i].publisher.publish(image, info);
     }
     ++sets_published_;
-    if (!lead_in && frame.hand_present) publishGroundTruth(frame, header.stamp);
-    if (lead_in) {
-      --lead_in_left_;
-    } else {
-      ++frame_;
-    }
+    if (!set->lead_in && set->frame.hand_present) publishGroundTruth(set->frame, header.stamp);
     if (sets_published_ % static_cast<long>(std::max(1.0, 10.0 * fps_)) == 0) {
       const double seconds = (ros::WallTime::now() - rate_start_).toSec();
       NODELET_INFO("studio: %ld sets published, %.1f sets/s", sets_published_,
@@ -321,10 +375,17 @@ class StudioDriverNodelet : public nodelet::Nodelet {
   std::vector<studio::Motion> motions_;
   std::unique_ptr<studio::StudioRenderer> renderer_;
   int render_threads_ = 1;
+  int render_ahead_ = 2;
+  int render_niceness_ = 10;
+  std::vector<int> motions_frame_counts_;  // per sequence, for the log
+  // The play state, owned by the rendering thread (renderNext).
   std::unique_ptr<studio::StudioSequence> sequence_;
   size_t sequence_index_ = 0;
   int frame_ = 0;
   int lead_in_left_ = 0;
+  bool sequence_announced_ = false;
+  std::unique_ptr<ProduceAhead<RenderedSet>> ahead_;  // after what renderNext uses
+  // The timer's state.
   bool started_ = false;
   bool finished_ = false;
   long sets_published_ = 0;
