@@ -30,7 +30,9 @@
 //     has a subscriber (at most this long; 0 = do not wait)
 //   render_threads (1): threads that render a set's views (StudioRenderer::setRenderThreads; the
 //     images are the same for any number); 1-16
-//   render_ahead (2): sets rendered ahead of the timer, 1-16
+//   render_ahead (2): sets rendered ahead of the timer, 1-16; each render waits after a set goes
+//     out for the period less 1.5 x the slowest recent render, so that it stays out of the
+//     graph's work on that set where the period leaves room (25 fps)
 //   render_niceness (10): how much lower than the process the rendering threads run (nice
 //     increment, 0-19), so that the graph's segmentation and tracking take the CPU first; a
 //     real camera costs the host no CPU, and with the renderer at the graph's priority the
@@ -55,6 +57,7 @@
 
 #include <XmlRpcValue.h>
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <memory>
 #include <optional>
@@ -254,6 +257,7 @@ class StudioDriverNodelet : public nodelet::Nodelet {
         return std::nullopt;
       }
     }
+    const auto render_start = std::chrono::steady_clock::now();
     RenderedSet set;
     if (frame_ == 0 && !sequence_announced_) {
       set.starts_sequence = sequence_index_;
@@ -277,7 +281,19 @@ class StudioDriverNodelet : public nodelet::Nodelet {
     } else {
       ++frame_;
     }
+    holdOffFor(std::chrono::steady_clock::now() - render_start);
     return set;
+  }
+
+  // On the rendering thread; the timer hands the hold-off to ahead_ (which this thread may not
+  // see assigned yet). Renders start as late as they can and still be ready at their tick, so that
+  // they stay out of the graph's work on the set just published (at 25 fps ~20 ms after it; at 60
+  // fps at once, as a set takes about a period): the period less 1.5 times the slowest of recent
+  // renders.
+  void holdOffFor(std::chrono::steady_clock::duration render_time) {
+    const double seconds = std::chrono::duration<double>(render_time).count();
+    recent_render_seconds_ = std::max(seconds, 0.95 * recent_render_seconds_);
+    hold_off_seconds_ = std::max(0.0, 1.0 / fps_ - 1.5 * recent_render_seconds_);
   }
 
   void startSequence(size_t index) {
@@ -316,6 +332,8 @@ class StudioDriverNodelet : public nodelet::Nodelet {
       rate_start_ = ros::WallTime::now();
     }
     if (finished_) return;
+    ahead_->setHoldOff(std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+        std::chrono::duration<double>(hold_off_seconds_.load())));
     std::optional<RenderedSet> set = ahead_->tryTake();
     if (!set) {
       if (!ahead_->finished()) return;  // not rendered yet: it goes out at the next tick
@@ -384,6 +402,8 @@ class StudioDriverNodelet : public nodelet::Nodelet {
   int frame_ = 0;
   int lead_in_left_ = 0;
   bool sequence_announced_ = false;
+  double recent_render_seconds_ = 0.0;                // the slowest of recent renders, decaying
+  std::atomic<double> hold_off_seconds_{0.0};         // read by the timer
   std::unique_ptr<ProduceAhead<RenderedSet>> ahead_;  // after what renderNext uses
   // The timer's state.
   bool started_ = false;

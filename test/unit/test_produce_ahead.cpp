@@ -4,8 +4,10 @@
 
 #include <atomic>
 #include <chrono>
+#include <mutex>
 #include <stdexcept>
 #include <thread>
+#include <vector>
 
 #include "sag_hand_tracker/util/produce_ahead.h"
 
@@ -64,6 +66,28 @@ TEST(ProduceAhead, StaysAtMostDepthAhead) {
     EXPECT_EQ(produced.load(), 3);
   }  // the destructor returns while the producer waits for room
   EXPECT_EQ(produced.load(), 3);
+}
+
+// With a hold-off the producer starts on the next result no sooner than that after a take.
+TEST(ProduceAhead, WaitsTheHoldOffAfterATake) {
+  using Clock = std::chrono::steady_clock;
+  std::mutex mutex;
+  std::vector<Clock::time_point> started;
+  ProduceAhead<int> ahead(
+      [&]() -> std::optional<int> {
+        std::lock_guard<std::mutex> lock(mutex);
+        started.push_back(Clock::now());
+        return static_cast<int>(started.size());
+      },
+      1, 0);
+  ahead.setHoldOff(std::chrono::milliseconds(60));
+  for (int i = 0; i < 3; ++i) {
+    const Clock::time_point before_take = Clock::now();
+    ASSERT_TRUE(takeWaiting(ahead).has_value());
+    ASSERT_TRUE(takeWaiting(ahead).has_value());  // the next one, produced after the hold-off
+    std::lock_guard<std::mutex> lock(mutex);
+    EXPECT_GE(started.back() - before_take, std::chrono::milliseconds(60)) << i;
+  }
 }
 
 TEST(ProduceAhead, AnExceptionEndsItWithTheMessage) {

@@ -3,6 +3,7 @@
 // CPU only when the tracking graph leaves it (a real camera costs the host no CPU; issue 12).
 #pragma once
 
+#include <chrono>
 #include <condition_variable>
 #include <deque>
 #include <exception>
@@ -39,6 +40,15 @@ class ProduceAhead {
   ProduceAhead(const ProduceAhead&) = delete;
   ProduceAhead& operator=(const ProduceAhead&) = delete;
 
+  // After each take, the producer waits this long before it starts on the next result (0: at
+  // once). For a consumer that takes at a steady rate and then works on what it took: a hold-off
+  // of (period - production time) keeps the production out of that work, while the results still
+  // ahead cover a production that runs long.
+  void setHoldOff(std::chrono::steady_clock::duration hold_off) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    hold_off_ = hold_off;
+  }
+
   // The next result if it is ready; never waits.
   std::optional<T> tryTake() {
     std::optional<T> item;
@@ -47,6 +57,7 @@ class ProduceAhead {
       if (ready_.empty()) return std::nullopt;
       item = std::move(ready_.front());
       ready_.pop_front();
+      last_take_ = std::chrono::steady_clock::now();
     }
     room_.notify_all();
     return item;
@@ -70,6 +81,7 @@ class ProduceAhead {
         std::unique_lock<std::mutex> lock(mutex_);
         room_.wait(lock, [this] { return stop_ || static_cast<int>(ready_.size()) < depth_; });
         if (stop_) break;
+        if (room_.wait_until(lock, last_take_ + hold_off_, [this] { return stop_; })) break;
       }
       std::optional<T> item;
       std::string error;
@@ -100,6 +112,8 @@ class ProduceAhead {
   bool stop_ = false;
   bool ended_ = false;
   std::string error_;
+  std::chrono::steady_clock::duration hold_off_{0};
+  std::chrono::steady_clock::time_point last_take_{};
   std::thread thread_;  // last: started once the rest is set up
 };
 
