@@ -1,6 +1,7 @@
 #include "sag_hand_tracker/apps/command_line.h"
 
 #include <cerrno>
+#include <cmath>
 #include <cstdlib>
 #include <sstream>
 
@@ -22,6 +23,20 @@ int parseIntOption(const std::string& option, const std::string& text, int min_v
                      text + "'");
   }
   return static_cast<int>(value);
+}
+
+double parseDoubleOption(const std::string& option, const std::string& text, double min_value,
+                         double max_value) {
+  char* end = nullptr;
+  errno = 0;
+  const double value = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end != '\0' || errno == ERANGE || !std::isfinite(value) ||
+      value < min_value || value > max_value) {
+    std::ostringstream range;
+    range << "[" << min_value << ", " << max_value << "]";
+    throw UsageError(option + " expects a number within " + range.str() + ", got '" + text + "'");
+  }
+  return value;
 }
 
 std::vector<std::string> parseListOption(const std::string& option, const std::string& text,

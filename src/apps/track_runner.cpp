@@ -68,6 +68,8 @@ Options:
   --background-frames N    first N frames show no hand: learn the background plates (10);
                            0 = no plate, a skin-colour gate instead
   --root-frame FRAME       express the output in this tf frame (the root of the bag's tf tree)
+  --stamp-tolerance S      images of different cameras whose stamps differ by at most S seconds
+                           are one set (0.005; 0: identical stamps only)
   --room-cues              the room cues: region of interest around the tracked hand, the
                            multi-view check before the start and its re-check
                            (doc/segmentation.md; the live graph's room_cues)
@@ -96,6 +98,8 @@ TrackBagOptions parseTrackBagArguments(const std::vector<std::string>& args) {
       options.cameras = parseCameraList(value());
     } else if (arg == "--root-frame") {
       options.root_frame = value();
+    } else if (arg == "--stamp-tolerance") {
+      options.stamp_tolerance = parseDoubleOption(arg, value(), 0.0, 1.0);
     } else if (arg == "--room-cues") {
       options.room_cues = true;
     } else if (arg == "--fixed-colours") {
@@ -148,9 +152,16 @@ std::string formatSummary(const TrackBagSummary& summary) {
   }
   if (summary.near_stamp_mismatches > 0) {
     out << "  warning:   " << summary.near_stamp_mismatches
-        << " images whose stamps differ from another camera's by less than 1 ms (first: "
+        << " images more than --stamp-tolerance but less than 20 ms from another camera's set "
+           "(first: "
         << summary.first_near_stamp_mismatch
-        << "): sets are made of identical stamps, so these cameras are never seen together\n";
+        << "): the cameras are not stamped together, so these are never seen together\n";
+  }
+  if (summary.tolerated_stamps > 0) {
+    out << "  stamps:    " << summary.tolerated_stamps
+        << " images joined a set of another camera's stamp, up to "
+        << formatMillis(summary.largest_stamp_difference, 1)
+        << " apart (the cameras are not stamped together; --stamp-tolerance)\n";
   }
   if (summary.csv_written) {
     out << "  output:    " << summary.tracked_frames + summary.lost_frames << " rows ("
@@ -240,6 +251,8 @@ TrackBagSummary runTrackBag(BagReader& reader, const TrackFrameFunction& track,
   summary.first_backward_stamp = stats.first_backward_stamp;
   summary.near_stamp_mismatches = static_cast<int>(stats.near_stamp_mismatches);
   summary.first_near_stamp_mismatch = stats.first_near_stamp_mismatch;
+  summary.tolerated_stamps = static_cast<int>(stats.tolerated_stamps);
+  summary.largest_stamp_difference = stats.largest_stamp_difference;
   if (progress) {
     progress->finish(std::to_string(summary.frames) + " frames" +
                      (summary.interrupted ? " (interrupted)" : ""));
@@ -280,6 +293,7 @@ TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
   BagReaderOptions reader_options;
   reader_options.cameras = options.cameras;
   reader_options.root_frame = options.root_frame;
+  reader_options.stamp_tolerance = options.stamp_tolerance;
   BagReader reader(options.bag, reader_options);
 
   TrackingPipeline pipeline(model, reader.cameras(), trackBagPipelineParams(options));

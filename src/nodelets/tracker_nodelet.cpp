@@ -10,6 +10,8 @@
 //   service: ~calibrate (sag_hand_tracker/Calibrate, below)
 // Private parameters: num_cameras (5), root_frame (world), model ("sag", "sog" or a path),
 //   handedness (right|left), camera_timeout (0.5 s), time_jump_threshold (1.0 s),
+//   stamp_tolerance (0.005 s: the SoGs of cameras whose stamps differ by at most this are one set;
+//   0: identical stamps only),
 //   calibration_max_frames (16) and calibration_rounds (2): the live fit's HandFitParams
 //   max_frames and rounds, asynchronous_search (true: a set that needs the start or re-detection
 //   search is handed to a worker thread, which tracks it and the sets after it synchronously
@@ -172,6 +174,12 @@ class TrackerNodelet : public nodelet::Nodelet {
     sync_params.num_cameras = num_cameras_;
     sync_params.camera_timeout = pnh.param("camera_timeout", 0.5);
     sync_params.time_jump_threshold = pnh.param("time_jump_threshold", 1.0);
+    sync_params.stamp_tolerance = pnh.param("stamp_tolerance", sync_params.stamp_tolerance);
+    if (!(sync_params.stamp_tolerance >= 0.0 && sync_params.stamp_tolerance <= 1.0)) {
+      NODELET_ERROR("stamp_tolerance must be in [0, 1] s (got %g); using 0.005",
+                    sync_params.stamp_tolerance);
+      sync_params.stamp_tolerance = 0.005;
+    }
     synchronizer_ = std::make_unique<Synchronizer>(sync_params);
     asynchronous_search_ = pnh.param("asynchronous_search", true);
     catch_up_seconds_ = pnh.param("catch_up_seconds", catch_up_seconds_);

@@ -26,6 +26,7 @@
 #include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/ros/conversions.h"
 #include "sag_hand_tracker/ros/message_bounds.h"
+#include "sag_hand_tracker/tracking/camera_set_synchronizer.h"
 #include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
@@ -35,9 +36,10 @@ const char* const kImageType = "sensor_msgs/Image";
 const char* const kCameraInfoType = "sensor_msgs/CameraInfo";
 const char* const kTfType = "tf2_msgs/TFMessage";
 const char* const kTfStaticTopic = "/tf_static";
-// Two cameras' stamps closer than this, but not equal, are a stamp mismatch (frames at 1 kHz are
-// still 1 ms apart).
-constexpr std::int64_t kNearStampNs = 1000000;
+// An image that starts a set of its own while another camera's set without it lies closer than
+// this (but beyond the stamp tolerance) is a stamp mismatch: the cameras are not stamped together.
+// Half the frame period at 25 fps; at higher rates a camera that skips a frame can be counted too.
+constexpr std::int64_t kNearStampNs = 20000000;
 
 std::string imageTopic(int id) { return "/cam" + std::to_string(id) + "/image_raw"; }
 std::string cameraInfoTopic(int id) { return "/cam" + std::to_string(id) + "/camera_info"; }
@@ -69,6 +71,10 @@ struct ParentLink {
 struct BagReader::Impl {
   struct PendingSet {
     std::vector<CameraImage> images;  // sorted by camera index
+    bool has(int camera) const {
+      return std::any_of(images.begin(), images.end(),
+                         [camera](const CameraImage& image) { return image.camera == camera; });
+    }
   };
 
   Impl(const std::string& bag_path, const BagReaderOptions& bag_options, rosbag::Bag* reused_bag)
@@ -77,6 +83,10 @@ struct BagReader::Impl {
         own_bag(reused_bag ? nullptr : std::make_unique<rosbag::Bag>()),
         bag(reused_bag ? *reused_bag : *own_bag) {
     options.max_pending_sets = std::max(1, options.max_pending_sets);
+    if (!(options.stamp_tolerance >= 0.0 && options.stamp_tolerance <= 1.0)) {
+      throw InputError("stamp tolerance must be within [0, 1] s, got " +
+                       std::to_string(options.stamp_tolerance));
+    }
   }
 
   std::string path;
@@ -141,6 +151,7 @@ struct BagReader::Impl {
   void checkFirstImages();
   cv::Mat decode(const sensor_msgs::Image& image, int camera, const std::string& topic) const;
   bool frontIsFinal() const;
+  std::map<std::int64_t, PendingSet>::iterator setFor(int camera, std::int64_t stamp);
   void noteNearStamps(const std::string& topic, int camera, std::int64_t stamp);
   bool step(FrameSet* set);
 };
@@ -679,24 +690,28 @@ void BagReader::Impl::checkFirstImages() {
 }
 
 void BagReader::Impl::noteNearStamps(const std::string& topic, int camera, std::int64_t stamp) {
-  // Sets are made of identical stamps: another camera's stamp a few microseconds away means the
-  // cameras are not stamped together, and every set would be missing cameras.
-  const auto near = [&](std::int64_t other) {
-    return other != stamp && std::llabs(other - stamp) < kNearStampNs;
-  };
+  // This image starts a set of its own; another camera's set close by that lacks it means the
+  // cameras are not stamped together (closer than the tolerance it would have joined it).
   auto neighbour = pending.lower_bound(stamp - kNearStampNs + 1);
   for (; neighbour != pending.end() && neighbour->first < stamp + kNearStampNs; ++neighbour) {
-    if (!near(neighbour->first)) continue;
-    for (const CameraImage& image : neighbour->second.images) {
-      if (image.camera == camera) continue;
-      if (stats.near_stamp_mismatches++ == 0) {
-        stats.first_near_stamp_mismatch = topic + " at " + formatStamp(stamp) + " vs " +
-                                          cameraName(ids[image.camera]) + " at " +
-                                          formatStamp(neighbour->first);
-      }
-      return;
+    if (neighbour->first == stamp) continue;
+    const std::vector<CameraImage>& images = neighbour->second.images;
+    if (neighbour->second.has(camera) || images.empty()) continue;
+    if (stats.near_stamp_mismatches++ == 0) {
+      stats.first_near_stamp_mismatch = topic + " at " + formatStamp(stamp) + " vs " +
+                                        cameraName(ids[images.front().camera]) + " at " +
+                                        formatStamp(neighbour->first);
     }
+    return;
   }
+}
+
+// The pending set an image of `camera` stamped `stamp` joins (camera_set_synchronizer.h's rule);
+// end() for a new set.
+std::map<std::int64_t, BagReader::Impl::PendingSet>::iterator BagReader::Impl::setFor(
+    int camera, std::int64_t stamp) {
+  return setWithinTolerance(pending, stamp, toleranceNs(options.stamp_tolerance),
+                            [camera](const PendingSet& set) { return !set.has(camera); });
 }
 
 bool BagReader::Impl::frontIsFinal() const {
@@ -709,8 +724,9 @@ bool BagReader::Impl::frontIsFinal() const {
       ++next_image;
       continue;
     }
-    // Stamps of one camera only grow: once it has delivered a newer image, it skipped this set.
-    if (last_stamp[camera] <= stamp) return false;
+    // Stamps of one camera only grow: once it has delivered an image newer than this set (beyond
+    // the stamp tolerance), it skipped this set.
+    if (last_stamp[camera] <= stamp + toleranceNs(options.stamp_tolerance)) return false;
   }
   return true;
 }
@@ -747,12 +763,19 @@ bool BagReader::Impl::step(FrameSet* set) {
       stats.first_backward_stamp =
           topic + " at " + formatStamp(stamp) + " after " + formatStamp(last_stamp[camera]);
     }
-    noteNearStamps(topic, camera, stamp);
     if (yielded_any && stamp <= last_yielded) {
       ++stats.dropped_images;  // too late: its set is gone
       continue;
     }
-    PendingSet& target = pending[stamp];
+    const auto found = setFor(camera, stamp);
+    if (found == pending.end()) noteNearStamps(topic, camera, stamp);
+    PendingSet& target = found != pending.end() ? found->second : pending[stamp];
+    if (found != pending.end() && found->first != stamp) {
+      ++stats.tolerated_stamps;
+      stats.largest_stamp_difference =
+          std::max(stats.largest_stamp_difference,
+                   1e-9 * static_cast<double>(std::llabs(stamp - found->first)));
+    }
     auto position =
         std::lower_bound(target.images.begin(), target.images.end(), camera,
                          [](const CameraImage& image, int index) { return image.camera < index; });

@@ -36,9 +36,10 @@ int run(const TrackBagOptions& options) {
     if (summary.near_stamp_mismatches > 0) {
       // Not "the hand was not found": the cameras were never seen together.
       std::cerr << "the cameras' stamps do not match (" << summary.near_stamp_mismatches
-                << " images differ from another camera's stamp by less than 1 ms, first: "
+                << " images more than --stamp-tolerance but less than 20 ms from another "
+                   "camera's set, first: "
                 << summary.first_near_stamp_mismatch
-                << "); sets are made of identical header stamps";
+                << "); a set is made of the stamps within --stamp-tolerance of each other";
     } else {
       std::cerr << "the hand was not found in the " << summary.frames - summary.background_frames
                 << " frames after the " << summary.background_frames << " background frames";

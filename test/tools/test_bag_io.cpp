@@ -953,7 +953,10 @@ TEST_F(BagFiles, BagReportsStampsThatNearlyMatchAndStampsGoingBackwards) {
   header.frame_id = opticalFrame(cameras_[0].name);
   writer.write(imageTopicOf(cameras_[0]), frameTime(3), toImageMsg(makeImage(0, 9), header));
   writer.close();
-  BagReader reader(path("stamps.bag"));
+  // Identical stamps only: cam1 is never in cam0's set, and that is reported.
+  BagReaderOptions identical;
+  identical.stamp_tolerance = 0.0;
+  BagReader reader(path("stamps.bag"), identical);
   FrameSet set;
   while (reader.next(&set)) {
   }
@@ -962,6 +965,57 @@ TEST_F(BagFiles, BagReportsStampsThatNearlyMatchAndStampsGoingBackwards) {
   EXPECT_EQ(stats.first_near_stamp_mismatch, "/cam1/image_raw at 100.000005 vs cam0 at 100.000000");
   EXPECT_EQ(stats.backward_stamps, 1u);
   EXPECT_EQ(stats.first_backward_stamp, "/cam0/image_raw at 100.040000 after 100.080000");
+
+  // The default tolerance (5 ms) makes one set of each frame's three cameras.
+  BagReader tolerant(path("stamps.bag"));
+  int complete = 0;
+  while (tolerant.next(&set)) complete += set.images.size() == 3 ? 1 : 0;
+  EXPECT_EQ(complete, 3);
+  EXPECT_EQ(tolerant.statistics().near_stamp_mismatches, 0u);
+  EXPECT_EQ(tolerant.statistics().tolerated_stamps, 3u);
+  EXPECT_NEAR(tolerant.statistics().largest_stamp_difference, 5e-6, 1e-9);
+  EXPECT_EQ(tolerant.statistics().backward_stamps, 1u);
+}
+
+// Cameras stamped milliseconds apart (cam1 2.5 ms after cam0, cam2 2 ms before it) make one set per
+// frame within the tolerance of the set's stamp, the stamp of the image read first (cam2's, the
+// earliest); a tolerance below the offsets leaves each camera alone.
+TEST_F(BagFiles, BagGroupsCamerasStampedApartWithinTheTolerance) {
+  BagWriter writer(path("apart.bag"));
+  writer.writeStaticTransforms("world", cameras_, frameTime(0));
+  const double offsets[3] = {0.0, 0.0025, -0.002};
+  for (int frame = 0; frame < 4; ++frame) {
+    for (int id = 0; id < 3; ++id) {
+      writer.writeCameraImage(cameras_[id], makeImage(id, frame),
+                              frameTime(frame) + ros::Duration(offsets[id]));
+    }
+  }
+  writer.close();
+  BagReader reader(path("apart.bag"));
+  FrameSet set;
+  int sets = 0;
+  while (reader.next(&set)) {
+    EXPECT_EQ(set.images.size(), 3u) << "set " << sets;
+    EXPECT_EQ(set.stamp_ns, (frameTime(sets) - ros::Duration(0.002)).toNSec()) << "set " << sets;
+    ++sets;
+  }
+  EXPECT_EQ(sets, 4);
+  EXPECT_EQ(reader.statistics().incomplete_sets, 0u);
+  EXPECT_EQ(reader.statistics().tolerated_stamps, 8u);
+  EXPECT_NEAR(reader.statistics().largest_stamp_difference, 0.0045, 1e-6);
+  BagReaderOptions strict;
+  strict.stamp_tolerance = 0.001;
+  BagReader apart(path("apart.bag"), strict);
+  sets = 0;
+  while (apart.next(&set)) {
+    EXPECT_EQ(set.images.size(), 1u);
+    ++sets;
+  }
+  EXPECT_EQ(sets, 12);
+  EXPECT_GT(apart.statistics().near_stamp_mismatches, 0u);
+  BagReaderOptions bad;
+  bad.stamp_tolerance = -0.1;
+  EXPECT_THROW(BagReader(path("apart.bag"), bad), InputError);
 }
 
 TEST(BagConversions, CameraInfoDistortionCounts) {

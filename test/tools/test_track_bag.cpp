@@ -156,10 +156,12 @@ TEST_F(TrackBagTool, TrackBagReportsAnEmptyResult) {
   EXPECT_EQ(readAll(path("old.csv")), "an earlier result\n");
 }
 
+// With --stamp-tolerance 0 (identical stamps only), cameras stamped 5 us apart are never seen
+// together, and the error says so.
 TEST_F(TrackBagTool, TrackBagNamesAStampMismatchInsteadOfAMissingHand) {
   const std::string bag = writeSceneBag("skewed.bag", 5e-6);
   const ToolRun run = trackBag("--bag '" + bag + "' --out '" + path("skewed.csv") + "' " +
-                               modelArgument() + " --quiet");
+                               modelArgument() + " --quiet --stamp-tolerance 0");
   EXPECT_EQ(run.status, 1);
   EXPECT_EQ(run.err.rfind("track_bag: error: no frame was tracked: the cameras' stamps do not "
                           "match (",
@@ -170,6 +172,37 @@ TEST_F(TrackBagTool, TrackBagNamesAStampMismatchInsteadOfAMissingHand) {
             std::string::npos)
       << run.err;
   EXPECT_NE(run.out.find("warning:"), std::string::npos) << run.out;
+}
+
+// Cameras that are not stamped together (each camera 1 ms after the one before: the last one 4 ms
+// after the first) are one set within the default stamp tolerance of 5 ms: the bag tracks as if
+// they were, and the summary says how far apart the stamps were.
+TEST_F(TrackBagTool, TrackBagGroupsCamerasStampedMillisecondsApart) {
+  const std::string bag = writeSceneBag("apart.bag", 1e-3);
+  const ToolRun run = trackBag("--bag '" + bag + "' --out '" + path("apart.csv") + "' " +
+                               modelArgument() + " --quiet");
+  EXPECT_EQ(run.status, 0) << run.err;
+  EXPECT_EQ(run.out.find("with a camera missing"), std::string::npos) << run.out;
+  const int cameras = static_cast<int>(sag_test::renderedRig().size());
+  EXPECT_NE(run.out.find(
+                "stamps:    " + std::to_string((cameras - 1) * (kBackgroundFrames + kHandFrames)) +
+                " images joined a set of another camera's stamp, up to " +
+                std::to_string(cameras - 1) + ".00 ms apart"),
+            std::string::npos)
+      << run.out;
+  EXPECT_NE(run.out.find("output:    8 rows (8 tracked or started, 0 lost)"), std::string::npos)
+      << run.out;
+  // A tolerance below the skew leaves every set with one camera.
+  const ToolRun strict = trackBag("--bag '" + bag + "' --out '" + path("strict.csv") + "' " +
+                                  modelArgument() + " --quiet --stamp-tolerance 0.0005");
+  EXPECT_NE(strict.out.find("with a camera missing"), std::string::npos) << strict.out;
+  EXPECT_NE(
+      strict.out.find("the cameras are not stamped together, so these are never seen together"),
+      std::string::npos)
+      << strict.out;
+  EXPECT_EQ(trackBag("--bag '" + bag + "' --out '" + path("x.csv") + "' --stamp-tolerance -1").err,
+            "track_bag: --stamp-tolerance expects a number within [0, 1], got '-1'\n"
+            "Run 'track_bag --help' for the options.\n");
 }
 
 TEST_F(TrackBagTool, TrackBagNeverOverwritesAnInputOrLosesAnOldOutput) {

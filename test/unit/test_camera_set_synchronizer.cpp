@@ -11,11 +11,13 @@ namespace {
 using Sync = CameraSetSynchronizer<std::string>;
 constexpr std::int64_t kSecond = 1000000000;
 
-Sync makeSync(int cameras, double timeout = 0.5, double jump = 1.0) {
+Sync makeSync(int cameras, double timeout = 0.5, double jump = 1.0,
+              double tolerance = CameraSetSynchronizerParams().stamp_tolerance) {
   CameraSetSynchronizerParams params;
   params.num_cameras = cameras;
   params.camera_timeout = timeout;
   params.time_jump_threshold = jump;
+  params.stamp_tolerance = tolerance;
   return Sync(params);
 }
 
@@ -34,8 +36,9 @@ TEST(CameraSetSynchronizer, ReleasesASetWhenEveryCameraDelivered) {
   EXPECT_EQ(sync.statistics().released_sets, 1);
 }
 
+// With stamp_tolerance 0, sets are made of identical stamps only.
 TEST(CameraSetSynchronizer, OutOfOrderStampsAcrossCamerasStillPairUp) {
-  Sync sync = makeSync(2);
+  Sync sync = makeSync(2, 0.5, 1.0, 0.0);
   EXPECT_FALSE(sync.add(0, stamp(1), "a1", 0.0));
   EXPECT_FALSE(sync.add(0, stamp(2), "a2", 0.0));
   EXPECT_FALSE(sync.add(1, stamp(1) + 1, "b1+1ns", 0.0));  // a different stamp: no pair
@@ -45,6 +48,38 @@ TEST(CameraSetSynchronizer, OutOfOrderStampsAcrossCamerasStillPairUp) {
   // The incomplete older sets (stamp 1 and stamp 1 + 1 ns) were overtaken and dropped.
   EXPECT_EQ(sync.statistics().dropped_sets, 2);
   EXPECT_EQ(sync.pendingCount(), 0u);
+}
+
+// Cameras that are not stamped together (free-running drivers): a message joins the nearest
+// pending set within the stamp tolerance that lacks its camera, and the set keeps its first stamp;
+// one camera's next frame (a frame period later) never joins, nor does a stamp beyond the
+// tolerance.
+TEST(CameraSetSynchronizer, StampsWithinTheToleranceMakeOneSet) {
+  Sync sync = makeSync(3);  // the default tolerance, 5 ms
+  const std::int64_t ms = kSecond / 1000;
+  EXPECT_FALSE(sync.add(0, stamp(1), "a1", 0.0));
+  EXPECT_FALSE(sync.add(1, stamp(1) + 4 * ms, "b1+4ms", 0.0));
+  EXPECT_FALSE(sync.add(0, stamp(2), "a2", 0.0));
+  EXPECT_FALSE(sync.add(1, stamp(2) - 3 * ms, "b2-3ms", 0.0));
+  auto set = sync.add(2, stamp(1) + 2 * ms, "c1+2ms", 0.0);
+  ASSERT_TRUE(set);
+  EXPECT_EQ(set->stamp_ns, stamp(1));
+  EXPECT_EQ(*set->messages[0], "a1");
+  EXPECT_EQ(*set->messages[1], "b1+4ms");
+  EXPECT_EQ(*set->messages[2], "c1+2ms");
+  // Camera 2's next frame 6 ms off is beyond the tolerance: a set of its own, which then waits.
+  EXPECT_FALSE(sync.add(2, stamp(2) + 6 * ms, "c2+6ms", 0.0));
+  EXPECT_EQ(sync.pendingCount(), 2u);
+  EXPECT_EQ(sync.statistics().tolerated_stamps, 3);
+  // A second message of a camera within the tolerance of a set that has it starts a new set.
+  Sync repeated = makeSync(2);
+  EXPECT_FALSE(repeated.add(0, stamp(1), "a1", 0.0));
+  EXPECT_FALSE(repeated.add(0, stamp(1) + ms, "a1+1ms", 0.0));
+  EXPECT_EQ(repeated.pendingCount(), 2u);
+  set = repeated.add(1, stamp(1) + 2 * ms, "b", 0.0);  // nearest without camera 1: a1+1ms
+  ASSERT_TRUE(set);
+  EXPECT_EQ(set->stamp_ns, stamp(1) + ms);
+  EXPECT_EQ(*set->messages[0], "a1+1ms");
 }
 
 TEST(CameraSetSynchronizer, ARepeatedStampOfOneCameraReplacesItsMessage) {

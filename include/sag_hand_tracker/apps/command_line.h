@@ -23,6 +23,9 @@ const std::string& nextOptionValue(const std::vector<std::string>& args, size_t*
 // `text` as an integer in [min_value, 1000000]; else UsageError
 // "<option> expects an integer >= <min_value>, got '<text>'".
 int parseIntOption(const std::string& option, const std::string& text, int min_value);
+// A finite number within [min_value, max_value]; UsageError naming the option otherwise.
+double parseDoubleOption(const std::string& option, const std::string& text, double min_value,
+                         double max_value);
 
 // The comma-separated items of `text`, none empty; else UsageError
 // "<option> expects <what>, got '<text>'".

@@ -35,8 +35,9 @@ struct TrackBagOptions {
   // --fixed-colours: TrackerParams::colour_adaptation off (the model's colours as loaded)
   bool fixed_colours = false;
   std::string root_frame;  // --root-frame FRAME (empty: the root of the bag's tf tree)
-  bool quiet = false;      // --quiet: no progress bar
-  bool help = false;       // --help
+  double stamp_tolerance = BagReaderOptions().stamp_tolerance;  // --stamp-tolerance S
+  bool quiet = false;                                           // --quiet: no progress bar
+  bool help = false;                                            // --help
   // Where the built-in models ("sag", "sog") are; empty: the package's config/ (found through
   // ROS_PACKAGE_PATH). Not a command-line option of track_bag; the benchmark sets it.
   std::string config_dir;
@@ -71,6 +72,8 @@ struct TrackBagSummary {
   std::string first_backward_stamp;
   int near_stamp_mismatches = 0;  // see BagReaderStatistics
   std::string first_near_stamp_mismatch;
+  int tolerated_stamps = 0;  // see BagReaderStatistics
+  double largest_stamp_difference = 0.0;
 
   // Frames per second of the pipeline (segmentation + optimisation, decode excluded) over the
   // sets after the background phase; 0 when there were none.

@@ -36,6 +36,11 @@ struct BagReaderOptions {
   std::string root_frame;
   // At most this many incomplete sets wait for late images; the oldest is then yielded as it is.
   int max_pending_sets = 8;
+  // Images of different cameras whose stamps differ by at most this (seconds) are one set, stamped
+  // with the first one's stamp: cameras that are not stamped together (free-running drivers, one
+  // node per camera). 0: identical stamps only. Keep it below half the frame period (5 ms: rigs up
+  // to 100 fps); one camera's consecutive images never join one set.
+  double stamp_tolerance = 0.005;
 };
 
 struct BagReaderStatistics {
@@ -49,10 +54,15 @@ struct BagReaderStatistics {
   // dropped when their set is gone); the first one as "topic at stamp after stamp".
   std::uint64_t backward_stamps = 0;
   std::string first_backward_stamp;
-  // Images whose stamp differs from another camera's pending set by less than 1 ms without being
-  // equal: the cameras are not stamped together, so sets lack cameras. The first one described.
+  // Images that started a set of their own while another camera's set without them lay within
+  // 20 ms (beyond stamp_tolerance): the cameras are not stamped together, so sets lack cameras.
+  // The first one described.
   std::uint64_t near_stamp_mismatches = 0;
   std::string first_near_stamp_mismatch;
+  // Images that joined a set of another stamp (within stamp_tolerance), and the largest difference
+  // between an image's stamp and its set's (seconds).
+  std::uint64_t tolerated_stamps = 0;
+  double largest_stamp_difference = 0.0;
 };
 
 class BagReader {

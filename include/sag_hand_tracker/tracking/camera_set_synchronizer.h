@@ -3,6 +3,9 @@
 // ROS-free: stamps are integer nanoseconds, the clock is passed in, so every rule is unit-tested.
 //
 // Rules (doc/design.md section 5):
+// - A message joins the pending set of its stamp, or else the nearest one within `stamp_tolerance`
+//   that this camera has not delivered to (cameras that are not stamped together); the set keeps
+//   its first message's stamp.
 // - A set is ready as soon as every camera that is not marked missing has delivered for its stamp;
 //   the newest ready set is released and older incomplete sets are dropped (counted).
 // - A set still incomplete `camera_timeout` seconds after its first message is released with the
@@ -13,6 +16,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <map>
 #include <optional>
@@ -27,6 +31,9 @@ struct CameraSetSynchronizerParams {
   int num_cameras = 5;
   double camera_timeout = 0.5;       // seconds of the wall clock given to add/poll
   double time_jump_threshold = 1.0;  // seconds of stamp (or clock) time
+  // Messages of different cameras whose stamps differ by at most this (seconds) are one set; 0:
+  // identical stamps only. Below half the frame period (5 ms: rigs up to 100 fps).
+  double stamp_tolerance = 0.005;
 };
 
 // Something the owner may want to log; each comes once, when it happens.
@@ -47,7 +54,35 @@ struct SyncStatistics {
   long dropped_sets = 0;  // incomplete sets overtaken by a newer complete one
   long late_messages = 0;
   long resets = 0;
+  long tolerated_stamps = 0;  // messages that joined a set of another stamp (stamp_tolerance)
 };
+
+// The set an item of a camera stamped `stamp_ns` joins in `sets` (stamp -> set): the one of that
+// very stamp if there is one, else the nearest within `tolerance_ns` for which `lacks_camera` is
+// true; sets.end() when there is none. The grouping rule of the live synchronizer and of the bag
+// reader (ros/bag_input.h).
+template <typename Map, typename LacksCamera>
+typename Map::iterator setWithinTolerance(Map& sets, std::int64_t stamp_ns,
+                                          std::int64_t tolerance_ns, LacksCamera lacks_camera) {
+  const auto exact = sets.find(stamp_ns);
+  if (exact != sets.end() || tolerance_ns <= 0) return exact;
+  const auto distance = [stamp_ns](std::int64_t other) {
+    return other > stamp_ns ? other - stamp_ns : stamp_ns - other;
+  };
+  auto best = sets.end();
+  for (auto it = sets.lower_bound(stamp_ns - tolerance_ns);
+       it != sets.end() && it->first <= stamp_ns + tolerance_ns; ++it) {
+    if (!lacks_camera(it->second)) continue;
+    if (best == sets.end() || distance(it->first) < distance(best->first)) best = it;
+  }
+  return best;
+}
+
+// The stamp tolerance in ns; 0 for values outside (0, 1] s.
+inline std::int64_t toleranceNs(double seconds) {
+  return seconds > 0.0 && seconds <= 1.0 ? static_cast<std::int64_t>(std::llround(seconds * 1e9))
+                                         : 0;
+}
 
 template <typename Message>
 class CameraSetSynchronizer {
@@ -87,7 +122,7 @@ class CameraSetSynchronizer {
         return std::nullopt;
       }
     }
-    Pending& pending = pending_[stamp_ns];
+    Pending& pending = pendingFor(camera, stamp_ns);
     if (pending.set.messages.empty()) {
       pending.set.stamp_ns = stamp_ns;
       pending.set.messages.resize(params_.num_cameras);
@@ -152,6 +187,17 @@ class CameraSetSynchronizer {
     Set set;
     double first_arrival = 0.0;
   };
+
+  // The pending set of `stamp_ns`, else the nearest within the stamp tolerance without a message
+  // of `camera`, else a new one.
+  Pending& pendingFor(int camera, std::int64_t stamp_ns) {
+    const auto found =
+        setWithinTolerance(pending_, stamp_ns, toleranceNs(params_.stamp_tolerance),
+                           [camera](const Pending& p) { return !p.set.messages[camera]; });
+    if (found == pending_.end()) return pending_[stamp_ns];
+    if (found->first != stamp_ns) ++statistics_.tolerated_stamps;
+    return found->second;
+  }
 
   bool isComplete(const Set& set) const {
     for (int i = 0; i < params_.num_cameras; ++i) {
