@@ -2,6 +2,7 @@
 
 #include <Eigen/LU>
 #include <cmath>
+#include <cstdio>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 
@@ -90,6 +91,27 @@ void checkDistortionInvertible(const Camera& camera, const std::string& who) {
     if (!std::isfinite(point.x) || !std::isfinite(point.y)) {
       throw InputError(who + ": the distortion coefficients cannot be inverted over the image " +
                        "(undistorted pixels are not finite)");
+    }
+  }
+  // Finite is not enough: coefficients of 1e6 give finite nonsense. Each grid pixel, undistorted
+  // (iterated to convergence) and distorted again by the same model, must come back within a
+  // pixel; a real lens's calibration does, wild coefficients do not.
+  std::vector<cv::Point2d> normalised;
+  cv::undistortPoints(
+      in, normalised, K_cv, camera.distortion, cv::noArray(), cv::noArray(),
+      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-12));
+  std::vector<cv::Point3d> rays;
+  for (const cv::Point2d& p : normalised) rays.emplace_back(p.x, p.y, 1.0);
+  std::vector<cv::Point2d> back;
+  cv::projectPoints(rays, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), K_cv, camera.distortion, back);
+  for (size_t k = 0; k < in.size(); ++k) {
+    const double error = std::hypot(back[k].x - in[k].x, back[k].y - in[k].y);
+    if (!(error <= 1.0)) {
+      char where[96];
+      std::snprintf(where, sizeof(where), "pixel (%.0f, %.0f) comes back %.3g pixels off", in[k].x,
+                    in[k].y, error);
+      throw InputError(who + ": the distortion coefficients cannot be inverted over the image (" +
+                       where + " after undistorting and distorting again)");
     }
   }
 }

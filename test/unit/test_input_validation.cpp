@@ -153,6 +153,25 @@ TEST(InputValidation, ValidateCameraNamesTheCameraForABadDistortionCount) {
   EXPECT_TRUE(contains(message, "camera 'left': 3 distortion coefficients")) << message;
 }
 
+// Distortion coefficients that are finite but wild (1e6) cannot be inverted over the image and are
+// refused with the camera's name; real lenses' coefficients (barrel, pincushion, rational) pass.
+TEST(InputValidation, WildDistortionCoefficientsAreRefused) {
+  Camera camera = sag_test::fiveCameraRig()[0];
+  camera.name = "left";
+  for (const std::vector<double>& real :
+       {std::vector<double>{-0.35, 0.12, 0.001, -0.001, -0.02},
+        std::vector<double>{0.1, 0.2, 0.003, 0.004, 0.5, 0.06, 0.07, 0.08},
+        std::vector<double>{0.25, -0.1, 0.0, 0.0, 0.0}}) {
+    camera.distortion = real;
+    EXPECT_NO_THROW(checkDistortionInvertible(camera, "camera 'left'"));
+  }
+  camera.distortion = {1e6, -1e6, 0.0, 0.0, 1e9};
+  const std::string message =
+      sag_test::inputErrorOf([&] { checkDistortionInvertible(camera, "camera 'left'"); });
+  EXPECT_TRUE(contains(message, "camera 'left': the distortion coefficients cannot be inverted"))
+      << message;
+}
+
 TEST(InputValidation, RigCamerasAtOnePointAreRefused) {
   const std::string message = rigError(R"(root_frame: world
 cameras:

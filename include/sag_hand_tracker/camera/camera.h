@@ -37,8 +37,9 @@ void validateCamera(const Camera& camera);
 void checkDistortionCount(std::size_t count, const std::string& who);
 
 // Throws InputError "<who>: the distortion coefficients cannot be inverted ..." when undistorting
-// a grid over the image gives non-finite pixels. Checked where cameras enter (calibration files,
-// camera_info), not per frame.
+// a grid over the image gives non-finite pixels, or pixels that the same model does not distort
+// back to within a pixel of where they were (wild coefficients). Checked where cameras enter
+// (calibration files, camera_info), not per frame.
 void checkDistortionInvertible(const Camera& camera, const std::string& who);
 
 // A ray in the root frame: from a camera centre through a pixel.
