@@ -78,30 +78,27 @@ void validateCamera(const Camera& camera) {
 
 void checkDistortionInvertible(const Camera& camera, const std::string& who) {
   if (!camera.hasDistortion()) return;
-  // OpenCV inverts the distortion iteratively; wild coefficients give NaN (found by fuzzing
-  // camera_info). A 5 x 5 grid over the image, corners included, must stay finite.
-  std::vector<cv::Point2d> in, out;
+  // OpenCV inverts the distortion iteratively. Wild coefficients give NaN (found by fuzzing
+  // camera_info), or finite nonsense (1e6). So each pixel of a 5 x 5 grid over the image, corners
+  // included, undistorted (iterated to convergence) and distorted again by the same model, must be
+  // finite and come back within a pixel; a real lens's calibration does.
+  std::vector<cv::Point2d> in, normalised;
   for (int i = 0; i < 5; ++i) {
     for (int j = 0; j < 5; ++j) in.emplace_back(0.25 * i * camera.width, 0.25 * j * camera.height);
   }
   cv::Mat K_cv;
   cv::eigen2cv(camera.K, K_cv);
-  cv::undistortPoints(in, out, K_cv, camera.distortion, cv::noArray(), K_cv);
-  for (const cv::Point2d& point : out) {
-    if (!std::isfinite(point.x) || !std::isfinite(point.y)) {
-      throw InputError(who + ": the distortion coefficients cannot be inverted over the image " +
-                       "(undistorted pixels are not finite)");
-    }
-  }
-  // Finite is not enough: coefficients of 1e6 give finite nonsense. Each grid pixel, undistorted
-  // (iterated to convergence) and distorted again by the same model, must come back within a
-  // pixel; a real lens's calibration does, wild coefficients do not.
-  std::vector<cv::Point2d> normalised;
   cv::undistortPoints(
       in, normalised, K_cv, camera.distortion, cv::noArray(), cv::noArray(),
       cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-12));
   std::vector<cv::Point3d> rays;
-  for (const cv::Point2d& p : normalised) rays.emplace_back(p.x, p.y, 1.0);
+  for (const cv::Point2d& p : normalised) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y)) {
+      throw InputError(who + ": the distortion coefficients cannot be inverted over the image " +
+                       "(undistorted pixels are not finite)");
+    }
+    rays.emplace_back(p.x, p.y, 1.0);
+  }
   std::vector<cv::Point2d> back;
   cv::projectPoints(rays, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), K_cv, camera.distortion, back);
   for (size_t k = 0; k < in.size(); ++k) {
