@@ -980,7 +980,7 @@ Options:
   --out-dir DIR        where the bags, tracks, tables and plots go (benchmark)
   --csv FILE           the per-sequence CSV (DIR/results.csv)
   --rig R              camera rig (dexter5)
-  --iterations N       optimiser iterations per frame (10)
+  --iterations N       optimiser iterations per frame (20)
   --models a,b         models to compare (sag,sog; or model files)
   --reuse              reuse the bags in DIR/bags rendered with the same settings (default)
   --rerender           render the bags again

@@ -62,7 +62,7 @@ Options:
   --out FILE               output CSV (required)
   --model sag|sog|FILE     hand model: the SAG model, the SoG baseline, or a model YAML (sag)
   --hand left|right        handedness; the model is mirrored if needed (right)
-  --iterations N           optimiser iterations per frame (10)
+  --iterations N           optimiser iterations per frame (20)
   --step-control rprop|fixed  optimiser step control (rprop)
   --cameras 0,2,4          track with these cameras only (all)
   --background-frames N    first N frames show no hand: learn the background plates (10);

@@ -2,6 +2,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <type_traits>
 
 #include "sag_hand_tracker/energy/projection.h"
 #include "sag_hand_tracker/energy/visibility.h"
@@ -48,7 +49,9 @@ struct EvaluationScratch {
   std::vector<ProjectionWithJacobian> projections;
   std::vector<OverlapTerm> overlap_terms;
   std::vector<OverlapRange> ranges;
-  std::vector<double> weighted, active, sums;
+  // In the pair kernels' precision (EnergyParams::float_pairs).
+  std::tuple<std::vector<float>, std::vector<double>> weighted, active;
+  std::vector<double> sums;
   std::vector<double> depths, visibility, d_visibility;  // EnergyParams::occlusion_depth_scale
   std::vector<char> valid;
   std::vector<ProjectedGradient> visibility_gradient;
@@ -57,12 +60,6 @@ struct EvaluationScratch {
 EvaluationScratch& evaluationScratch() {
   thread_local EvaluationScratch scratch;
   return scratch;
-}
-
-Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d m;
-  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
-  return m;
 }
 
 }  // namespace
@@ -188,7 +185,6 @@ void PoseEnergy::setFrame(const std::vector<CameraObservation>& observations) {
     camera.rotation = observation.camera.world_to_camera.linear();
     camera.translation = observation.camera.world_to_camera.translation();
     camera.K = observation.camera.K;
-    ImageGaussianArrays& q = camera.image_gaussians;
     std::vector<const ImageGaussian*> kept;
     double self_overlap_sum = 0.0;
     for (const ImageGaussian& g : observation.sog.gaussians) {
@@ -200,16 +196,24 @@ void PoseEnergy::setFrame(const std::vector<CameraObservation>& observations) {
     std::stable_sort(kept.begin(), kept.end(), [](const ImageGaussian* a, const ImageGaussian* b) {
       return a->mean.x() < b->mean.x();
     });
-    for (const ImageGaussian* pointer : kept) {
-      const ImageGaussian& g = *pointer;
-      q.max_variance = std::max(q.max_variance, g.sigma * g.sigma);
-      q.mean_x.push_back(g.mean.x());
-      q.mean_y.push_back(g.mean.y());
-      q.variance.push_back(g.sigma * g.sigma);
-      q.self_overlap.push_back(M_PI * g.sigma * g.sigma);  // E_qq: D_qq with d(c_q, c_q) = 1
-      self_overlap_sum += q.self_overlap.back();
-      foreground_colours.push_back(g.hsv);
-      foreground_areas.push_back(q.self_overlap.back());
+    auto fill = [&](auto& q) {
+      using T = typename std::decay_t<decltype(q.mean_x)>::value_type;
+      for (const ImageGaussian* pointer : kept) {
+        const ImageGaussian& g = *pointer;
+        q.mean_x.push_back(static_cast<T>(g.mean.x()));
+        q.mean_y.push_back(static_cast<T>(g.mean.y()));
+        q.variance.push_back(static_cast<T>(g.sigma * g.sigma));
+        q.max_variance = std::max(q.max_variance, static_cast<double>(q.variance.back()));
+        q.self_overlap.push_back(M_PI * g.sigma * g.sigma);  // E_qq: D_qq with d(c_q, c_q) = 1
+        self_overlap_sum += q.self_overlap.back();
+        foreground_colours.push_back(g.hsv);
+        foreground_areas.push_back(q.self_overlap.back());
+      }
+    };
+    if (params_.float_pairs) {
+      fill(std::get<PairInputs<float>>(camera.pairs).image_gaussians);
+    } else {
+      fill(std::get<PairInputs<double>>(camera.pairs).image_gaussians);
     }
     // A camera that sees nothing carries no information: it is left out of the mean.
     if (kept.empty()) continue;
@@ -227,17 +231,24 @@ void PoseEnergy::setFrame(const std::vector<CameraObservation>& observations) {
     std::vector<Hsv> corrected;
     corrected.reserve(kept.size());
     for (const ImageGaussian* g : kept) corrected.push_back(cast.apply(g->hsv));
-    std::vector<double>& weights = cameras_[c].weights;
-    weights.resize(num_gaussians * kept.size());
-    for (size_t p = 0; p < num_gaussians; ++p) {
-      const double model_weight = modelWeight(p);
-      for (size_t i = 0; i < kept.size(); ++i) {
-        // The forearm's Gaussians have the model's mean colour.
-        const Hsv& colour =
-            p < model_.gaussians.size() ? model_.gaussians[p].hsv : model_mean_colour_;
-        weights[p * kept.size() + i] =
-            model_weight * colourSimilarity(colour, corrected[i], params_.colour);
+    auto fill = [&](auto& weights) {
+      using T = typename std::decay_t<decltype(weights)>::value_type;
+      weights.resize(num_gaussians * kept.size());
+      for (size_t p = 0; p < num_gaussians; ++p) {
+        const double model_weight = modelWeight(p);
+        for (size_t i = 0; i < kept.size(); ++i) {
+          // The forearm's Gaussians have the model's mean colour.
+          const Hsv& colour =
+              p < model_.gaussians.size() ? model_.gaussians[p].hsv : model_mean_colour_;
+          weights[p * kept.size() + i] =
+              static_cast<T>(model_weight * colourSimilarity(colour, corrected[i], params_.colour));
+        }
       }
+    };
+    if (params_.float_pairs) {
+      fill(std::get<PairInputs<float>>(cameras_[c].pairs).weights);
+    } else {
+      fill(std::get<PairInputs<double>>(cameras_[c].pairs).weights);
     }
   }
 }
@@ -249,6 +260,15 @@ double PoseEnergy::evaluate(const Pose& pose, PoseVector* gradient, EnergyTerms*
 double PoseEnergy::evaluateImpl(const Pose& pose, bool with_forearm,
                                 const std::optional<Eigen::Vector3d>& forearm_direction,
                                 PoseVector* gradient, EnergyTerms* terms) const {
+  return params_.float_pairs
+             ? evaluateIn<float>(pose, with_forearm, forearm_direction, gradient, terms)
+             : evaluateIn<double>(pose, with_forearm, forearm_direction, gradient, terms);
+}
+
+template <typename T>
+double PoseEnergy::evaluateIn(const Pose& pose, bool with_forearm,
+                              const std::optional<Eigen::Vector3d>& forearm_direction,
+                              PoseVector* gradient, EnergyTerms* terms) const {
   PosedHand hand = forwardKinematics(model_, pose);
   const size_t num_hand_gaussians = hand.gaussians.size();
   // The forearm's Gaussians (EnergyParams::forearm_gaussians) after the hand's.
@@ -272,8 +292,8 @@ double PoseEnergy::evaluateImpl(const Pose& pose, bool with_forearm,
   std::vector<ProjectionWithJacobian>& projections = scratch.projections;
   std::vector<OverlapTerm>& overlap_terms = scratch.overlap_terms;
   std::vector<OverlapRange>& ranges = scratch.ranges;
-  std::vector<double>& weighted = scratch.weighted;
-  std::vector<double>& active = scratch.active;
+  std::vector<T>& weighted = std::get<std::vector<T>>(scratch.weighted);
+  std::vector<T>& active = std::get<std::vector<T>>(scratch.active);
   std::vector<double>& sums = scratch.sums;
   g_mean.assign(num_gaussians, Eigen::Vector3d::Zero());
   g_cov.assign(num_gaussians, Eigen::Matrix3d::Zero());
@@ -308,7 +328,8 @@ double PoseEnergy::evaluateImpl(const Pose& pose, bool with_forearm,
                                            params_.max_mahalanobis_sq};
   for (size_t c = 0; c < cameras_.size(); ++c) {
     const FrameCamera& camera = cameras_[c];
-    const ImageGaussianArrays& q = camera.image_gaussians;
+    const PairInputs<T>& pairs = std::get<PairInputs<T>>(camera.pairs);
+    const ImageGaussianArraysOf<T>& q = pairs.image_gaussians;
     const int n = q.size();
     weighted.resize(num_gaussians * n);  // row p is written (and read) in ranges[p] only
     sums.assign(n, 0.0);
@@ -332,15 +353,16 @@ double PoseEnergy::evaluateImpl(const Pose& pose, bool with_forearm,
       // Only the image Gaussians within reach: the others' D_pq is 0.
       const OverlapRange range = ranges[p] =
           overlapRange(overlap_terms[p], q, params_.max_mahalanobis_sq);
-      overlapRow(overlap_terms[p], q, range, camera.weights.data() + p * n,
+      overlapRow(overlap_terms[p], q, range, pairs.weights.data() + p * n,
                  params_.max_mahalanobis_sq, weighted.data() + p * n);
     }
     if (occluding) softVisibility(visibility_inputs, &visibility);
     for (size_t p = 0; p < num_gaussians; ++p) {
       if (!valid[p]) continue;
-      double* row = weighted.data() + p * n;
+      T* row = weighted.data() + p * n;
       if (occluding) {
-        for (int i = ranges[p].begin; i < ranges[p].end; ++i) row[i] *= visibility[p];
+        const T v = static_cast<T>(visibility[p]);
+        for (int i = ranges[p].begin; i < ranges[p].end; ++i) row[i] *= v;
       }
       for (int i = ranges[p].begin; i < ranges[p].end; ++i) sums[i] += row[i];
       // M_c, only where it counts (lambda > 0): the integral of the projected Gaussian.
@@ -357,7 +379,7 @@ double PoseEnergy::evaluateImpl(const Pose& pose, bool with_forearm,
     for (int i = 0; i < n; ++i) {
       const bool saturated = sums[i] >= q.self_overlap[i];
       overlap += saturated ? q.self_overlap[i] : sums[i];
-      active[i] = saturated ? 0.0 : 1.0;
+      active[i] = saturated ? T(0) : T(1);
     }
     if (softness > 0.0) {
       // EnergyParams::saturation_softness: a blend with E_qq (1 - exp(-S_q / E_qq)).
@@ -378,7 +400,7 @@ double PoseEnergy::evaluateImpl(const Pose& pose, bool with_forearm,
       d_visibility.assign(num_gaussians, 0.0);
       for (size_t p = 0; p < num_gaussians; ++p) {
         if (!valid[p] || !(visibility[p] > 0.0)) continue;
-        const double* row = weighted.data() + p * n;
+        const T* row = weighted.data() + p * n;
         double credited = 0.0;
         for (int i = ranges[p].begin; i < ranges[p].end; ++i) credited += active[i] * row[i];
         d_visibility[p] = d_overlap * credited / visibility[p] +
@@ -469,12 +491,17 @@ double PoseEnergy::evaluateImpl(const Pose& pose, bool with_forearm,
     const Eigen::Matrix3d gc = g_cov[p] / camera_count;
     const WorldGaussian& world = hand.gaussians[p];
     for (int i = 0; i < 3; ++i) (*gradient)[kRootTranslation + i] += gm[i];
+    // A turn by d about `axis` through a pivot moves the mean by d axis x (mean - pivot) and the
+    // covariance C by d ([axis]x C - C [axis]x). With G = gc and C symmetric,
+    // tr(G ([a]x C - C [a]x)) = tr((C G - G C) [a]x) = a . w, w the axial vector below, and
+    // gm . (a x r) = a . (r x gm): one dot product per parameter.
+    const Eigen::Matrix3d commutator = world.cov * gc - gc * world.cov;
+    const Eigen::Vector3d w(commutator(1, 2) - commutator(2, 1),
+                            commutator(2, 0) - commutator(0, 2),
+                            commutator(0, 1) - commutator(1, 0));
     auto add_rotation = [&](int parameter) {
       const Eigen::Vector3d& axis = hand.dof_axis[parameter];
-      const Eigen::Vector3d d_mean = axis.cross(world.mean - hand.dof_pivot[parameter]);
-      const Eigen::Matrix3d axis_skew = skew(axis);
-      const Eigen::Matrix3d d_cov = axis_skew * world.cov - world.cov * axis_skew;
-      (*gradient)[parameter] += gm.dot(d_mean) + gc.cwiseProduct(d_cov).sum();
+      (*gradient)[parameter] += axis.dot((world.mean - hand.dof_pivot[parameter]).cross(gm) + w);
     };
     if (p >= num_hand_gaussians) {
       // The forearm moves with the wrist; it turns with the hand only when it has no direction

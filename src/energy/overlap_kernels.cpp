@@ -8,7 +8,8 @@
 
 namespace sag_hand_tracker {
 
-OverlapRange overlapRange(const OverlapTerm& p, const ImageGaussianArrays& q,
+template <typename T>
+OverlapRange overlapRange(const OverlapTerm& p, const ImageGaussianArraysOf<T>& q,
                           double max_mahalanobis_sq) {
   // A relative margin far above rounding keeps every pair that overlapValue could keep.
   const double half_width =
@@ -22,31 +23,34 @@ OverlapRange overlapRange(const OverlapTerm& p, const ImageGaussianArrays& q,
   return range;
 }
 
-void overlapRow(const OverlapTerm& term, const ImageGaussianArrays& q, OverlapRange range,
-                const double* weight, double max_mahalanobis_sq, double* weighted_out) {
-  const OverlapTerm p = term;  // a local copy: no aliasing with the output
-  const double* __restrict mean_x = q.mean_x.data();
-  const double* __restrict mean_y = q.mean_y.data();
-  const double* __restrict variance = q.variance.data();
-  double* __restrict weighted = weighted_out;
+template <typename T>
+void overlapRow(const OverlapTerm& term, const ImageGaussianArraysOf<T>& q, OverlapRange range,
+                const T* weight, double max_mahalanobis_sq, T* weighted_out) {
+  const OverlapTermOf<T> p = term.cast<T>();  // a local copy: no aliasing with the output
+  const T max_sq = static_cast<T>(max_mahalanobis_sq);
+  const T* __restrict mean_x = q.mean_x.data();
+  const T* __restrict mean_y = q.mean_y.data();
+  const T* __restrict variance = q.variance.data();
+  T* __restrict weighted = weighted_out;
   for (int i = range.begin; i < range.end; ++i) {
-    const OverlapGeometry g = overlapGeometry(p, mean_x[i], mean_y[i], variance[i]);
-    weighted[i] = weight[i] * overlapValue(p, g, variance[i], max_mahalanobis_sq);
+    const OverlapGeometryOf<T> g = overlapGeometry(p, mean_x[i], mean_y[i], variance[i]);
+    weighted[i] = weight[i] * overlapValue(p, g, variance[i], max_sq);
   }
 }
 
-void accumulateOverlapGradient(const OverlapTerm& term, const ImageGaussianArrays& q,
-                               OverlapRange range, const double* weighted, const double* active,
+template <typename T>
+void accumulateOverlapGradient(const OverlapTerm& term, const ImageGaussianArraysOf<T>& q,
+                               OverlapRange range, const T* weighted, const T* active,
                                double gradient[5]) {
-  const OverlapTerm p = term;
-  const double* mean_x = q.mean_x.data();
-  const double* mean_y = q.mean_y.data();
-  const double* variance = q.variance.data();
-  double g0 = 0.0, g1 = 0.0, g2 = 0.0, g3 = 0.0, g4 = 0.0;
+  const OverlapTermOf<T> p = term.cast<T>();
+  const T* mean_x = q.mean_x.data();
+  const T* mean_y = q.mean_y.data();
+  const T* variance = q.variance.data();
+  T g0 = 0, g1 = 0, g2 = 0, g3 = 0, g4 = 0;
 #pragma omp simd reduction(+ : g0, g1, g2, g3, g4)
   for (int i = range.begin; i < range.end; ++i) {
-    const OverlapGeometry geometry = overlapGeometry(p, mean_x[i], mean_y[i], variance[i]);
-    const OverlapGradient d = overlapGradient(p, geometry, weighted[i] * active[i]);
+    const OverlapGeometryOf<T> geometry = overlapGeometry(p, mean_x[i], mean_y[i], variance[i]);
+    const OverlapGradientOf<T> d = overlapGradient(p, geometry, weighted[i] * active[i]);
     g0 += d.d_mean_x;
     g1 += d.d_mean_y;
     g2 += d.d_cov_xx;
@@ -60,19 +64,31 @@ void accumulateOverlapGradient(const OverlapTerm& term, const ImageGaussianArray
   gradient[4] += g4;
 }
 
-double softSaturation(const ImageGaussianArrays& q, const double* sums, double softness,
-                      double* active) {
+template <typename T>
+double softSaturation(const ImageGaussianArraysOf<T>& q, const double* sums, double softness,
+                      T* active) {
   const int n = q.size();
   const double* __restrict self_overlap = q.self_overlap.data();
-  double* __restrict derivative = active;
+  T* __restrict derivative = active;
   double total = 0.0;
 #pragma omp simd reduction(+ : total)
   for (int i = 0; i < n; ++i) {
     const double remaining = std::exp(-sums[i] / self_overlap[i]);
     total += self_overlap[i] * (1.0 - remaining);
-    derivative[i] = (1.0 - softness) * derivative[i] + softness * remaining;
+    derivative[i] = static_cast<T>((1.0 - softness) * derivative[i] + softness * remaining);
   }
   return softness * total;
 }
+
+#define SAG_INSTANTIATE_OVERLAP_KERNELS(T)                                                         \
+  template OverlapRange overlapRange(const OverlapTerm&, const ImageGaussianArraysOf<T>&, double); \
+  template void overlapRow(const OverlapTerm&, const ImageGaussianArraysOf<T>&, OverlapRange,      \
+                           const T*, double, T*);                                                  \
+  template void accumulateOverlapGradient(const OverlapTerm&, const ImageGaussianArraysOf<T>&,     \
+                                          OverlapRange, const T*, const T*, double[5]);            \
+  template double softSaturation(const ImageGaussianArraysOf<T>&, const double*, double, T*);
+SAG_INSTANTIATE_OVERLAP_KERNELS(float)
+SAG_INSTANTIATE_OVERLAP_KERNELS(double)
+#undef SAG_INSTANTIATE_OVERLAP_KERNELS
 
 }  // namespace sag_hand_tracker

@@ -94,7 +94,7 @@ TEST(BenchmarkArguments, BenchmarkParsesOptionsAndRejectsBadOnes) {
   EXPECT_TRUE(defaults.shapes.empty());  // all of config/hand_shapes.yaml
   EXPECT_FALSE(defaults.discard_bags);
   EXPECT_EQ(defaults.models, (std::vector<std::string>{"sag", "sog"}));
-  EXPECT_EQ(defaults.iterations, 10);
+  EXPECT_EQ(defaults.iterations, OptimizerParams().iterations);
   EXPECT_FALSE(defaults.camera_counts);
   EXPECT_FALSE(defaults.rerender);
 

@@ -114,7 +114,7 @@ TEST(TrackBagArguments, TrackBagParsesEveryOption) {
 
   const TrackBagOptions defaults = parseTrackBagArguments({"--out", "o.csv", "--bag", "b.bag"});
   EXPECT_EQ(defaults.model, "sag");
-  EXPECT_EQ(defaults.iterations, 10);
+  EXPECT_EQ(defaults.iterations, OptimizerParams().iterations);
   EXPECT_EQ(defaults.background_frames, 10);
   EXPECT_EQ(defaults.hand, Handedness::kRight);
   EXPECT_TRUE(defaults.cameras.empty());

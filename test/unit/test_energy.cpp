@@ -74,6 +74,7 @@ void checkGradient(const std::string& model_name,
   std::mt19937 rng(42);
   EnergyParams params;
   params.max_mahalanobis_sq = 1e9;  // no cut-off: the energy is then smooth everywhere
+  params.float_pairs = false;       // float rounding would swamp the differences
   params.dip_pip_coupling_weight = coupling;
   params.model_area_weight = model_area_weight;
   params.joint_range_weight = joint_range_weight;
@@ -447,6 +448,42 @@ TEST(EnergyCannotCheat, InFrontOfCamerasNeedsEveryCamera) {
       InputError);
 }
 
+// The float pair kernels (the default, EnergyParams::float_pairs) give the double energy and
+// gradient to float's precision, with every term on: soft saturation, occlusion, the forearm,
+// the default cut-off.
+TEST(Energy, FloatPairsAgreeWithDoublePairs) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  EnergyParams params;
+  params.occlusion_depth_scale = 0.005;
+  params.model_area_weight = 0.5;
+  ASSERT_TRUE(params.float_pairs);
+  PoseEnergy in_float(model, params);
+  params.float_pairs = false;
+  PoseEnergy in_double(model, params);
+  const std::vector<CameraObservation> observations =
+      modelObservations(withForearm(model, params), typicalPose(model), fiveCameraRig(), 6.0);
+  for (PoseEnergy* energy : {&in_float, &in_double}) {
+    energy->setFrame(observations);
+    energy->setForearmPresent(true);
+  }
+  std::mt19937 rng(11);
+  for (int trial = 0; trial < 6; ++trial) {
+    const Pose pose = trial == 0 ? typicalPose(model) : randomPose(model, rng);
+    PoseVector g_float, g_double;
+    const double e_float = in_float.evaluate(pose, &g_float);
+    const double e_double = in_double.evaluate(pose, &g_double);
+    ASSERT_GT(std::fabs(e_double), 0.0);
+    EXPECT_NEAR(e_float, e_double, 1e-5 * std::fabs(e_double)) << "trial " << trial;
+    // Each component to 1e-4 of the gradient's largest one: the optimiser steps by sign (Rprop)
+    // and by group norm (fixed steps).
+    const double scale = g_double.cwiseAbs().maxCoeff();
+    for (int i = 0; i < kNumDof; ++i) {
+      EXPECT_NEAR(g_float[i], g_double[i], 1e-4 * scale)
+          << "trial " << trial << " parameter " << model.parameterNames()[i];
+    }
+  }
+}
+
 // ---- the forearm (issue 9) ----------------------------------------------------------------------
 
 namespace {
@@ -457,6 +494,7 @@ void checkForearmGradient(const std::optional<Eigen::Vector3d>& direction) {
   const HandModel model = loadHandModel(modelPath("sag"));
   EnergyParams params;
   params.max_mahalanobis_sq = 1e9;
+  params.float_pairs = false;
   PoseEnergy energy(model, params);
   energy.setFrame(
       modelObservations(withForearm(model, params), typicalPose(model), fiveCameraRig(), 6.0));

@@ -134,18 +134,20 @@ TEST(Overlap, RangeHoldsEveryPairWithinTheCutOff) {
     ASSERT_LE(0, range.begin);
     ASSERT_LE(range.begin, range.end);
     ASSERT_LE(range.end, q.size());
-    const std::vector<double> weight(q.size(), 0.7);
-    std::vector<double> row(q.size(), -1.0);
+    const std::vector<float> weight(q.size(), 0.7f);
+    std::vector<float> row(q.size(), -1.0f);
     overlapRow(term, q, range, weight.data(), max_mahalanobis_sq, row.data());
     for (int i = 0; i < q.size(); ++i) {
-      const double value = 0.7 * overlapIsotropic(term, q.mean_x[i], q.mean_y[i], q.variance[i],
-                                                  max_mahalanobis_sq, nullptr);
+      const double value = 0.7f * overlapIsotropic(term, q.mean_x[i], q.mean_y[i], q.variance[i],
+                                                   max_mahalanobis_sq, nullptr);
       if (i < range.begin || i >= range.end) {
         EXPECT_EQ(value, 0.0) << "trial " << trial << ", image Gaussian " << i;
-        EXPECT_EQ(row[i], -1.0);  // not written
+        EXPECT_EQ(row[i], -1.0f);  // not written
         ++culled;
       } else {
-        EXPECT_NEAR(row[i], value, 1e-12 * std::max(1.0, value));
+        // The row is computed in float (overlap.h); a pair at the cut-off may fall on either
+        // side of it, where the value is exp(-30) of its peak.
+        EXPECT_NEAR(row[i], value, 1e-5 * std::max(1.0, value));
       }
       ++total;
     }

@@ -35,6 +35,7 @@
 #include "sag_hand_tracker/apps/calibrate_runner.h"
 #include "sag_hand_tracker/apps/command_line.h"
 #include "sag_hand_tracker/apps/track_runner.h"
+#include "sag_hand_tracker/optimization/optimizer.h"
 
 namespace sag_hand_tracker {
 
@@ -47,7 +48,7 @@ struct BenchmarkOptions {
   std::string out_dir = "benchmark";   // --out-dir DIR
   std::string csv;                     // --csv FILE (default DIR/results.csv)
   std::string rig = "dexter5";         // --rig name|dir|file
-  int iterations = 10;                 // --iterations N (optimiser, per frame)
+  int iterations = OptimizerParams().iterations;  // --iterations N (optimiser, per frame)
   std::vector<std::string> models{"sag", "sog"};  // --models sag,sog (or model files)
   bool rerender = false;   // --rerender (default --reuse: keep matching bags)
   std::string config_dir;  // --config-dir DIR (default: the package's config/)

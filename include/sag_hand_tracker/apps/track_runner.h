@@ -16,6 +16,7 @@
 #include "sag_hand_tracker/apps/csv.h"
 #include "sag_hand_tracker/apps/progress.h"
 #include "sag_hand_tracker/model/hand_model.h"
+#include "sag_hand_tracker/optimization/optimizer.h"
 #include "sag_hand_tracker/ros/bag_input.h"
 #include "sag_hand_tracker/tracking/frame_set.h"
 #include "sag_hand_tracker/tracking/tracking_pipeline.h"
@@ -23,14 +24,14 @@
 namespace sag_hand_tracker {
 
 struct TrackBagOptions {
-  std::string bag;                       // --bag (required)
-  std::string out;                       // --out (required)
-  std::string model = "sag";             // --model sag|sog|FILE
-  int iterations = 10;                   // --iterations N (>= 1)
-  std::string step_control = "rprop";    // --step-control rprop|fixed
-  std::vector<int> cameras;              // --cameras 0,2,4 (empty: all)
-  int background_frames = 10;            // --background-frames N (>= 0)
-  Handedness hand = Handedness::kRight;  // --hand left|right
+  std::string bag;                                // --bag (required)
+  std::string out;                                // --out (required)
+  std::string model = "sag";                      // --model sag|sog|FILE
+  int iterations = OptimizerParams().iterations;  // --iterations N (>= 1)
+  std::string step_control = "rprop";             // --step-control rprop|fixed
+  std::vector<int> cameras;                       // --cameras 0,2,4 (empty: all)
+  int background_frames = 10;                     // --background-frames N (>= 0)
+  Handedness hand = Handedness::kRight;           // --hand left|right
   bool room_cues = false;  // --room-cues: SegmentationParams::room.enabled (doc/segmentation.md)
   // --fixed-colours: TrackerParams::colour_adaptation off (the model's colours as loaded)
   bool fixed_colours = false;

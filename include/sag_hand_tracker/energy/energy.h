@@ -2,6 +2,7 @@
 #pragma once
 
 #include <optional>
+#include <tuple>
 #include <vector>
 
 #include "sag_hand_tracker/camera/camera.h"
@@ -28,6 +29,10 @@ struct EnergyParams {
   double max_colour_gain = 3.0;
   // Pairs whose Mahalanobis term exceeds this are skipped: exp(-30) ~ 1e-13 of the pair's peak.
   double max_mahalanobis_sq = 60.0;
+  // The pair kernels (overlap.h) in float: twice the SIMD lanes, a tracking step 1.4 times
+  // faster (README "Session 13"). The energy then carries float rounding (about 1e-7 of its
+  // value), too much for central differences; false computes them in double.
+  bool float_pairs = true;
   // The saturation of eq. 8: 0 is the paper's min(S_q, E_qq) with S_q = sum_p w_p E_pq; a in
   // (0, 1] blends in a soft cap, (1 - a) min(S_q, E_qq) + a E_qq (1 - exp(-S_q / E_qq)), which
   // rises as steeply at 0 and approaches the same cap smoothly, so that a second model Gaussian
@@ -151,14 +156,19 @@ class PoseEnergy {
   int numCameras() const { return static_cast<int>(cameras_.size()); }
 
  private:
+  template <typename T>
+  struct PairInputs {
+    ImageGaussianArraysOf<T> image_gaussians;
+    // Row p: w_p d(c_p, c_q) for every image Gaussian q. The colour term does not depend on the
+    // pose, so it is computed once per frame.
+    std::vector<T> weights;
+  };
   struct FrameCamera {
     Eigen::Matrix3d rotation;  // root -> camera
     Eigen::Vector3d translation;
     Eigen::Matrix3d K;
-    ImageGaussianArrays image_gaussians;
-    // Row p: w_p d(c_p, c_q) for every image Gaussian q. The colour term does not depend on the
-    // pose, so it is computed once per frame.
-    std::vector<double> weights;
+    // In the pair kernels' precision (EnergyParams::float_pairs); only that one is filled.
+    std::tuple<PairInputs<float>, PairInputs<double>> pairs;
     double image_area = 1.0;  // I_c = sum_q E_qq
   };
 
@@ -168,8 +178,12 @@ class PoseEnergy {
   double evaluateImpl(const Pose& pose, bool with_forearm,
                       const std::optional<Eigen::Vector3d>& forearm_direction, PoseVector* gradient,
                       EnergyTerms* terms) const;
-  Hsv model_mean_colour_ = Hsv::Zero();  // area-weighted mean of the model Gaussians' colours  //
-                                         // w_p of eq. 8: the Gaussian's weight times model_weight
+  // evaluateImpl with the pair kernels in T.
+  template <typename T>
+  double evaluateIn(const Pose& pose, bool with_forearm,
+                    const std::optional<Eigen::Vector3d>& forearm_direction, PoseVector* gradient,
+                    EnergyTerms* terms) const;
+  Hsv model_mean_colour_ = Hsv::Zero();  // area-weighted mean of the model Gaussians' colours
 
   HandModel model_;
   EnergyParams params_;
