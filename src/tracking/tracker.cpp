@@ -34,7 +34,7 @@ double rotationAngle(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
 }
 constexpr size_t kCoarseKept = 24;
 constexpr int kCoarseIterations = 8;
-constexpr size_t kHypothesesKept = 4;
+constexpr size_t kRedetectionKept = 4;
 
 // Orientation hypotheses: the fingers along the 26 directions of a cube's faces, edges and
 // corners, each with 8 rolls of the palm about them (208 orientations, <= 45 degrees apart).
@@ -609,9 +609,10 @@ std::vector<OptimizationResult> HandTracker::startFromHypotheses(
   }
 
   // Score every orientation hypothesis of an open hand there, then refine in two stages: a few
-  // iterations for the best `kCoarseKept`, all `start_iterations` for the best `kHypothesesKept`
-  // of those. A raw hypothesis' energy says little until its translation has settled. The
-  // forearm cue removes the hypotheses whose wrist points away from the arm before scoring.
+  // iterations for the best `kCoarseKept`, all `start_iterations` for the best
+  // `TrackerParams::start_kept` (`kRedetectionKept` with a pose) of those. A raw hypothesis' energy
+  // says little until its translation has settled. The forearm cue removes the hypotheses whose
+  // wrist points away from the arm before scoring.
   std::vector<OptimizationResult> candidates;
   for (const Eigen::Matrix3d& rotation : orientationHypotheses()) {
     OptimizationResult candidate;
@@ -640,7 +641,7 @@ std::vector<OptimizationResult> HandTracker::startFromHypotheses(
   keep_best(current ? static_cast<size_t>(std::max(1, params.redetect_coarse_kept)) : kCoarseKept);
   stage_params.iterations = kCoarseIterations;
   refine_all(stage_params);
-  keep_best(kHypothesesKept);
+  keep_best(current ? kRedetectionKept : static_cast<size_t>(std::max(1, params.start_kept)));
   // The rolled-over twin of the best candidate goes into the last stage as well: on hands unlike
   // the model the coarse stage often keeps only one palm side, and the start prior
   // (start_facing_margin) can only choose between sides that were both refined.

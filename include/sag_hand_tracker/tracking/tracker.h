@@ -48,6 +48,12 @@ struct TrackerParams {
   // optimisation, while 8 moved `fastturn` by up to 5 mm and 20 final iterations instead of
   // `start_iterations` cost 0.7 mm pooled (session 7).
   int redetect_coarse_kept = 12;
+  // How many coarse-refined candidates get all `start_iterations`: a search without a pose (the
+  // first start) keeps `start_kept`, one with a pose (re-detection, restart after a loss) 4. The
+  // first start is rare, so it can afford more. With 4, `wristflex` on `long_distal_large` with
+  // its fitted model started reversed (energy 0.35; the right pose, 0.62, ranked fifth or lower
+  // after the coarse stage) and stayed so for 65 frames (README "Session 13").
+  int start_kept = 8;
   // The track counts as lost when the normalised similarity drops below `lost_similarity`, or
   // below `lost_ratio` times its running average over the recent tracked frames.
   double lost_similarity = 0.15;

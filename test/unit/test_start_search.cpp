@@ -1,0 +1,95 @@
+// The first start's search (TrackerParams::start_kept) on a studio hand that is not the model's:
+// the whole offline path (the studio's images, the background plates, the segmentation, the
+// tracker's start), as track_bag and the benchmark run it.
+#include <gtest/gtest.h>
+
+#include "sag_hand_tracker/camera/calibration.h"
+#include "sag_hand_tracker/model/kinematics.h"
+#include "sag_hand_tracker/studio/hand_shapes.h"
+#include "sag_hand_tracker/studio/motion.h"
+#include "sag_hand_tracker/studio/renderer.h"
+#include "sag_hand_tracker/studio/sequence.h"
+#include "sag_hand_tracker/tracking/tracking_pipeline.h"
+
+using namespace sag_hand_tracker;
+
+namespace {
+
+const std::string kSourceDir = SAG_SOURCE_DIR;
+const std::string kConfigDir = kSourceDir + "/config";
+
+struct StartOutcome {
+  FrameResult result;
+  double error_mm = 0.0;      // mean fingertip error of the start
+  double axis_degrees = 0.0;  // wrist -> middle knuckle axis (the root's x) against the truth
+};
+
+// `wristflex` on the studio hand long_distal_large (12 % larger, long distal phalanges), tracked
+// with that hand's fitted model (calibrate_hand, test/data): the 10 frames of empty studio go into
+// the plates and the first frame with the hand starts the track.
+StartOutcome firstStart(int start_kept) {
+  const HandModel model = loadHandModel(resolveModelPath("sag", kConfigDir));
+  const HandModel fitted = loadHandModel(kSourceDir + "/test/data/long_distal_large_fitted.yaml");
+  const std::vector<Camera> cameras =
+      loadCameraRig(studio::resolveRigPath("dexter5", kConfigDir)).cameras;
+  const studio::StudioHand hand = studio::resolveHandShape("long_distal_large", kConfigDir);
+  studio::SequenceParams sequence_params;
+  sequence_params.shape = hand.shape;
+  sequence_params.surface.skin = hand.skin;
+  sequence_params.frames = sequence_params.empty_frames + 1;
+  const studio::StudioSequence sequence(
+      model, studio::loadMotion(studio::resolveMotionPath("wristflex", kConfigDir), model, 1),
+      sequence_params);
+  const studio::StudioRenderer renderer(cameras);
+
+  PipelineParams params;
+  params.tracker.start_kept = start_kept;
+  TrackingPipeline pipeline(fitted, cameras, params);
+  StartOutcome outcome;
+  for (int k = 0; k < sequence.frameCount(); ++k) {
+    const std::vector<studio::StudioImage> images =
+        renderer.render(sequence.surfaces(k), sequence.noiseSeed(k));
+    FrameSet set;
+    set.stamp_ns = static_cast<std::int64_t>(k) * 40000000;
+    for (size_t c = 0; c < images.size(); ++c) {
+      set.images.push_back({static_cast<int>(c), images[c].rgb});
+    }
+    const ProcessedFrame processed = pipeline.process(set);
+    if (processed.background) continue;
+    outcome.result = processed.result;
+    const studio::StudioFrame truth = sequence.frame(k);
+    double sum = 0.0;
+    for (int f = 0; f < kNumFingers; ++f) {
+      sum += (processed.result.fingertips[f] - truth.fingertips[f]).norm();
+    }
+    outcome.error_mm = 1000.0 * sum / kNumFingers;
+    const double cosine = processed.result.pose.rotation.col(0).dot(truth.pose.rotation.col(0));
+    outcome.axis_degrees = std::acos(std::clamp(cosine, -1.0, 1.0)) * 180.0 / M_PI;
+  }
+  return outcome;
+}
+
+}  // namespace
+
+// With the 4 candidates a re-detection refines, this start ended on a reversed hand (energy 0.35,
+// 240 mm off; the right pose, energy 0.62, ranked fifth or lower after the coarse stage), and the
+// track stayed reversed for 65 frames of the benchmark's `wristflex`. The default start_kept, 8,
+// finds the hand.
+TEST(StartSearch, TheFirstStartFindsAFlexedWristOnALargerHandWithItsFittedModel) {
+  ASSERT_EQ(TrackerParams().start_kept, 8);
+  const StartOutcome wide = firstStart(TrackerParams().start_kept);
+  ASSERT_TRUE(wide.result.has_pose);
+  EXPECT_EQ(wide.result.status, TrackStatus::kStarted);
+  EXPECT_LT(wide.error_mm, 20.0);
+  EXPECT_LT(wide.axis_degrees, 45.0);
+
+  const StartOutcome narrow = firstStart(4);
+  ASSERT_TRUE(narrow.result.has_pose);
+  // What the wider search buys here: printed, so that a change of the energy that lets 4 find it
+  // too shows up in the log (and start_kept can be revisited) without failing the test.
+  std::printf(
+      "start with 4 candidates: %.1f mm, axis %.0f deg, energy %.3f; with 8: %.1f mm, "
+      "axis %.0f deg, energy %.3f\n",
+      narrow.error_mm, narrow.axis_degrees, narrow.result.energy.total, wide.error_mm,
+      wide.axis_degrees, wide.result.energy.total);
+}
