@@ -57,6 +57,9 @@ struct EvaluationScratch {
   std::vector<ProjectedGradient> visibility_gradient;
 };
 
+// E_qq: D_qq with d(c_q, c_q) = 1.
+double selfOverlap(const ImageGaussian& g) { return M_PI * g.sigma * g.sigma; }
+
 EvaluationScratch& evaluationScratch() {
   thread_local EvaluationScratch scratch;
   return scratch;
@@ -196,24 +199,11 @@ void PoseEnergy::setFrame(const std::vector<CameraObservation>& observations) {
     std::stable_sort(kept.begin(), kept.end(), [](const ImageGaussian* a, const ImageGaussian* b) {
       return a->mean.x() < b->mean.x();
     });
-    auto fill = [&](auto& q) {
-      using T = typename std::decay_t<decltype(q.mean_x)>::value_type;
-      for (const ImageGaussian* pointer : kept) {
-        const ImageGaussian& g = *pointer;
-        q.mean_x.push_back(static_cast<T>(g.mean.x()));
-        q.mean_y.push_back(static_cast<T>(g.mean.y()));
-        q.variance.push_back(static_cast<T>(g.sigma * g.sigma));
-        q.max_variance = std::max(q.max_variance, static_cast<double>(q.variance.back()));
-        q.self_overlap.push_back(M_PI * g.sigma * g.sigma);  // E_qq: D_qq with d(c_q, c_q) = 1
-        self_overlap_sum += q.self_overlap.back();
-        foreground_colours.push_back(g.hsv);
-        foreground_areas.push_back(q.self_overlap.back());
-      }
-    };
-    if (params_.float_pairs) {
-      fill(std::get<PairInputs<float>>(camera.pairs).image_gaussians);
-    } else {
-      fill(std::get<PairInputs<double>>(camera.pairs).image_gaussians);
+    for (const ImageGaussian* g : kept) {
+      const double self_overlap = selfOverlap(*g);
+      self_overlap_sum += self_overlap;
+      foreground_colours.push_back(g->hsv);
+      foreground_areas.push_back(self_overlap);
     }
     // A camera that sees nothing carries no information: it is left out of the mean.
     if (kept.empty()) continue;
@@ -231,24 +221,33 @@ void PoseEnergy::setFrame(const std::vector<CameraObservation>& observations) {
     std::vector<Hsv> corrected;
     corrected.reserve(kept.size());
     for (const ImageGaussian* g : kept) corrected.push_back(cast.apply(g->hsv));
-    auto fill = [&](auto& weights) {
-      using T = typename std::decay_t<decltype(weights)>::value_type;
-      weights.resize(num_gaussians * kept.size());
+    // The pair kernels' inputs, in their precision (EnergyParams::float_pairs).
+    auto fill = [&](auto& pairs) {
+      auto& q = pairs.image_gaussians;
+      using T = typename std::decay_t<decltype(q.mean_x)>::value_type;
+      for (const ImageGaussian* g : kept) {
+        q.mean_x.push_back(static_cast<T>(g->mean.x()));
+        q.mean_y.push_back(static_cast<T>(g->mean.y()));
+        q.variance.push_back(static_cast<T>(g->sigma * g->sigma));
+        q.max_variance = std::max(q.max_variance, static_cast<double>(q.variance.back()));
+        q.self_overlap.push_back(selfOverlap(*g));
+      }
+      pairs.weights.resize(num_gaussians * kept.size());
       for (size_t p = 0; p < num_gaussians; ++p) {
         const double model_weight = modelWeight(p);
         for (size_t i = 0; i < kept.size(); ++i) {
           // The forearm's Gaussians have the model's mean colour.
           const Hsv& colour =
               p < model_.gaussians.size() ? model_.gaussians[p].hsv : model_mean_colour_;
-          weights[p * kept.size() + i] =
+          pairs.weights[p * kept.size() + i] =
               static_cast<T>(model_weight * colourSimilarity(colour, corrected[i], params_.colour));
         }
       }
     };
     if (params_.float_pairs) {
-      fill(std::get<PairInputs<float>>(cameras_[c].pairs).weights);
+      fill(std::get<PairInputs<float>>(cameras_[c].pairs));
     } else {
-      fill(std::get<PairInputs<double>>(cameras_[c].pairs).weights);
+      fill(std::get<PairInputs<double>>(cameras_[c].pairs));
     }
   }
 }

@@ -3,6 +3,7 @@
 // tracker's start), as track_bag and the benchmark run it.
 #include <gtest/gtest.h>
 
+#include "sag_hand_tracker/apps/metrics.h"
 #include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/model/kinematics.h"
 #include "sag_hand_tracker/studio/hand_shapes.h"
@@ -21,7 +22,7 @@ const std::string kConfigDir = kSourceDir + "/config";
 struct StartOutcome {
   FrameResult result;
   double error_mm = 0.0;      // mean fingertip error of the start
-  double axis_degrees = 0.0;  // wrist -> middle knuckle axis (the root's x) against the truth
+  double axis_degrees = 0.0;  // wrist -> middle knuckle direction against the truth's
 };
 
 // `wristflex` on the studio hand long_distal_large (12 % larger, long distal phalanges), tracked
@@ -58,13 +59,12 @@ StartOutcome firstStart(int start_kept) {
     if (processed.background) continue;
     outcome.result = processed.result;
     const studio::StudioFrame truth = sequence.frame(k);
-    double sum = 0.0;
-    for (int f = 0; f < kNumFingers; ++f) {
-      sum += (processed.result.fingertips[f] - truth.fingertips[f]).norm();
-    }
-    outcome.error_mm = 1000.0 * sum / kNumFingers;
-    const double cosine = processed.result.pose.rotation.col(0).dot(truth.pose.rotation.col(0));
-    outcome.axis_degrees = std::acos(std::clamp(cosine, -1.0, 1.0)) * 180.0 / M_PI;
+    outcome.error_mm = 1000.0 * meanFingertipError(processed.result.fingertips, truth.fingertips);
+    // The benchmark's reversed-hand measure (apps/metrics.h).
+    outcome.axis_degrees = orientationError(processed.result.pose.rotation,
+                                            processed.result.pose.translation, truth.pose.rotation,
+                                            truth.pose.translation, middleKnuckleDirection(fitted))
+                               .forward_deg;
   }
   return outcome;
 }
