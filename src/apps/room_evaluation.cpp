@@ -85,10 +85,16 @@ std::vector<RoomRunResult> evaluateRoomSequence(const HandModel& render_model,
 
     for (size_t k = 0; k < configs.size(); ++k) {
       const ProcessedFrame processed = pipelines[k].process(set);
-      if (processed.background || !frame.hand_present) continue;
+      if (processed.background) continue;
       RoomRunResult& result = results[k];
+      const bool posed = processed.result.has_pose && processed.result.status != TrackStatus::kLost;
+      if (!frame.hand_present) {
+        ++result.empty_frames;
+        result.empty_frames_posed += posed;
+        continue;
+      }
       ++result.frames;
-      if (processed.result.has_pose && processed.result.status != TrackStatus::kLost) {
+      if (posed) {
         ++result.frames_posed;
         result.errors_mm.push_back(
             1000.0 * meanFingertipError(processed.result.fingertips, frame.fingertips));

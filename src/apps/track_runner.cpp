@@ -71,8 +71,10 @@ Options:
   --stamp-tolerance S      images of different cameras whose stamps differ by at most S seconds
                            are one set (0.005; 0: identical stamps only)
   --room-cues              the room cues: region of interest around the tracked hand, the
-                           multi-view check before the start and its re-check
-                           (doc/segmentation.md; the live graph's room_cues)
+                           multi-view check before the start (a still scene: each place the
+                           views agree on tried) and its re-check (doc/segmentation.md; the live
+                           graph's room_cues); on by default with --background-frames 0
+  --no-room-cues           the skin gate or the plate alone
   --fixed-colours          keep the model's colours (default: learnt while tracking, palm
                            Gaussians each, fingers together; the live graph's colour_adaptation)
   --quiet                  no progress bar
@@ -102,6 +104,8 @@ TrackBagOptions parseTrackBagArguments(const std::vector<std::string>& args) {
       options.stamp_tolerance = parseDoubleOption(arg, value(), 0.0, 1.0);
     } else if (arg == "--room-cues") {
       options.room_cues = true;
+    } else if (arg == "--no-room-cues") {
+      options.room_cues = false;
     } else if (arg == "--fixed-colours") {
       options.fixed_colours = true;
     } else {
@@ -272,7 +276,7 @@ PipelineParams trackBagPipelineParams(const TrackBagOptions& options) {
   params.tracker.optimizer.iterations = options.iterations;
   params.tracker.optimizer.step_control = parseStepControl(options.step_control);
   params.background_frames = options.background_frames;
-  params.segmentation.room.enabled = options.room_cues;
+  params.segmentation.room.enabled = options.room_cues.value_or(options.background_frames == 0);
   params.tracker.colour_adaptation.enabled = !options.fixed_colours;
   return params;
 }

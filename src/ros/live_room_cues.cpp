@@ -144,23 +144,6 @@ bool regionIsFresh(double region_stamp, double image_stamp, double timeout) {
   return std::fabs(image_stamp - region_stamp) <= timeout;
 }
 
-ImageSoG keepInsideRegion(const ImageSoG& sog, const cv::Mat& region) {
-  if (region.type() != CV_8UC1 || region.cols != sog.width || region.rows != sog.height) {
-    throw InputError("keepInsideRegion: the region is not a CV_8UC1 mask of the SoG's size " +
-                     std::to_string(sog.width) + "x" + std::to_string(sog.height));
-  }
-  ImageSoG kept = sog;
-  kept.gaussians.clear();
-  for (const ImageGaussian& g : sog.gaussians) {
-    const int x = static_cast<int>(std::floor(g.mean.x()));
-    const int y = static_cast<int>(std::floor(g.mean.y()));
-    if (x >= 0 && y >= 0 && x < region.cols && y < region.rows && region.at<uint8_t>(y, x) != 0) {
-      kept.gaussians.push_back(g);
-    }
-  }
-  return kept;
-}
-
 LiveRoomCues::LiveRoomCues(const MultiViewParams& params) : params_(params) { validate(params_); }
 
 void LiveRoomCues::reset() {

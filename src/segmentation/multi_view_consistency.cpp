@@ -1,6 +1,7 @@
 // Multi-view consistency of the hand candidates (multi_view_consistency.h).
 #include "sag_hand_tracker/segmentation/multi_view_consistency.h"
 
+#include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <string>
@@ -63,13 +64,22 @@ void validate(const MultiViewParams& params) {
   if (params.region_margin_cells < 0) fail("region_margin_cells must be >= 0");
   if (params.recheck_interval < 0) fail("recheck_interval must be >= 0");
   if (!(params.switch_distance > 0.0)) fail("switch_distance must be > 0");
+  if (params.still_hypotheses < 0) fail("still_hypotheses must be >= 0");
+  if (!(params.still_min_score >= 0.0 && params.still_min_score <= 1.0)) {
+    fail("still_min_score must be in [0, 1]");
+  }
+  if (!(params.still_confirm_distance >= 0.0)) fail("still_confirm_distance must be >= 0");
 }
 
-MultiViewChoice chooseConsistentCandidates(
+namespace {
+
+// Every point proposed by a pair of candidates of two views (moving ones only when
+// `require_motion`), with its supporting views; points with fewer than min_views are left out.
+std::vector<MultiViewChoice> proposedChoices(
     const std::vector<Camera>& cameras, const std::vector<std::vector<HandCandidate>>& candidates,
-    const MultiViewParams& params) {
+    const MultiViewParams& params, bool require_motion, const char* caller) {
   if (cameras.size() != candidates.size()) {
-    throw InputError("chooseConsistentCandidates: " + std::to_string(cameras.size()) +
+    throw InputError(std::string(caller) + ": " + std::to_string(cameras.size()) +
                      " cameras but candidates of " + std::to_string(candidates.size()) + " views");
   }
   const size_t views = cameras.size();
@@ -85,13 +95,12 @@ MultiViewChoice chooseConsistentCandidates(
       const HandCandidate& candidate = candidates[c][j];
       const double cells = static_cast<double>(candidate.cell_indices.size());
       moves[c].push_back(
-          params.min_moving_share <= 0.0 ||
+          !require_motion || params.min_moving_share <= 0.0 ||
           (candidate.moving > 0 && candidate.moving >= params.min_moving_share * cells));
     }
   }
 
-  MultiViewChoice best;
-  best.chosen.assign(views, -1);
+  std::vector<MultiViewChoice> choices;
   for (size_t a = 0; a < views; ++a) {
     for (size_t b = a + 1; b < views; ++b) {
       for (size_t i = 0; i < rays[a].size(); ++i) {
@@ -123,29 +132,60 @@ MultiViewChoice chooseConsistentCandidates(
               chosen = refined_chosen;
             }
           }
-          int count = 0, moving = 0;
-          double score = 0.0;
+          MultiViewChoice choice;
+          choice.found = true;
+          choice.point = point;
+          choice.chosen = chosen;
           for (size_t c = 0; c < views; ++c) {
             if (chosen[c] < 0) continue;
-            ++count;
-            score += candidates[c][chosen[c]].score;
-            moving += candidates[c][chosen[c]].moving;
+            ++choice.supporting_views;
+            choice.score += candidates[c][chosen[c]].score;
+            choice.moving += candidates[c][chosen[c]].moving;
           }
-          if (count < params.min_views) continue;
-          if (count > best.supporting_views ||
-              (count == best.supporting_views && score > best.score)) {
-            best.found = true;
-            best.point = point;
-            best.supporting_views = count;
-            best.score = score;
-            best.moving = moving;
-            best.chosen = chosen;
-          }
+          if (choice.supporting_views >= params.min_views) choices.push_back(std::move(choice));
         }
       }
     }
   }
-  return best;
+  // Most supporting views first, then the highest score; stable, so ties keep the pair order.
+  std::stable_sort(
+      choices.begin(), choices.end(), [](const MultiViewChoice& x, const MultiViewChoice& y) {
+        return x.supporting_views != y.supporting_views ? x.supporting_views > y.supporting_views
+                                                        : x.score > y.score;
+      });
+  return choices;
+}
+
+}  // namespace
+
+MultiViewChoice chooseConsistentCandidates(
+    const std::vector<Camera>& cameras, const std::vector<std::vector<HandCandidate>>& candidates,
+    const MultiViewParams& params) {
+  std::vector<MultiViewChoice> choices =
+      proposedChoices(cameras, candidates, params, true, "chooseConsistentCandidates");
+  if (!choices.empty()) return std::move(choices.front());
+  MultiViewChoice none;
+  none.chosen.assign(cameras.size(), -1);
+  return none;
+}
+
+std::vector<MultiViewChoice> stillHypotheses(
+    const std::vector<Camera>& cameras, const std::vector<std::vector<HandCandidate>>& candidates,
+    const MultiViewParams& params) {
+  std::vector<MultiViewChoice> kept;
+  for (MultiViewChoice& choice :
+       proposedChoices(cameras, candidates, params, false, "stillHypotheses")) {
+    if (static_cast<int>(kept.size()) >= params.still_hypotheses) break;
+    // One hypothesis per place: the same candidates proposed by another pair of views, or a
+    // neighbouring blob, would only repeat a trial start.
+    bool repeats = false;
+    for (const MultiViewChoice& k : kept) {
+      repeats = repeats || k.chosen == choice.chosen ||
+                (k.point - choice.point).norm() < params.support_radius;
+    }
+    if (!repeats) kept.push_back(std::move(choice));
+  }
+  return kept;
 }
 
 MultiViewChoice supportAt(const std::vector<Camera>& cameras,
@@ -194,6 +234,23 @@ cv::Mat candidateRegion(const HandCandidate* candidate, int width, int height, i
     region(cell).setTo(255);
   }
   return region;
+}
+
+ImageSoG keepInsideRegion(const ImageSoG& sog, const cv::Mat& region) {
+  if (region.type() != CV_8UC1 || region.cols != sog.width || region.rows != sog.height) {
+    throw InputError("keepInsideRegion: the region is not a CV_8UC1 mask of the SoG's size " +
+                     std::to_string(sog.width) + "x" + std::to_string(sog.height));
+  }
+  ImageSoG kept = sog;
+  kept.gaussians.clear();
+  for (const ImageGaussian& g : sog.gaussians) {
+    const int x = static_cast<int>(std::floor(g.mean.x()));
+    const int y = static_cast<int>(std::floor(g.mean.y()));
+    if (x >= 0 && y >= 0 && x < region.cols && y < region.rows && region.at<uint8_t>(y, x) != 0) {
+      kept.gaussians.push_back(g);
+    }
+  }
+  return kept;
 }
 
 }  // namespace sag_hand_tracker

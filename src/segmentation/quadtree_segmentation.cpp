@@ -339,6 +339,9 @@ void validate(const SegmentationParams& params) {
   if (!(r.motion_weight >= 0.0) || !(r.sleeve_weight >= 0.0)) {
     fail("room.motion_weight and room.sleeve_weight must be >= 0");
   }
+  if (r.sleeve_band_cells < 0 || !(r.sleeve_min_offset >= 0.0)) {
+    fail("room.sleeve_band_cells and room.sleeve_min_offset must be >= 0");
+  }
   if (!(r.plate_adaptation_rate >= 0.0 && r.plate_adaptation_rate <= 1.0)) {
     fail("room.plate_adaptation_rate must be in [0, 1]");
   }
@@ -601,6 +604,12 @@ ImageSoG ImageSegmenter::segmentFrame(const cv::Mat& rgb, std::vector<QuadtreeLe
                           rgb.cols, rgb.rows, roi_, roi_mask_, roi_source_ == RegionSource::kTrack,
                           use_plate ? &plate_ : nullptr, room_, ws.mask);
     finishMask(ws, mask.cells_x, mask.cells_y, mask.cell_size, mask);
+    if (!use_plate && params_.room.sleeve_band_cells > 0) {
+      Eigen::Vector2d centroid;
+      detail::sleeveNextToForeground(params_, ws.cell_means, mask.cells_x, mask.cells_y,
+                                     mask.cell_size, ws.mask, &ws.arm_cells, &centroid);
+      ws.arm_sum = centroid * ws.arm_cells;
+    }
     room_.mask = ws.mask;
   } else {
     room_.mask = ws.mask;

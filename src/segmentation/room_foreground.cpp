@@ -450,5 +450,61 @@ std::vector<HandCandidate> roomCandidates(const SegmentationParams& params,
   return candidates;
 }
 
+void sleeveNextToForeground(const SegmentationParams& params, const std::vector<float>& means,
+                            int cells_x, int cells_y, int cell_size,
+                            const std::vector<unsigned char>& mask, int* arm_cells,
+                            Eigen::Vector2d* arm_centroid) {
+  *arm_cells = 0;
+  *arm_centroid = Eigen::Vector2d::Zero();
+  const int cells = cells_x * cells_y;
+  std::vector<int> distance(cells, -1);
+  std::vector<int> queue;
+  Eigen::Vector2d foreground_sum = Eigen::Vector2d::Zero();
+  int foreground = 0, x0 = cells_x, x1 = -1, y0 = cells_y, y1 = -1;
+  for (int i = 0; i < cells; ++i) {
+    if (!mask[i]) continue;
+    distance[i] = 0;
+    queue.push_back(i);
+    const int cx = i % cells_x, cy = i / cells_x;
+    foreground_sum += Eigen::Vector2d(cx, cy);
+    ++foreground;
+    x0 = std::min(x0, cx);
+    x1 = std::max(x1, cx);
+    y0 = std::min(y0, cy);
+    y1 = std::max(y1, cy);
+  }
+  if (foreground == 0) return;
+  // Breadth first from the foreground through dark cells, up to the band's width.
+  Eigen::Vector2d sleeve_sum = Eigen::Vector2d::Zero();
+  int sleeve = 0;
+  for (size_t head = 0; head < queue.size(); ++head) {
+    const int cell = queue[head];
+    if (distance[cell] >= params.room.sleeve_band_cells) continue;
+    const int cx = cell % cells_x, cy = cell / cells_x;
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int nx = cx + dx, ny = cy + dy;
+        if (nx < 0 || ny < 0 || nx >= cells_x || ny >= cells_y) continue;
+        const int n = ny * cells_x + nx;
+        if (distance[n] >= 0) continue;
+        const float* m = &means[3 * n];
+        if (!isDarkNonSkin(Eigen::Vector3d(m[0], m[1], m[2]), params.background)) continue;
+        distance[n] = distance[cell] + 1;
+        queue.push_back(n);
+        sleeve_sum += Eigen::Vector2d(nx, ny);
+        ++sleeve;
+      }
+    }
+  }
+  if (sleeve == 0) return;
+  const Eigen::Vector2d sleeve_centre = sleeve_sum / sleeve;
+  const Eigen::Vector2d foreground_centre = foreground_sum / foreground;
+  const double diagonal = std::hypot(x1 - x0 + 1.0, y1 - y0 + 1.0);
+  // Dark cells all around the hand (shadows, a dark table) say nothing about the wrist.
+  if ((sleeve_centre - foreground_centre).norm() < params.room.sleeve_min_offset * diagonal) return;
+  *arm_cells = sleeve;
+  *arm_centroid = (sleeve_centre + Eigen::Vector2d(0.5, 0.5)) * cell_size;
+}
+
 }  // namespace detail
 }  // namespace sag_hand_tracker

@@ -69,6 +69,16 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
                    const cv::Mat& roi_mask, bool learn_skin, BackgroundPlate* plate,
                    RoomCueState& state, std::vector<unsigned char>& mask);
 
+// Without a plate (the skin gate), the forearm evidence of ImageSoG::arm_cells: the dark,
+// unsaturated cells (the sleeve) reached from the kept foreground `mask` through such cells within
+// RoomCueParams::sleeve_band_cells; counted and averaged (pixels) when their centroid lies at
+// least sleeve_min_offset of the foreground's box diagonal from the foreground's centroid (to one
+// side, as a sleeve at the wrist does), else 0 cells.
+void sleeveNextToForeground(const SegmentationParams& params, const std::vector<float>& means,
+                            int cells_x, int cells_y, int cell_size,
+                            const std::vector<unsigned char>& mask, int* arm_cells,
+                            Eigen::Vector2d* arm_centroid);
+
 // The groups that applyRoomCues would choose from without a region of interest (cue 3), best
 // score first, at most max_candidates; `state` is only read (motion and learned skin colour).
 std::vector<HandCandidate> roomCandidates(const SegmentationParams& params,

@@ -73,6 +73,28 @@ cv::Mat projectedHandMask(const PosedHand& hand, const Camera& camera, int margi
   return mask;
 }
 
+double modelOnForeground(const PosedHand& hand, const std::vector<Camera>& cameras,
+                         const std::vector<cv::Mat>& foregrounds) {
+  if (foregrounds.size() != cameras.size()) {
+    throw InputError("modelOnForeground: " + std::to_string(cameras.size()) + " cameras but " +
+                     std::to_string(foregrounds.size()) + " foreground masks");
+  }
+  double core = 0.0, on_foreground = 0.0;
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    if (foregrounds[c].empty()) continue;
+    const Camera& camera = cameras[c];
+    if (foregrounds[c].type() != CV_8UC1 || foregrounds[c].cols != camera.width ||
+        foregrounds[c].rows != camera.height) {
+      throw InputError("modelOnForeground: the foreground of camera '" + camera.name +
+                       "' is not a CV_8UC1 mask of its image size");
+    }
+    const cv::Mat mask = projectedHandMask(hand, camera, 0, kModelCoreRadius);
+    core += cv::countNonZero(mask);
+    on_foreground += cv::countNonZero(mask & foregrounds[c]);
+  }
+  return core > 0.0 ? on_foreground / core : 0.0;
+}
+
 TrackingPipeline::TrackingPipeline(const HandModel& model, const std::vector<Camera>& cameras,
                                    const PipelineParams& params)
     : cameras_(cameras), params_(adjusted(params)), tracker_(model, params.tracker) {
@@ -97,6 +119,15 @@ void TrackingPipeline::reset() {
   sets_seen_ = 0;
   tracked_regions_ = false;
   sets_since_recheck_ = 0;
+  provisional_track_ = false;
+}
+
+cv::Mat TrackingPipeline::foregroundMask(int camera) const {
+  const ImageSegmenter& segmenter = segmenters_.at(camera);
+  if (camera < static_cast<int>(still_kept_.size()) && !still_kept_[camera].empty()) {
+    return still_kept_[camera];
+  }
+  return segmenter.lastForegroundMask();
 }
 
 void TrackingPipeline::checkImage(const CameraImage& image) const {
@@ -121,29 +152,98 @@ bool TrackingPipeline::chooseRegionsAcrossViews(const FrameSet& set, bool tracki
   const MultiViewChoice choice =
       chooseConsistentCandidates(cameras_, candidates, params_.multi_view);
   if (tracking) {
-    const MultiViewChoice at_track =
-        supportAt(cameras_, candidates, tracked_centre_, params_.multi_view);
-    if (!replacesTrack(choice, at_track, params_.multi_view)) return false;
+    // A track started on a still scene yields to any hand that moves elsewhere (the still
+    // start may have taken the other arm before the hand came into view).
+    const bool replace =
+        provisional_track_
+            ? choice.found &&
+                  (choice.point - tracked_centre_).norm() >= params_.multi_view.switch_distance
+            : replacesTrack(choice,
+                            supportAt(cameras_, candidates, tracked_centre_, params_.multi_view),
+                            params_.multi_view);
+    if (!replace) return false;
     tracker_.reset();
     tracked_regions_ = false;
+    provisional_track_ = false;
   }
+  still_hypotheses_.clear();
+  if (!choice.found && !tracking && params_.multi_view.still_hypotheses > 0) {
+    still_hypotheses_ = stillHypotheses(cameras_, candidates, params_.multi_view);
+    if (!still_hypotheses_.empty()) still_candidates_ = candidates;
+  }
+  const int margin = params_.multi_view.region_margin_cells;
   for (const CameraImage& image : set.images) {
     const int c = image.camera;
-    if (!choice.found) {
-      // Nothing agrees across the views: no blob of any view is the hand.
-      segmenters_[c].setRegionOfInterest(
-          candidateRegion(nullptr, cameras_[c].width, cameras_[c].height, 0),
-          RegionSource::kCandidates);
-      continue;
+    const int width = cameras_[c].width, height = cameras_[c].height;
+    cv::Mat region = candidateRegion(nullptr, width, height, 0);
+    if (choice.found && choice.chosen[c] >= 0) {
+      region = candidateRegion(&candidates[c][choice.chosen[c]], width, height, margin);
     }
-    const HandCandidate* chosen =
-        choice.chosen[c] >= 0 ? &candidates[c][choice.chosen[c]] : nullptr;
-    segmenters_[c].setRegionOfInterest(
-        candidateRegion(chosen, cameras_[c].width, cameras_[c].height,
-                        params_.multi_view.region_margin_cells),
-        RegionSource::kCandidates);
+    for (const MultiViewChoice& hypothesis : still_hypotheses_) {
+      if (hypothesis.chosen[c] < 0) continue;
+      region |= candidateRegion(&candidates[c][hypothesis.chosen[c]], width, height, margin);
+    }
+    // Nothing agrees across the views (an all-zero region): no blob of this view is the hand.
+    segmenters_[c].setRegionOfInterest(region, RegionSource::kCandidates);
   }
   return true;
+}
+
+std::optional<FrameResult> TrackingPipeline::startOnStillHypotheses(
+    const FrameSet& set, std::vector<CameraObservation>* observations) {
+  std::optional<FrameResult> best;
+  double best_score = 0.0;
+  const MultiViewChoice* best_choice = nullptr;
+  std::vector<CameraObservation> best_observations;
+  const int margin = params_.multi_view.region_margin_cells;
+  // This set's foreground (inside the union of the hypotheses' regions) per camera; empty for a
+  // camera without an image in the set.
+  std::vector<cv::Mat> foregrounds(cameras_.size());
+  for (const CameraImage& image : set.images) {
+    foregrounds[image.camera] = segmenters_[image.camera].lastForegroundMask();
+  }
+  for (const MultiViewChoice& hypothesis : still_hypotheses_) {
+    std::vector<CameraObservation> trial = *observations;
+    for (CameraObservation& observation : trial) {
+      const int c = static_cast<int>(&observation - trial.data());
+      const int camera = set.images[c].camera;
+      const int chosen = hypothesis.chosen[camera];
+      observation.sog = keepInsideRegion(
+          observation.sog,
+          candidateRegion(chosen >= 0 ? &still_candidates_[camera][chosen] : nullptr,
+                          observation.sog.width, observation.sog.height, margin));
+      undistortImageSoG(observation.camera, &observation.sog);
+    }
+    HandTracker tracker(tracker_.model(), params_.tracker);
+    const FrameResult result = tracker.update(trial, set.stamp(), sets_seen_ - 1);
+    if (!result.has_pose || result.status == TrackStatus::kLost) continue;
+    const double score =
+        result.energy.similarity *
+        modelOnForeground(forwardKinematics(tracker.model(), result.pose), cameras_, foregrounds);
+    if (score < params_.multi_view.still_min_score || score <= best_score) continue;
+    best_score = score;
+    best = result;
+    best_choice = &hypothesis;
+    best_observations = std::move(trial);
+    tracker_ = std::move(tracker);
+  }
+  // What the set keeps (foregroundMask): the chosen hypothesis' regions, or nothing.
+  still_kept_.assign(cameras_.size(), cv::Mat());
+  for (const CameraImage& image : set.images) {
+    const int c = image.camera;
+    const int chosen = best_choice ? best_choice->chosen[c] : -1;
+    still_kept_[c] =
+        foregrounds[c] & candidateRegion(chosen >= 0 ? &still_candidates_[c][chosen] : nullptr,
+                                         cameras_[c].width, cameras_[c].height, margin);
+  }
+  still_hypotheses_.clear();
+  still_candidates_.clear();
+  if (best) {
+    *observations = std::move(best_observations);
+  } else {
+    for (CameraObservation& observation : *observations) observation.sog.gaussians.clear();
+  }
+  return best;
 }
 
 ProcessedFrame TrackingPipeline::process(const FrameSet& set,
@@ -166,31 +266,40 @@ ProcessedFrame TrackingPipeline::process(const FrameSet& set,
   ++sets_seen_;
 
   const auto segmentation_start = std::chrono::steady_clock::now();
+  for (cv::Mat& kept : still_kept_) kept.release();
   if (params_.segmentation.room.enabled && params_.multi_view.enabled) {
     if (!tracked_regions_) {
       chooseRegionsAcrossViews(set, false);
-    } else if (params_.multi_view.recheck_interval > 0 &&
-               ++sets_since_recheck_ >= params_.multi_view.recheck_interval) {
+    } else if (provisional_track_ ||
+               (params_.multi_view.recheck_interval > 0 &&
+                ++sets_since_recheck_ >= params_.multi_view.recheck_interval)) {
       sets_since_recheck_ = 0;
       chooseRegionsAcrossViews(set, true);
     }
   }
+  // Still hypotheses are told apart after segmentation, in raw pixels: undistorted later.
+  const bool still = !still_hypotheses_.empty();
   std::vector<CameraObservation> observations;
   observations.reserve(set.images.size());
   for (const CameraImage& image : set.images) {
     CameraObservation observation;
     observation.camera = cameras_[image.camera];
     observation.sog = segmenters_[image.camera].segmentFrame(image.rgb);
-    undistortImageSoG(observation.camera, &observation.sog);
-    processed.image_gaussians += static_cast<int>(observation.sog.gaussians.size());
+    if (!still) undistortImageSoG(observation.camera, &observation.sog);
     observations.push_back(std::move(observation));
   }
   processed.segmentation_seconds = secondsSince(segmentation_start);
 
   const auto tracking_start = std::chrono::steady_clock::now();
-  processed.result = tracker_.update(observations, set.stamp(), sets_seen_ - 1);
+  std::optional<FrameResult> still_start;
+  if (still) still_start = startOnStillHypotheses(set, &observations);
+  processed.result =
+      still_start ? *still_start : tracker_.update(observations, set.stamp(), sets_seen_ - 1);
   processed.late = tracker_.takeLateResults();
   processed.tracking_seconds = secondsSince(tracking_start);
+  for (const CameraObservation& observation : observations) {
+    processed.image_gaussians += static_cast<int>(observation.sog.gaussians.size());
+  }
 
   if (params_.segmentation.room.enabled) {
     const FrameResult& result = processed.result;
@@ -206,8 +315,16 @@ ProcessedFrame TrackingPipeline::process(const FrameSet& set,
       tracked_centre_.setZero();
       for (const WorldGaussian& g : hand.gaussians) tracked_centre_ += g.mean;
       tracked_centre_ /= static_cast<double>(std::max<size_t>(hand.gaussians.size(), 1));
+      if (still_start) {
+        provisional_track_ = true;
+        provisional_origin_ = tracked_centre_;
+      } else if (provisional_track_ && (tracked_centre_ - provisional_origin_).norm() >=
+                                           params_.multi_view.still_confirm_distance) {
+        provisional_track_ = false;  // it moved: a hand in use
+      }
     } else {
       sets_since_recheck_ = 0;
+      provisional_track_ = false;
     }
   }
   if (observations_out) *observations_out = std::move(observations);

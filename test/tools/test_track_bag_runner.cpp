@@ -108,7 +108,7 @@ TEST(TrackBagArguments, TrackBagParsesEveryOption) {
   EXPECT_EQ(options.hand, Handedness::kLeft);
   EXPECT_EQ(options.step_control, "fixed");
   EXPECT_EQ(options.root_frame, "table");
-  EXPECT_TRUE(options.room_cues);
+  EXPECT_EQ(options.room_cues, std::optional<bool>(true));
   EXPECT_TRUE(trackBagPipelineParams(options).segmentation.room.enabled);
   EXPECT_TRUE(options.quiet);
 
@@ -119,8 +119,15 @@ TEST(TrackBagArguments, TrackBagParsesEveryOption) {
   EXPECT_EQ(defaults.hand, Handedness::kRight);
   EXPECT_TRUE(defaults.cameras.empty());
   EXPECT_FALSE(defaults.quiet);
-  EXPECT_FALSE(defaults.room_cues);
-  EXPECT_FALSE(trackBagPipelineParams(defaults).segmentation.room.enabled);
+  EXPECT_FALSE(defaults.room_cues.has_value());
+  EXPECT_FALSE(trackBagPipelineParams(defaults).segmentation.room.enabled);  // with a plate
+  // Without a plate (the skin gate) the room cues are on unless --no-room-cues says otherwise.
+  const TrackBagOptions skin =
+      parseTrackBagArguments({"--out", "o.csv", "--bag", "b.bag", "--background-frames", "0"});
+  EXPECT_TRUE(trackBagPipelineParams(skin).segmentation.room.enabled);
+  const TrackBagOptions skin_only = parseTrackBagArguments(
+      {"--out", "o.csv", "--bag", "b.bag", "--background-frames", "0", "--no-room-cues"});
+  EXPECT_FALSE(trackBagPipelineParams(skin_only).segmentation.room.enabled);
   EXPECT_TRUE(parseTrackBagArguments({"--help"}).help);
 }
 

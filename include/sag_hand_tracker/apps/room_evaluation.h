@@ -25,6 +25,10 @@ struct RoomRunResult {
   std::string label;
   int frames = 0;        // frames with the hand that were tracked (not background)
   int frames_posed = 0;  // of those, frames where the tracker had a pose (not waiting/lost)
+  // Frames without the hand that were tracked (not background), and those with a pose: a hand
+  // reported where there is none (a face, a photograph, the other arm).
+  int empty_frames = 0;
+  int empty_frames_posed = 0;
   std::vector<double> errors_mm;  // per posed frame, mean fingertip error
   ErrorSummary errors;
   // Foreground pixels over all cameras and tracked frames: kept (mask), kept that are the

@@ -7,6 +7,7 @@
 
 #include <atomic>
 #include <functional>
+#include <optional>
 #include <ostream>
 #include <stdexcept>
 #include <string>
@@ -32,7 +33,10 @@ struct TrackBagOptions {
   std::vector<int> cameras;                       // --cameras 0,2,4 (empty: all)
   int background_frames = 10;                     // --background-frames N (>= 0)
   Handedness hand = Handedness::kRight;           // --hand left|right
-  bool room_cues = false;  // --room-cues: SegmentationParams::room.enabled (doc/segmentation.md)
+  // --room-cues / --no-room-cues: SegmentationParams::room.enabled (doc/segmentation.md). Unset:
+  // on exactly when there is no plate (background_frames 0): the skin gate alone keeps every
+  // skin-coloured thing of a room (a face: 24-28 % of a real office image's pixels).
+  std::optional<bool> room_cues;
   // --fixed-colours: TrackerParams::colour_adaptation off (the model's colours as loaded)
   bool fixed_colours = false;
   std::string root_frame;  // --root-frame FRAME (empty: the root of the bag's tf tree)

@@ -62,9 +62,6 @@ cv::Mat candidatesRegionMask(const std::vector<HandCandidate>& candidates, int w
 bool regionIsFresh(double region_stamp, double image_stamp, double timeout);
 
 // ---- tracker nodelet ----
-// Keeps the Gaussians whose mean (raw pixels) lies inside `region` (CV_8UC1 at the SoG's size);
-// the forearm evidence is kept.
-ImageSoG keepInsideRegion(const ImageSoG& sog, const cv::Mat& region);
 
 // One camera's input of a set, as the tracker nodelet has it before undistortion.
 struct LiveView {

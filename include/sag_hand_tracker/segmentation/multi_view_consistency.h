@@ -37,6 +37,23 @@ struct MultiViewParams {
   // 0: never.
   int recheck_interval = 5;
   double switch_distance = 0.15;
+  // A still scene (a stereo pair of photographs replayed, a hand held still from the first frame
+  // with nothing else moving): when no pair of moving candidates agrees, up to this many places
+  // where still candidates agree (stillHypotheses) are each tried with a start of their own
+  // (TrackingPipeline). The start with the highest score is kept when the score reaches
+  // `still_min_score`. The score is two-sided: the similarity (the share of the foreground the
+  // model explains) times the share of the model's core that lies on the foreground
+  // (modelOnForeground). A hand fitted to a face or a photograph explains much of that blob
+  // (similarity 0.57-0.68 in the studio's office) but lies half on the background (0.4-0.76);
+  // on the hand both are high (0.76-0.78 and 0.89-0.93): scores <= 0.43 against >= 0.69
+  // (doc/segmentation.md, "Session 14"). 0 hypotheses: a still scene never starts.
+  int still_hypotheses = 3;
+  double still_min_score = 0.5;
+  // A track started on still hypotheses is provisional until its hand has moved this far (m): at
+  // the first frame nothing can be seen to move, so the still start may take the other arm lying
+  // on the table before the hand comes into view; meanwhile it is re-checked every set, and any
+  // choice of moving candidates at least switch_distance from it replaces it.
+  double still_confirm_distance = 0.05;
 };
 // Throws InputError naming the first bad parameter.
 void validate(const MultiViewParams& params);
@@ -60,6 +77,13 @@ MultiViewChoice chooseConsistentCandidates(
     const std::vector<Camera>& cameras, const std::vector<std::vector<HandCandidate>>& candidates,
     const MultiViewParams& params);
 
+// The places where candidates of two or more views agree, without asking for motion, best first
+// (as chooseConsistentCandidates ranks them), one per place (the same candidates or a point within
+// support_radius of a better one are left out), at most still_hypotheses of them.
+std::vector<MultiViewChoice> stillHypotheses(
+    const std::vector<Camera>& cameras, const std::vector<std::vector<HandCandidate>>& candidates,
+    const MultiViewParams& params);
+
 // The support of a root-frame point (e.g. the tracked hand's centre): per view the candidate whose
 // centroid is nearest its projection within support_radius; `point` as given, `found` false.
 MultiViewChoice supportAt(const std::vector<Camera>& cameras,
@@ -73,5 +97,9 @@ bool replacesTrack(const MultiViewChoice& challenger, const MultiViewChoice& tra
 // The region of interest (CV_8UC1, width x height) for a view: the chosen candidate's cells grown
 // by margin_cells, or all zero when `candidate` is null (no candidate in this view agrees).
 cv::Mat candidateRegion(const HandCandidate* candidate, int width, int height, int margin_cells);
+
+// Keeps the Gaussians whose mean (raw pixels) lies inside `region` (CV_8UC1 at the SoG's size);
+// the forearm evidence is kept. Throws InputError for a region of another size or type.
+ImageSoG keepInsideRegion(const ImageSoG& sog, const cv::Mat& region);
 
 }  // namespace sag_hand_tracker

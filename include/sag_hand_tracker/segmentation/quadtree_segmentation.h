@@ -87,6 +87,12 @@ struct RoomCueParams {
   double motion_decay = 0.9;
   double motion_weight = 4.0;
   double sleeve_weight = 2.0;
+  // Without a plate the sleeve is the forearm evidence (ImageSoG::arm_cells) the plate would give:
+  // the dark, unsaturated cells within this many cells of the kept foreground, when they lie to
+  // one side of it (centroid at least sleeve_min_offset of its box diagonal from its centroid).
+  // 0 cells: no evidence without a plate.
+  int sleeve_band_cells = 4;
+  double sleeve_min_offset = 0.25;
   double plate_adaptation_rate = 0.05;
   // 6. two-class colour (the user's skin against this camera's skin-coloured background): once the
   //    hand is tracked (a region mask of RegionSource::kTrack), a chromaticity histogram of the

@@ -4,6 +4,7 @@
 // same code. No ROS.
 #pragma once
 
+#include <optional>
 #include <vector>
 
 #include "sag_hand_tracker/camera/camera.h"
@@ -58,6 +59,17 @@ cv::Rect projectedHandBox(const HandModel& model, const Pose& pose, const Camera
 cv::Mat projectedHandMask(const PosedHand& hand, const Camera& camera, int margin_pixels = 10,
                           double radius_scale = 1.5);
 
+// The radius (in sqrt(trace Sigma)) of the discs that draw the model's core in modelOnForeground.
+constexpr double kModelCoreRadius = 0.5;
+
+// The share of the posed model's core (its Gaussians as discs of kModelCoreRadius sqrt(trace
+// Sigma), projectedHandMask without margin) that lies on the foreground, pixels summed over the
+// cameras with a mask (`foregrounds[c]`: CV_8UC1 at camera c's size, 255 = foreground; empty: the
+// camera is left out). 0 when the model projects into none. Throws InputError for masks that do
+// not match the cameras.
+double modelOnForeground(const PosedHand& hand, const std::vector<Camera>& cameras,
+                         const std::vector<cv::Mat>& foregrounds);
+
 class TrackingPipeline {
  public:
   // One segmenter per camera. Throws InputError for fewer cameras than the automatic start needs
@@ -81,17 +93,28 @@ class TrackingPipeline {
   const PipelineParams& params() const { return params_; }
   const HandTracker& tracker() const { return tracker_; }
   const ImageSegmenter& segmenter(int camera) const { return segmenters_.at(camera); }
-  // The foreground of each camera's last segmented image (ImageSegmenter::lastForegroundMask).
-  cv::Mat foregroundMask(int camera) const { return segmenters_.at(camera).lastForegroundMask(); }
+  // The foreground of each camera's last segmented image (ImageSegmenter::lastForegroundMask), or
+  // after still hypotheses (MultiViewParams::still_hypotheses) what the chosen one kept of it.
+  cv::Mat foregroundMask(int camera) const;
   // Sets processed so far (background ones included).
   int setsSeen() const { return sets_seen_; }
 
  private:
   void checkImage(const CameraImage& image) const;
-  // Before the start: gives each camera's segmenter its multi-view candidate region for `set`.
-  // While tracking (MultiViewParams::recheck_interval): only when the choice replaces the track,
-  // which is then reset; returns whether the regions were set.
+  // Before the start: gives each camera's segmenter its multi-view candidate region for `set`
+  // (when no moving candidates agree but still ones do, the union of the still hypotheses'
+  // regions, kept in still_hypotheses_ for startOnStillHypotheses). While tracking
+  // (MultiViewParams::recheck_interval): only when the choice replaces the track, which is then
+  // reset; returns whether the regions were set.
   bool chooseRegionsAcrossViews(const FrameSet& set, bool tracking);
+  // A still scene (MultiViewParams::still_hypotheses): each hypothesis keeps, of this set's
+  // segmented (raw-pixel) SoGs, the Gaussians inside its candidates' regions and is started by a
+  // tracker of its own; the start with the highest score (MultiViewParams::still_min_score), at
+  // least still_min_score, becomes the track (its tracker replaces tracker_, its observations
+  // `observations`) and its result is returned. None: nothing is kept of the set (`observations`
+  // are emptied of Gaussians) and the tracker waits.
+  std::optional<FrameResult> startOnStillHypotheses(const FrameSet& set,
+                                                    std::vector<CameraObservation>* observations);
 
   std::vector<Camera> cameras_;
   PipelineParams params_;
@@ -101,6 +124,16 @@ class TrackingPipeline {
   bool tracked_regions_ = false;  // the segmenters hold regions from a tracked pose
   Eigen::Vector3d tracked_centre_ = Eigen::Vector3d::Zero();  // mean of the tracked model's means
   int sets_since_recheck_ = 0;
+  // This set's still hypotheses and the candidates they index (chooseRegionsAcrossViews).
+  std::vector<MultiViewChoice> still_hypotheses_;
+  std::vector<std::vector<HandCandidate>> still_candidates_;
+  // Per camera, what the last set kept when it tried still hypotheses (empty: the segmenter's
+  // mask).
+  std::vector<cv::Mat> still_kept_;
+  // A track started on still hypotheses, until it has moved still_confirm_distance from where it
+  // started: re-checked every set, and any moving choice at switch_distance replaces it.
+  bool provisional_track_ = false;
+  Eigen::Vector3d provisional_origin_ = Eigen::Vector3d::Zero();
 };
 
 }  // namespace sag_hand_tracker
