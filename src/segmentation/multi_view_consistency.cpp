@@ -69,6 +69,9 @@ void validate(const MultiViewParams& params) {
     fail("still_min_score must be in [0, 1]");
   }
   if (!(params.still_confirm_distance >= 0.0)) fail("still_confirm_distance must be >= 0");
+  if (!(params.still_min_area >= 0.0 && params.still_max_area > params.still_min_area)) {
+    fail("still_min_area must be >= 0 and still_max_area above it");
+  }
 }
 
 namespace {
@@ -169,6 +172,24 @@ MultiViewChoice chooseConsistentCandidates(
   return none;
 }
 
+double candidateArea(const std::vector<Camera>& cameras,
+                     const std::vector<std::vector<HandCandidate>>& candidates,
+                     const MultiViewChoice& choice) {
+  double sum = 0.0;
+  int views = 0;
+  for (size_t c = 0; c < cameras.size() && c < choice.chosen.size(); ++c) {
+    if (choice.chosen[c] < 0) continue;
+    const double depth = (cameras[c].world_to_camera * choice.point).z();
+    if (!(depth > 0.0)) continue;
+    const HandCandidate& candidate = candidates[c][choice.chosen[c]];
+    const double pixels = static_cast<double>(candidate.cell_indices.size()) * candidate.cell_size *
+                          candidate.cell_size;
+    sum += pixels * (depth / cameras[c].K(0, 0)) * (depth / cameras[c].K(1, 1));
+    ++views;
+  }
+  return views > 0 ? sum / views : 0.0;
+}
+
 std::vector<MultiViewChoice> stillHypotheses(
     const std::vector<Camera>& cameras, const std::vector<std::vector<HandCandidate>>& candidates,
     const MultiViewParams& params) {
@@ -176,6 +197,8 @@ std::vector<MultiViewChoice> stillHypotheses(
   for (MultiViewChoice& choice :
        proposedChoices(cameras, candidates, params, false, "stillHypotheses")) {
     if (static_cast<int>(kept.size()) >= params.still_hypotheses) break;
+    const double area = candidateArea(cameras, candidates, choice);
+    if (!(area >= params.still_min_area && area <= params.still_max_area)) continue;
     // One hypothesis per place: the same candidates proposed by another pair of views, or a
     // neighbouring blob, would only repeat a trial start.
     bool repeats = false;

@@ -474,6 +474,7 @@ HandCandidate candidateAt(const Camera& camera, const Eigen::Vector3d& point, do
   candidate.centroid = pixel;
   candidate.score = score;
   candidate.cell_indices.assign(100, 0);
+  candidate.cell_size = 4;  // 1600 pixels: a hand's size (0.003-0.007 m^2) at dexter5's depths
   candidate.moving = moving;
   candidate.box =
       cv::Rect(static_cast<int>(pixel.x()) - 20, static_cast<int>(pixel.y()) - 20, 40, 40);
@@ -845,6 +846,21 @@ TEST(MultiViewConsistency, StillHypothesesAreOnePerPlaceAndNeedTwoViews) {
   MultiViewParams one;
   one.still_hypotheses = 1;
   EXPECT_EQ(stillHypotheses(cameras, candidates, one).size(), 1u);
+  // A hand's size at its depth: the head's blobs grown 20 times (a wall-sized photograph) or
+  // shrunk to a 20th (a flower) are no hypothesis.
+  const double area = candidateArea(cameras, candidates, still[1]);
+  EXPECT_GT(area, MultiViewParams().still_min_area);
+  EXPECT_LT(area, MultiViewParams().still_max_area);
+  for (const size_t cells : {2000u, 5u}) {
+    std::vector<std::vector<HandCandidate>> resized = candidates;
+    for (size_t c = 0; c < cameras.size(); ++c) {
+      if (still[1].chosen[c] >= 0) resized[c][still[1].chosen[c]].cell_indices.assign(cells, 0);
+    }
+    const std::vector<MultiViewChoice> only_hand =
+        stillHypotheses(cameras, resized, MultiViewParams());
+    ASSERT_EQ(only_hand.size(), 1u) << cells;
+    EXPECT_LT((only_hand[0].point - hand).norm(), 0.005) << cells;
+  }
   MultiViewParams bad;
   bad.still_min_score = 1.5;
   EXPECT_THROW(validate(bad), InputError);

@@ -54,6 +54,13 @@ struct MultiViewParams {
   // on the table before the hand comes into view; meanwhile it is re-checked every set, and any
   // choice of moving candidates at least switch_distance from it replaces it.
   double still_confirm_distance = 0.05;
+  // A still hypothesis has a hand's size: its candidates' area at the point's depth (m^2, the mean
+  // over its views, candidateArea) lies within these. An open hand seen flat is about 0.015 m^2, a
+  // fist from its side 0.004, a bare forearm adds up to 0.03; a blob far smaller or larger (a
+  // flower, a wall-sized photograph) is no hand however it triangulates, and would only take one
+  // of the still_hypotheses trials from the hand.
+  double still_min_area = 0.002;
+  double still_max_area = 0.06;
 };
 // Throws InputError naming the first bad parameter.
 void validate(const MultiViewParams& params);
@@ -79,10 +86,17 @@ MultiViewChoice chooseConsistentCandidates(
 
 // The places where candidates of two or more views agree, without asking for motion, best first
 // (as chooseConsistentCandidates ranks them), one per place (the same candidates or a point within
-// support_radius of a better one are left out), at most still_hypotheses of them.
+// support_radius of a better one are left out), of a hand's size (still_min_area, still_max_area),
+// at most still_hypotheses of them.
 std::vector<MultiViewChoice> stillHypotheses(
     const std::vector<Camera>& cameras, const std::vector<std::vector<HandCandidate>>& candidates,
     const MultiViewParams& params);
+
+// The mean over `choice`'s views of its candidate's area (cells x cell_size^2 pixels) at the depth
+// of choice.point in that view, in m^2; 0 without views.
+double candidateArea(const std::vector<Camera>& cameras,
+                     const std::vector<std::vector<HandCandidate>>& candidates,
+                     const MultiViewChoice& choice);
 
 // The support of a root-frame point (e.g. the tracked hand's centre): per view the candidate whose
 // centroid is nearest its projection within support_radius; `point` as given, `found` false.
