@@ -50,6 +50,8 @@ std::vector<RoomRunResult> evaluateRoomSequence(const HandModel& render_model,
   params.frames = options.frames;
   params.empty_frames = options.empty_frames;
   params.seed = options.seed;
+  params.shape = options.hand.shape;
+  params.surface.skin = options.hand.skin;
   const StudioSequence sequence(render_model, motion, params);
   std::unique_ptr<StudioRoom> studio_room;
   StudioSceneParams scene;

@@ -588,6 +588,27 @@ cv::Mat ImageSegmenter::lastForegroundMask() const {
   return maskImage(room_.mask.data(), room_.cells_x, room_.cell_size, room_.width, room_.height);
 }
 
+void ImageSegmenter::sleeveEvidence(const cv::Mat& rgb, const cv::Mat& kept, ImageSoG* sog) const {
+  const SegmentationMode mode = effectiveMode();
+  if (mode == SegmentationMode::kPlate || mode == SegmentationMode::kPlateAndSkin) return;
+  if (!params_.room.enabled || params_.room.sleeve_band_cells <= 0) return;
+  if (kept.type() != CV_8UC1 || kept.cols != rgb.cols || kept.rows != rgb.rows) {
+    throw InputError("sleeveEvidence: the kept mask is not CV_8UC1 at the image's size");
+  }
+  Workspace& ws = workspace();
+  CellMask mask;
+  if (!prepare(rgb, params_, mode, plate_, "sleeveEvidence", ws, mask)) return;
+  const int s = params_.cell_size;
+  std::vector<unsigned char> cells(ws.mask.size(), 0);
+  for (int i = 0; i < static_cast<int>(cells.size()); ++i) {
+    const int x = std::min((i % mask.cells_x) * s + s / 2, rgb.cols - 1);
+    const int y = std::min((i / mask.cells_x) * s + s / 2, rgb.rows - 1);
+    cells[i] = kept.at<unsigned char>(y, x) != 0;
+  }
+  detail::sleeveNextToForeground(params_, ws.cell_means, mask.cells_x, mask.cells_y, s, cells,
+                                 &sog->arm_cells, &sog->arm_centroid);
+}
+
 ImageSoG ImageSegmenter::segmentFrame(const cv::Mat& rgb, std::vector<QuadtreeLeaf>* leaves) {
   Workspace& ws = workspace();
   CellMask mask;

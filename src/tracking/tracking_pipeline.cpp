@@ -208,10 +208,13 @@ std::optional<FrameResult> TrackingPipeline::startOnStillHypotheses(
       const int c = static_cast<int>(&observation - trial.data());
       const int camera = set.images[c].camera;
       const int chosen = hypothesis.chosen[camera];
-      observation.sog = keepInsideRegion(
-          observation.sog,
+      const cv::Mat region =
           candidateRegion(chosen >= 0 ? &still_candidates_[camera][chosen] : nullptr,
-                          observation.sog.width, observation.sog.height, margin));
+                          observation.sog.width, observation.sog.height, margin);
+      observation.sog = keepInsideRegion(observation.sog, region);
+      // The sleeve beside this hypothesis' blob only (the set's was beside all of them).
+      segmenters_[camera].sleeveEvidence(set.images[c].rgb, foregrounds[camera] & region,
+                                         &observation.sog);
       undistortImageSoG(observation.camera, &observation.sog);
     }
     HandTracker tracker(tracker_.model(), params_.tracker);

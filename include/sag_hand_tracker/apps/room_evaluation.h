@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "sag_hand_tracker/apps/metrics.h"
+#include "sag_hand_tracker/studio/hand_shapes.h"
 #include "sag_hand_tracker/studio/motion.h"
 #include "sag_hand_tracker/studio/room.h"
 #include "sag_hand_tracker/tracking/tracking_pipeline.h"
@@ -44,6 +45,7 @@ struct RoomSequenceOptions {
   int frames = 0;         // 0: the motion's length
   int empty_frames = 10;  // frames without the hand at the start (0 for rooms without them)
   std::uint64_t seed = 1;
+  StudioHand hand;  // the rendered hand's proportions and skin (config/hand_shapes.yaml)
   // When not empty: writes <dump_prefix>_image.png (camera dump_camera's image of frame
   // dump_frame) and <dump_prefix>_<k>.png (configuration k's foreground mask over it).
   std::string dump_prefix;
