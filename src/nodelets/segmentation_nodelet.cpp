@@ -11,10 +11,11 @@
 // Lazy: the camera is subscribed only while `sog` has subscribers, so the plate too is learned
 // only then.
 // Private parameters: background_file (load the plate from it when it exists; "" = learn),
-//   save_background (true: after learning, write the plate to background_file), room_cues (false:
-//   SegmentationParams::room.enabled, below), region_timeout (0.5 s), max_candidates (4) and
-//   region_margin_cells (2) (MultiViewParams' max_candidates_per_view, region_margin_cells), plus
-//   cfg/Segmentation.cfg (mode, quad-tree thresholds, background_frames, relearn_background).
+//   save_background (true: after learning, write the plate to background_file), room_cues (false;
+//   the launch files set it to mode == skin: SegmentationParams::room.enabled, below),
+//   region_timeout (0.5 s), max_candidates (4) and region_margin_cells (2) (MultiViewParams'
+//   max_candidates_per_view, region_margin_cells), plus cfg/Segmentation.cfg (mode, quad-tree
+//   thresholds, background_frames, relearn_background).
 // Room cues (issue 11; ros/live_room_cues.h, doc/segmentation.md "The live graph"): with a fresh
 //   tracked hand_region (stamped within region_timeout of the image) the foreground is kept inside
 //   its projected silhouette (projectedHandMask with this camera_info; SoG region TRACKED and

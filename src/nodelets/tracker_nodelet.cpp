@@ -21,8 +21,8 @@
 //   got no pose on the frame path meanwhile are published late, below), worker_niceness (10: a
 //   re-detecting worker's nice value above the frame path's; 0-19), search_threads (2: threads of
 //   one start or re-detection search, which give the same result as one; 1-16), room_cues
-//   (false), multi_view (true) and recheck_interval (5) (below), plus the dynamic_reconfigure
-//   parameters of cfg/Tracker.cfg.
+//   (false; the launch files set it to mode == skin), multi_view (true) and recheck_interval (5)
+//   (below), plus the dynamic_reconfigure parameters of cfg/Tracker.cfg.
 //
 // Room cues (issue 11; ros/live_room_cues.h, doc/segmentation.md "The live graph"; the segmentation
 // nodelets' room_cues must be on too): after every set the tracked hand is published to each

@@ -120,6 +120,7 @@ void TrackingPipeline::reset() {
   tracked_regions_ = false;
   sets_since_recheck_ = 0;
   provisional_track_ = false;
+  still_kept_.clear();
 }
 
 cv::Mat TrackingPipeline::foregroundMask(int camera) const {
