@@ -153,15 +153,16 @@ bool TrackingPipeline::chooseRegionsAcrossViews(const FrameSet& set, bool tracki
   const MultiViewChoice choice =
       chooseConsistentCandidates(cameras_, candidates, params_.multi_view);
   if (tracking) {
-    // A track started on a still scene yields to any hand that moves elsewhere (the still
-    // start may have taken the other arm before the hand came into view).
+    // A track started on a still scene yields to a hand that moves elsewhere and that as many
+    // views see (the still start may have taken a prop before the hand came into view).
+    const MultiViewChoice at_track =
+        supportAt(cameras_, candidates, tracked_centre_, params_.multi_view);
     const bool replace =
         provisional_track_
             ? choice.found &&
-                  (choice.point - tracked_centre_).norm() >= params_.multi_view.switch_distance
-            : replacesTrack(choice,
-                            supportAt(cameras_, candidates, tracked_centre_, params_.multi_view),
-                            params_.multi_view);
+                  (choice.point - tracked_centre_).norm() >= params_.multi_view.switch_distance &&
+                  choice.supporting_views >= at_track.supporting_views
+            : replacesTrack(choice, at_track, params_.multi_view);
     if (!replace) return false;
     tracker_.reset();
     tracked_regions_ = false;

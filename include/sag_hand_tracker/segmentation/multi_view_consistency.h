@@ -50,9 +50,11 @@ struct MultiViewParams {
   int still_hypotheses = 3;
   double still_min_score = 0.5;
   // A track started on still hypotheses is provisional until its hand has moved this far (m): at
-  // the first frame nothing can be seen to move, so the still start may take the other arm lying
-  // on the table before the hand comes into view; meanwhile it is re-checked every set, and any
-  // choice of moving candidates at least switch_distance from it replaces it.
+  // the first frame nothing can be seen to move, so the still start may take a prop or the other
+  // arm before the hand comes into view; meanwhile it is re-checked every set, and a choice of
+  // moving candidates at least switch_distance from it, supported by at least as many views as
+  // the track, replaces it. (Any moving choice let the drifting other hand of the studio's
+  // daylight room take a still hand's track: 352.6 mm.)
   double still_confirm_distance = 0.05;
   // A still hypothesis has a hand's size: its candidates' area at the point's depth (m^2, the mean
   // over its views, candidateArea) lies within these. An open hand seen flat is about 0.015 m^2, a

@@ -131,7 +131,8 @@ class TrackingPipeline {
   // mask).
   std::vector<cv::Mat> still_kept_;
   // A track started on still hypotheses, until it has moved still_confirm_distance from where it
-  // started: re-checked every set, and any moving choice at switch_distance replaces it.
+  // started: re-checked every set, and a moving choice at switch_distance that as many views
+  // support replaces it (MultiViewParams::still_confirm_distance).
   bool provisional_track_ = false;
   Eigen::Vector3d provisional_origin_ = Eigen::Vector3d::Zero();
 };
