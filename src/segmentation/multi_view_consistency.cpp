@@ -49,6 +49,41 @@ std::vector<int> support(const std::vector<Camera>& cameras,
   return chosen;
 }
 
+// Per view, the undistorted centroids of its first max_candidates_per_view candidates. Throws
+// InputError (naming `caller`) when the sizes of `cameras` and `candidates` differ.
+std::vector<std::vector<Eigen::Vector2d>> undistortedCentroids(
+    const std::vector<Camera>& cameras, const std::vector<std::vector<HandCandidate>>& candidates,
+    const MultiViewParams& params, const char* caller) {
+  if (cameras.size() != candidates.size()) {
+    throw InputError(std::string(caller) + ": " + std::to_string(cameras.size()) +
+                     " cameras but candidates of " + std::to_string(candidates.size()) + " views");
+  }
+  std::vector<std::vector<Eigen::Vector2d>> centroids(cameras.size());
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    const size_t n =
+        std::min(candidates[c].size(), static_cast<size_t>(params.max_candidates_per_view));
+    for (size_t j = 0; j < n; ++j) {
+      centroids[c].push_back(cameras[c].undistortPixel(candidates[c][j].centroid));
+    }
+  }
+  return centroids;
+}
+
+// `chosen` (per view, a candidate or -1) at `point`, with its views, score and moving cells.
+MultiViewChoice tally(const std::vector<std::vector<HandCandidate>>& candidates,
+                      const Eigen::Vector3d& point, std::vector<int> chosen) {
+  MultiViewChoice choice;
+  choice.point = point;
+  choice.chosen = std::move(chosen);
+  for (size_t c = 0; c < choice.chosen.size(); ++c) {
+    if (choice.chosen[c] < 0) continue;
+    ++choice.supporting_views;
+    choice.score += candidates[c][choice.chosen[c]].score;
+    choice.moving += candidates[c][choice.chosen[c]].moving;
+  }
+  return choice;
+}
+
 }  // namespace
 
 void validate(const MultiViewParams& params) {
@@ -81,20 +116,14 @@ namespace {
 std::vector<MultiViewChoice> proposedChoices(
     const std::vector<Camera>& cameras, const std::vector<std::vector<HandCandidate>>& candidates,
     const MultiViewParams& params, bool require_motion, const char* caller) {
-  if (cameras.size() != candidates.size()) {
-    throw InputError(std::string(caller) + ": " + std::to_string(cameras.size()) +
-                     " cameras but candidates of " + std::to_string(candidates.size()) + " views");
-  }
+  const std::vector<std::vector<Eigen::Vector2d>> centroids =
+      undistortedCentroids(cameras, candidates, params, caller);
   const size_t views = cameras.size();
-  std::vector<std::vector<Eigen::Vector2d>> centroids(views);
   std::vector<std::vector<Ray>> rays(views);
   std::vector<std::vector<bool>> moves(views);
   for (size_t c = 0; c < views; ++c) {
-    const size_t n =
-        std::min(candidates[c].size(), static_cast<size_t>(params.max_candidates_per_view));
-    for (size_t j = 0; j < n; ++j) {
-      centroids[c].push_back(cameras[c].undistortPixel(candidates[c][j].centroid));
-      rays[c].push_back(pixelRay(cameras[c], centroids[c].back()));
+    for (size_t j = 0; j < centroids[c].size(); ++j) {
+      rays[c].push_back(pixelRay(cameras[c], centroids[c][j]));
       const HandCandidate& candidate = candidates[c][j];
       const double cells = static_cast<double>(candidate.cell_indices.size());
       moves[c].push_back(
@@ -135,16 +164,8 @@ std::vector<MultiViewChoice> proposedChoices(
               chosen = refined_chosen;
             }
           }
-          MultiViewChoice choice;
+          MultiViewChoice choice = tally(candidates, point, std::move(chosen));
           choice.found = true;
-          choice.point = point;
-          choice.chosen = chosen;
-          for (size_t c = 0; c < views; ++c) {
-            if (chosen[c] < 0) continue;
-            ++choice.supporting_views;
-            choice.score += candidates[c][chosen[c]].score;
-            choice.moving += candidates[c][chosen[c]].moving;
-          }
           if (choice.supporting_views >= params.min_views) choices.push_back(std::move(choice));
         }
       }
@@ -214,28 +235,9 @@ std::vector<MultiViewChoice> stillHypotheses(
 MultiViewChoice supportAt(const std::vector<Camera>& cameras,
                           const std::vector<std::vector<HandCandidate>>& candidates,
                           const Eigen::Vector3d& point, const MultiViewParams& params) {
-  if (cameras.size() != candidates.size()) {
-    throw InputError("supportAt: " + std::to_string(cameras.size()) +
-                     " cameras but candidates of " + std::to_string(candidates.size()) + " views");
-  }
-  std::vector<std::vector<Eigen::Vector2d>> centroids(cameras.size());
-  for (size_t c = 0; c < cameras.size(); ++c) {
-    const size_t n =
-        std::min(candidates[c].size(), static_cast<size_t>(params.max_candidates_per_view));
-    for (size_t j = 0; j < n; ++j) {
-      centroids[c].push_back(cameras[c].undistortPixel(candidates[c][j].centroid));
-    }
-  }
-  MultiViewChoice result;
-  result.point = point;
-  result.chosen = support(cameras, centroids, point, params);
-  for (size_t c = 0; c < cameras.size(); ++c) {
-    if (result.chosen[c] < 0) continue;
-    ++result.supporting_views;
-    result.score += candidates[c][result.chosen[c]].score;
-    result.moving += candidates[c][result.chosen[c]].moving;
-  }
-  return result;
+  const std::vector<std::vector<Eigen::Vector2d>> centroids =
+      undistortedCentroids(cameras, candidates, params, "supportAt");
+  return tally(candidates, point, support(cameras, centroids, point, params));
 }
 
 bool replacesTrack(const MultiViewChoice& challenger, const MultiViewChoice& tracked,

@@ -588,25 +588,27 @@ cv::Mat ImageSegmenter::lastForegroundMask() const {
   return maskImage(room_.mask.data(), room_.cells_x, room_.cell_size, room_.width, room_.height);
 }
 
-void ImageSegmenter::sleeveEvidence(const cv::Mat& rgb, const cv::Mat& kept, ImageSoG* sog) const {
+void ImageSegmenter::sleeveEvidence(const cv::Mat& kept, ImageSoG* sog) const {
   const SegmentationMode mode = effectiveMode();
-  if (mode == SegmentationMode::kPlate || mode == SegmentationMode::kPlateAndSkin) return;
+  if (mode != SegmentationMode::kSkin) return;  // the plate's evidence, or no foreground at all
   if (!params_.room.enabled || params_.room.sleeve_band_cells <= 0) return;
-  if (kept.type() != CV_8UC1 || kept.cols != rgb.cols || kept.rows != rgb.rows) {
-    throw InputError("sleeveEvidence: the kept mask is not CV_8UC1 at the image's size");
+  if (room_.mask.empty() || room_.previous_means.size() != 3 * room_.mask.size()) {
+    throw InputError("sleeveEvidence: no image segmented yet");
   }
-  Workspace& ws = workspace();
-  CellMask mask;
-  if (!prepare(rgb, params_, mode, plate_, "sleeveEvidence", ws, mask)) return;
-  const int s = params_.cell_size;
-  std::vector<unsigned char> cells(ws.mask.size(), 0);
+  if (kept.type() != CV_8UC1 || kept.cols != room_.width || kept.rows != room_.height) {
+    throw InputError("sleeveEvidence: the kept mask is not CV_8UC1 at the image's size " +
+                     std::to_string(room_.width) + "x" + std::to_string(room_.height));
+  }
+  // The last segmented image's cell means are the room cues' previous means by now.
+  const int s = room_.cell_size;
+  std::vector<unsigned char> cells(room_.mask.size(), 0);
   for (int i = 0; i < static_cast<int>(cells.size()); ++i) {
-    const int x = std::min((i % mask.cells_x) * s + s / 2, rgb.cols - 1);
-    const int y = std::min((i / mask.cells_x) * s + s / 2, rgb.rows - 1);
+    const int x = std::min((i % room_.cells_x) * s + s / 2, room_.width - 1);
+    const int y = std::min((i / room_.cells_x) * s + s / 2, room_.height - 1);
     cells[i] = kept.at<unsigned char>(y, x) != 0;
   }
-  detail::sleeveNextToForeground(params_, ws.cell_means, mask.cells_x, mask.cells_y, s, cells,
-                                 &sog->arm_cells, &sog->arm_centroid);
+  detail::sleeveNextToForeground(params_, room_.previous_means, room_.cells_x, room_.cells_y, s,
+                                 cells, &sog->arm_cells, &sog->arm_centroid);
 }
 
 ImageSoG ImageSegmenter::segmentFrame(const cv::Mat& rgb, std::vector<QuadtreeLeaf>* leaves) {

@@ -144,7 +144,8 @@ void TrackingPipeline::checkImage(const CameraImage& image) const {
   }
 }
 
-bool TrackingPipeline::chooseRegionsAcrossViews(const FrameSet& set, bool tracking) {
+bool TrackingPipeline::chooseRegionsAcrossViews(const FrameSet& set, bool tracking,
+                                                StillRegions* still_regions) {
   std::vector<std::vector<HandCandidate>> candidates(cameras_.size());
   for (const CameraImage& image : set.images) {
     candidates[image.camera] = segmenters_[image.camera].handCandidates(
@@ -168,55 +169,56 @@ bool TrackingPipeline::chooseRegionsAcrossViews(const FrameSet& set, bool tracki
     tracked_regions_ = false;
     provisional_track_ = false;
   }
-  still_hypotheses_.clear();
-  if (!choice.found && !tracking && params_.multi_view.still_hypotheses > 0) {
-    still_hypotheses_ = stillHypotheses(cameras_, candidates, params_.multi_view);
-    if (!still_hypotheses_.empty()) still_candidates_ = candidates;
-  }
   const int margin = params_.multi_view.region_margin_cells;
+  // Per camera, the region of `hypothesis`' candidate there (all zero where it has none).
+  auto regionsOf = [&](const MultiViewChoice& hypothesis) {
+    std::vector<cv::Mat> regions(cameras_.size());
+    for (const CameraImage& image : set.images) {
+      const int c = image.camera;
+      const int chosen = hypothesis.chosen[c];
+      regions[c] = candidateRegion(chosen >= 0 ? &candidates[c][chosen] : nullptr,
+                                   cameras_[c].width, cameras_[c].height, margin);
+    }
+    return regions;
+  };
+  std::vector<cv::Mat> regions = regionsOf(choice);
+  if (!choice.found && !tracking && still_regions != nullptr &&
+      params_.multi_view.still_hypotheses > 0) {
+    for (const MultiViewChoice& hypothesis :
+         stillHypotheses(cameras_, candidates, params_.multi_view)) {
+      still_regions->push_back(regionsOf(hypothesis));
+      for (const CameraImage& image : set.images) {
+        regions[image.camera] |= still_regions->back()[image.camera];
+      }
+    }
+  }
+  // Nothing agrees across the views (an all-zero region): no blob of this view is the hand.
   for (const CameraImage& image : set.images) {
-    const int c = image.camera;
-    const int width = cameras_[c].width, height = cameras_[c].height;
-    cv::Mat region = candidateRegion(nullptr, width, height, 0);
-    if (choice.found && choice.chosen[c] >= 0) {
-      region = candidateRegion(&candidates[c][choice.chosen[c]], width, height, margin);
-    }
-    for (const MultiViewChoice& hypothesis : still_hypotheses_) {
-      if (hypothesis.chosen[c] < 0) continue;
-      region |= candidateRegion(&candidates[c][hypothesis.chosen[c]], width, height, margin);
-    }
-    // Nothing agrees across the views (an all-zero region): no blob of this view is the hand.
-    segmenters_[c].setRegionOfInterest(region, RegionSource::kCandidates);
+    segmenters_[image.camera].setRegionOfInterest(regions[image.camera], RegionSource::kCandidates);
   }
   return true;
 }
 
 std::optional<FrameResult> TrackingPipeline::startOnStillHypotheses(
-    const FrameSet& set, std::vector<CameraObservation>* observations) {
+    const FrameSet& set, const StillRegions& still_regions,
+    std::vector<CameraObservation>* observations) {
   std::optional<FrameResult> best;
   double best_score = 0.0;
-  const MultiViewChoice* best_choice = nullptr;
+  const std::vector<cv::Mat>* best_regions = nullptr;
   std::vector<CameraObservation> best_observations;
-  const int margin = params_.multi_view.region_margin_cells;
   // This set's foreground (inside the union of the hypotheses' regions) per camera; empty for a
   // camera without an image in the set.
   std::vector<cv::Mat> foregrounds(cameras_.size());
   for (const CameraImage& image : set.images) {
     foregrounds[image.camera] = segmenters_[image.camera].lastForegroundMask();
   }
-  for (const MultiViewChoice& hypothesis : still_hypotheses_) {
+  for (const std::vector<cv::Mat>& regions : still_regions) {
     std::vector<CameraObservation> trial = *observations;
     for (CameraObservation& observation : trial) {
-      const int c = static_cast<int>(&observation - trial.data());
-      const int camera = set.images[c].camera;
-      const int chosen = hypothesis.chosen[camera];
-      const cv::Mat region =
-          candidateRegion(chosen >= 0 ? &still_candidates_[camera][chosen] : nullptr,
-                          observation.sog.width, observation.sog.height, margin);
-      observation.sog = keepInsideRegion(observation.sog, region);
+      const int camera = set.images[&observation - trial.data()].camera;
+      observation.sog = keepInsideRegion(observation.sog, regions[camera]);
       // The sleeve beside this hypothesis' blob only (the set's was beside all of them).
-      segmenters_[camera].sleeveEvidence(set.images[c].rgb, foregrounds[camera] & region,
-                                         &observation.sog);
+      segmenters_[camera].sleeveEvidence(foregrounds[camera] & regions[camera], &observation.sog);
       undistortImageSoG(observation.camera, &observation.sog);
     }
     HandTracker tracker(tracker_.model(), params_.tracker);
@@ -228,7 +230,7 @@ std::optional<FrameResult> TrackingPipeline::startOnStillHypotheses(
     if (score < params_.multi_view.still_min_score || score <= best_score) continue;
     best_score = score;
     best = result;
-    best_choice = &hypothesis;
+    best_regions = &regions;
     best_observations = std::move(trial);
     tracker_ = std::move(tracker);
   }
@@ -236,13 +238,9 @@ std::optional<FrameResult> TrackingPipeline::startOnStillHypotheses(
   still_kept_.assign(cameras_.size(), cv::Mat());
   for (const CameraImage& image : set.images) {
     const int c = image.camera;
-    const int chosen = best_choice ? best_choice->chosen[c] : -1;
-    still_kept_[c] =
-        foregrounds[c] & candidateRegion(chosen >= 0 ? &still_candidates_[c][chosen] : nullptr,
-                                         cameras_[c].width, cameras_[c].height, margin);
+    still_kept_[c] = best_regions ? foregrounds[c] & (*best_regions)[c]
+                                  : cv::Mat(foregrounds[c].size(), CV_8UC1, cv::Scalar(0));
   }
-  still_hypotheses_.clear();
-  still_candidates_.clear();
   if (best) {
     *observations = std::move(best_observations);
   } else {
@@ -272,9 +270,10 @@ ProcessedFrame TrackingPipeline::process(const FrameSet& set,
 
   const auto segmentation_start = std::chrono::steady_clock::now();
   for (cv::Mat& kept : still_kept_) kept.release();
+  StillRegions still_regions;
   if (params_.segmentation.room.enabled && params_.multi_view.enabled) {
     if (!tracked_regions_) {
-      chooseRegionsAcrossViews(set, false);
+      chooseRegionsAcrossViews(set, false, &still_regions);
     } else if (provisional_track_ ||
                (params_.multi_view.recheck_interval > 0 &&
                 ++sets_since_recheck_ >= params_.multi_view.recheck_interval)) {
@@ -283,7 +282,7 @@ ProcessedFrame TrackingPipeline::process(const FrameSet& set,
     }
   }
   // Still hypotheses are told apart after segmentation, in raw pixels: undistorted later.
-  const bool still = !still_hypotheses_.empty();
+  const bool still = !still_regions.empty();
   std::vector<CameraObservation> observations;
   observations.reserve(set.images.size());
   for (const CameraImage& image : set.images) {
@@ -297,7 +296,7 @@ ProcessedFrame TrackingPipeline::process(const FrameSet& set,
 
   const auto tracking_start = std::chrono::steady_clock::now();
   std::optional<FrameResult> still_start;
-  if (still) still_start = startOnStillHypotheses(set, &observations);
+  if (still) still_start = startOnStillHypotheses(set, still_regions, &observations);
   processed.result =
       still_start ? *still_start : tracker_.update(observations, set.stamp(), sets_seen_ - 1);
   processed.late = tracker_.takeLateResults();

@@ -240,10 +240,11 @@ TEST(RoomCues, WithoutAPlateTheSleeveBesideTheHandIsTheForearmEvidence) {
   cv::Mat first_blob(240, 320, CV_8UC1, cv::Scalar(0));
   first_blob(cv::Rect(120, 100, 70, 40)).setTo(255);
   ImageSoG evidence;
-  segmenter.sleeveEvidence(two, first_blob, &evidence);
+  segmenter.segmentFrame(two);
+  segmenter.sleeveEvidence(first_blob, &evidence);
   EXPECT_GT(evidence.arm_cells, 6);
   EXPECT_LT(evidence.arm_centroid.x(), 120.0);
-  EXPECT_THROW(segmenter.sleeveEvidence(two, cv::Mat(10, 10, CV_8UC1), &evidence), InputError);
+  EXPECT_THROW(segmenter.sleeveEvidence(cv::Mat(10, 10, CV_8UC1), &evidence), InputError);
 
   // Dark all around the hand (a shadow, a dark table) says nothing about the wrist.
   cv::Mat ring = light.clone();

@@ -224,12 +224,13 @@ class ImageSegmenter {
   ImageSoG segmentFrame(const cv::Mat& rgb, std::vector<QuadtreeLeaf>* leaves = nullptr);
   // The foreground of the last segmentFrame call (CV_8UC1, 255 = foreground; empty before).
   cv::Mat lastForegroundMask() const;
-  // Without a plate (the skin gate, room cues on): the forearm evidence of `kept` (CV_8UC1 at the
-  // image's size; a cell counts when its centre pixel is set), i.e. the sleeve beside that part
-  // of the foreground (RoomCueParams::sleeve_band_cells), written to sog->arm_cells and
-  // arm_centroid; segmentFrame gives it for everything it kept. With a plate `sog` is left as it
-  // is (the plate's evidence). Changes no memory. Same errors as segment.
-  void sleeveEvidence(const cv::Mat& rgb, const cv::Mat& kept, ImageSoG* sog) const;
+  // Without a plate (the skin gate, room cues on), in the image last given to segmentFrame: the
+  // forearm evidence of `kept` (CV_8UC1 at the image's size; a cell counts when its centre pixel
+  // is set), i.e. the sleeve beside that part of the foreground (RoomCueParams::
+  // sleeve_band_cells), written to sog->arm_cells and arm_centroid; segmentFrame gives it for
+  // everything it kept. With a plate `sog` is left as it is (the plate's evidence). Changes no
+  // memory. Throws InputError before any segmentFrame or for a mask of another size.
+  void sleeveEvidence(const cv::Mat& kept, ImageSoG* sog) const;
   bool skinColourLearned() const { return room_.skin_frames > 0; }
   // Forgets the motion history, the learned skin colour and the region of interest.
   void resetRoomState();

@@ -101,19 +101,23 @@ class TrackingPipeline {
 
  private:
   void checkImage(const CameraImage& image) const;
-  // Before the start: gives each camera's segmenter its multi-view candidate region for `set`
-  // (when no moving candidates agree but still ones do, the union of the still hypotheses'
-  // regions, kept in still_hypotheses_ for startOnStillHypotheses). While tracking
+  // Per still hypothesis (MultiViewParams::still_hypotheses), per camera: the region of its
+  // candidate there (an all-zero mask where it has none; empty for cameras without an image).
+  using StillRegions = std::vector<std::vector<cv::Mat>>;
+  // Before the start: gives each camera's segmenter its multi-view candidate region for `set`;
+  // when no moving candidates agree but still ones do, the union of the still hypotheses'
+  // regions, which go to `still_regions` (for startOnStillHypotheses). While tracking
   // (MultiViewParams::recheck_interval): only when the choice replaces the track, which is then
   // reset; returns whether the regions were set.
-  bool chooseRegionsAcrossViews(const FrameSet& set, bool tracking);
-  // A still scene (MultiViewParams::still_hypotheses): each hypothesis keeps, of this set's
-  // segmented (raw-pixel) SoGs, the Gaussians inside its candidates' regions and is started by a
-  // tracker of its own; the start with the highest score (MultiViewParams::still_min_score), at
-  // least still_min_score, becomes the track (its tracker replaces tracker_, its observations
-  // `observations`) and its result is returned. None: nothing is kept of the set (`observations`
-  // are emptied of Gaussians) and the tracker waits.
+  bool chooseRegionsAcrossViews(const FrameSet& set, bool tracking,
+                                StillRegions* still_regions = nullptr);
+  // A still scene: each hypothesis keeps, of this set's segmented (raw-pixel) SoGs, the Gaussians
+  // inside its regions and is started by a tracker of its own; the start with the highest score
+  // (MultiViewParams::still_min_score), at least still_min_score, becomes the track (its tracker
+  // replaces tracker_, its observations `observations`) and its result is returned. None: nothing
+  // is kept of the set (`observations` are emptied of Gaussians) and the tracker waits.
   std::optional<FrameResult> startOnStillHypotheses(const FrameSet& set,
+                                                    const StillRegions& still_regions,
                                                     std::vector<CameraObservation>* observations);
 
   std::vector<Camera> cameras_;
@@ -124,9 +128,6 @@ class TrackingPipeline {
   bool tracked_regions_ = false;  // the segmenters hold regions from a tracked pose
   Eigen::Vector3d tracked_centre_ = Eigen::Vector3d::Zero();  // mean of the tracked model's means
   int sets_since_recheck_ = 0;
-  // This set's still hypotheses and the candidates they index (chooseRegionsAcrossViews).
-  std::vector<MultiViewChoice> still_hypotheses_;
-  std::vector<std::vector<HandCandidate>> still_candidates_;
   // Per camera, what the last set kept when it tried still hypotheses (empty: the segmenter's
   // mask).
   std::vector<cv::Mat> still_kept_;
