@@ -19,7 +19,8 @@
 // Room cues (issue 11; ros/live_room_cues.h, doc/segmentation.md "The live graph"): with a fresh
 //   tracked hand_region (stamped within region_timeout of the image) the foreground is kept inside
 //   its projected silhouette (projectedHandMask with this camera_info; SoG region TRACKED and
-//   region_stamp the hand_region's stamp; with
+//   region_stamp the hand_region's stamp; without a plate, what stays still outside the model's
+//   own silhouette (trackedModelSilhouette) is dropped: RoomCueParams cue 7; with
 //   candidates_wanted the whole image's hand candidates are attached for the tracker's re-check);
 //   without one it is kept inside the union of the image's hand candidates, which are attached
 //   (region CANDIDATES) for the tracker's multi-view check. Turn room_cues on together with the
@@ -253,8 +254,12 @@ class SegmentationNodelet : public nodelet::Nodelet {
         regionIsFresh(region_->header.stamp.toSec(), image.header.stamp.toSec(), region_timeout_)) {
       try {
         if (region_ != applied_region_) {
-          segmenter_.setRegionOfInterest(trackedRegionMask(*region_, fromCameraInfo(info)),
-                                         RegionSource::kTrack);
+          const Camera camera = fromCameraInfo(info);
+          const bool still_objects = segmenter_.params().room.still_object_frames > 0 &&
+                                     segmenter_.effectiveMode() == SegmentationMode::kSkin;
+          segmenter_.setRegionOfInterest(
+              trackedRegionMask(*region_, camera), RegionSource::kTrack,
+              still_objects ? trackedModelSilhouette(*region_, camera) : cv::Mat());
           applied_region_ = region_;
         }
         if (region_->candidates_wanted)

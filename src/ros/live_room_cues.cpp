@@ -125,10 +125,20 @@ PosedHand handFromRegionMsg(const sag_hand_tracker::HandRegion& msg) {
   return hand;
 }
 
-cv::Mat trackedRegionMask(const sag_hand_tracker::HandRegion& msg, const Camera& camera) {
+namespace {
+Camera atOrigin(const Camera& camera) {
   Camera at_origin = camera;
   at_origin.world_to_camera = Eigen::Isometry3d::Identity();  // the Gaussians are in its frame
-  return projectedHandMask(handFromRegionMsg(msg), at_origin);
+  return at_origin;
+}
+}  // namespace
+
+cv::Mat trackedRegionMask(const sag_hand_tracker::HandRegion& msg, const Camera& camera) {
+  return projectedHandMask(handFromRegionMsg(msg), atOrigin(camera));
+}
+
+cv::Mat trackedModelSilhouette(const sag_hand_tracker::HandRegion& msg, const Camera& camera) {
+  return projectedModelSilhouette(handFromRegionMsg(msg), atOrigin(camera));
 }
 
 cv::Mat candidatesRegionMask(const std::vector<HandCandidate>& candidates, int width, int height,

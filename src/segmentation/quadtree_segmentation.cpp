@@ -346,6 +346,9 @@ void validate(const SegmentationParams& params) {
     fail("room.plate_adaptation_rate must be in [0, 1]");
   }
   if (!(r.colour_ratio >= 0.0)) fail("room.colour_ratio must be >= 0 (0: off)");
+  if (r.still_object_frames < 0 || r.still_object_frames > 65535) {
+    fail("room.still_object_frames must be in [0, 65535] (0: off)");
+  }
   if (!(r.colour_learning_rate > 0.0 && r.colour_learning_rate <= 1.0)) {
     fail("room.colour_learning_rate must be in (0, 1]");
   }
@@ -545,10 +548,12 @@ cv::Mat ImageSegmenter::foregroundMask(const cv::Mat& rgb) const {
 void ImageSegmenter::setRegionOfInterest(const cv::Rect& roi) {
   roi_ = roi;
   roi_mask_ = cv::Mat();
+  model_silhouette_ = cv::Mat();
   roi_source_ = RegionSource::kTrack;
 }
 
-void ImageSegmenter::setRegionOfInterest(const cv::Mat& roi_mask, RegionSource source) {
+void ImageSegmenter::setRegionOfInterest(const cv::Mat& roi_mask, RegionSource source,
+                                         const cv::Mat& model_silhouette) {
   if (roi_mask.empty()) {
     setRegionOfInterest(cv::Rect());
     return;
@@ -557,8 +562,15 @@ void ImageSegmenter::setRegionOfInterest(const cv::Mat& roi_mask, RegionSource s
     throw InputError("setRegionOfInterest: the region mask must be CV_8UC1, got " +
                      cv::typeToString(roi_mask.type()));
   }
+  if (!model_silhouette.empty() &&
+      (model_silhouette.type() != CV_8UC1 || model_silhouette.size() != roi_mask.size())) {
+    throw InputError(
+        "setRegionOfInterest: the model's silhouette must be a CV_8UC1 mask of the "
+        "region's size");
+  }
   roi_source_ = source;
   roi_mask_ = roi_mask;
+  model_silhouette_ = source == RegionSource::kTrack ? model_silhouette : cv::Mat();
   roi_ = cv::boundingRect(roi_mask);
   // A multi-view choice that found nothing in this view: a region that holds no cell.
   if (roi_.area() == 0 && source == RegionSource::kCandidates) {
@@ -581,6 +593,7 @@ void ImageSegmenter::resetRoomState() {
   roi_source_ = RegionSource::kTrack;
   roi_ = cv::Rect();
   roi_mask_ = cv::Mat();
+  model_silhouette_ = cv::Mat();
 }
 
 cv::Mat ImageSegmenter::lastForegroundMask() const {
@@ -624,8 +637,9 @@ ImageSoG ImageSegmenter::segmentFrame(const cv::Mat& rgb, std::vector<QuadtreeLe
     const bool use_plate =
         (mode == SegmentationMode::kPlate || mode == SegmentationMode::kPlateAndSkin);
     detail::applyRoomCues(params_, ws.cell_means, mask.cells_x, mask.cells_y, mask.cell_size,
-                          rgb.cols, rgb.rows, roi_, roi_mask_, roi_source_ == RegionSource::kTrack,
-                          use_plate ? &plate_ : nullptr, room_, ws.mask);
+                          rgb.cols, rgb.rows, roi_, roi_mask_, model_silhouette_,
+                          roi_source_ == RegionSource::kTrack, use_plate ? &plate_ : nullptr, room_,
+                          ws.mask);
     finishMask(ws, mask.cells_x, mask.cells_y, mask.cell_size, mask);
     if (!use_plate && params_.room.sleeve_band_cells > 0) {
       Eigen::Vector2d centroid;

@@ -234,8 +234,8 @@ std::vector<unsigned char> groupAround(const std::vector<Component>& components,
 
 void applyRoomCues(const SegmentationParams& params, const std::vector<float>& means, int cells_x,
                    int cells_y, int cell_size, int width, int height, const cv::Rect& roi,
-                   const cv::Mat& roi_mask, bool learn_skin, BackgroundPlate* plate,
-                   RoomCueState& state, std::vector<unsigned char>& mask) {
+                   const cv::Mat& roi_mask, const cv::Mat& model_silhouette, bool learn_skin,
+                   BackgroundPlate* plate, RoomCueState& state, std::vector<unsigned char>& mask) {
   const RoomCueParams& room = params.room;
   const int cells = cells_x * cells_y;
   const std::vector<unsigned char> candidate = mask;
@@ -285,6 +285,32 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
       }
     }
     removeBackgroundColoured(room, means, state, cell_depth, mask);
+  }
+
+  // Cue 7 (without a plate, which holds still objects already): a cell that stays still outside
+  // the model. Under the model the count starts again, so that a still hand the model has not
+  // yet covered is not lost for good once it is; motion starts it again too.
+  const bool count_still = plate == nullptr && room.still_object_frames > 0 && has_roi &&
+                           learn_skin && model_silhouette.size() == cv::Size(width, height);
+  if (!count_still) {
+    state.still_outside.clear();
+  } else {
+    if (state.still_outside.size() != static_cast<size_t>(cells)) {
+      state.still_outside.assign(cells, 0);
+    }
+    for (int cy = 0; cy < cells_y; ++cy) {
+      for (int cx = 0; cx < cells_x; ++cx) {
+        const int i = cy * cells_x + cx;
+        unsigned short& frames = state.still_outside[i];
+        const bool under_model = model_silhouette.at<unsigned char>(cellCentre(cx, cy)) != 0;
+        if (under_model || motion[i] >= 1.0f) {
+          frames = 0;
+          continue;
+        }
+        if (frames < room.still_object_frames) ++frames;
+        if (frames >= room.still_object_frames) mask[i] = 0;
+      }
+    }
   }
 
   // Connected components and their cues.

@@ -66,8 +66,8 @@ inline int cellCount(int pixels, int cell_size) { return (pixels + cell_size - 1
 // so the user's skin colour may be learned from what it keeps.
 void applyRoomCues(const SegmentationParams& params, const std::vector<float>& means, int cells_x,
                    int cells_y, int cell_size, int width, int height, const cv::Rect& roi,
-                   const cv::Mat& roi_mask, bool learn_skin, BackgroundPlate* plate,
-                   RoomCueState& state, std::vector<unsigned char>& mask);
+                   const cv::Mat& roi_mask, const cv::Mat& model_silhouette, bool learn_skin,
+                   BackgroundPlate* plate, RoomCueState& state, std::vector<unsigned char>& mask);
 
 // Without a plate (the skin gate), the forearm evidence of ImageSoG::arm_cells: the dark,
 // unsaturated cells (the sleeve) reached from the kept foreground `mask` through such cells within

@@ -160,11 +160,18 @@ TEST(LiveRoomCues, BadCandidatesAreNamed) {
 TEST(LiveRoomCues, TheRegionProjectedByTheSegmenterIsThePipelines) {
   const PosedHand hand = studioHand();
   for (const Camera& camera : dexter5()) {
-    const cv::Mat live = trackedRegionMask(handRegionMsg(hand, camera), camera);
+    const sag_hand_tracker::HandRegion msg = handRegionMsg(hand, camera);
+    const cv::Mat live = trackedRegionMask(msg, camera);
     const cv::Mat offline = projectedHandMask(hand, camera);
     ASSERT_EQ(live.size(), offline.size());
     EXPECT_GT(cv::countNonZero(offline), 500) << camera.name;
     EXPECT_EQ(cv::countNonZero(live != offline), 0) << camera.name;
+    // The model's own silhouette (cue 7) likewise.
+    const cv::Mat live_silhouette = trackedModelSilhouette(msg, camera);
+    const cv::Mat offline_silhouette = projectedModelSilhouette(hand, camera);
+    ASSERT_EQ(live_silhouette.size(), offline_silhouette.size());
+    EXPECT_GT(cv::countNonZero(offline_silhouette), 200) << camera.name;
+    EXPECT_EQ(cv::countNonZero(live_silhouette != offline_silhouette), 0) << camera.name;
   }
 }
 

@@ -354,6 +354,103 @@ TEST(RoomCues, TheHandsColourAgainstTheBackgroundsDropsAPhotographTouchingTheHan
   EXPECT_EQ(maskAt(segmenter, {131, 120}), 255);
 }
 
+// Cue 7: without a plate, a skin-coloured thing that touches the hand inside the region (a ball
+// at the fingertips) and stays still outside the model's own silhouette is dropped after
+// still_object_frames frames; the hand under the model and a part of it that moves stay.
+TEST(RoomCues, AStillSkinObjectBesideTheModelIsDroppedOnceItHasStayedStill) {
+  const cv::Vec3b kSkinDarker(180, 126, 99);  // the same chromaticity, 10 % darker
+  cv::Mat region(240, 320, CV_8UC1, cv::Scalar(0));
+  cv::circle(region, {100, 120}, 60, cv::Scalar(255), cv::FILLED);  // holds hand and ball
+  cv::Mat silhouette(240, 320, CV_8UC1, cv::Scalar(0));
+  cv::circle(silhouette, {100, 120}, 27, cv::Scalar(255), cv::FILLED);  // the model: the hand
+  const cv::Point hand(100, 120), ball(140, 120), finger(100, 75);
+  auto image = [&](int frame) {
+    cv::Mat rgb = greyImage();
+    disc(rgb, hand, 25, kSkin);
+    disc(rgb, ball, 14, kSkin);  // touches the hand, the hand's own colour
+    // A finger outside the model that moves: its colour changes every frame.
+    cv::rectangle(rgb, cv::Rect(94, 70, 12, 30),
+                  frame % 2 ? cv::Scalar(kSkin[0], kSkin[1], kSkin[2])
+                            : cv::Scalar(kSkinDarker[0], kSkinDarker[1], kSkinDarker[2]),
+                  cv::FILLED);
+    return rgb;
+  };
+  SegmentationParams params = roomSkinParams();
+  ASSERT_EQ(params.room.still_object_frames, 25);
+  params.room.still_object_frames = 5;
+  ImageSegmenter segmenter(params);
+  for (int frame = 1; frame <= 8; ++frame) {
+    segmenter.setRegionOfInterest(region, RegionSource::kTrack, silhouette);
+    segmenter.segmentFrame(image(frame));
+    EXPECT_EQ(maskAt(segmenter, hand), 255) << "frame " << frame;
+    EXPECT_EQ(maskAt(segmenter, finger), 255) << "frame " << frame;
+    EXPECT_EQ(maskAt(segmenter, ball), frame < 5 ? 255 : 0) << "frame " << frame;
+  }
+  // Once the model covers it, it is kept again at once (the count starts again under the model).
+  cv::Mat wider = silhouette.clone();
+  cv::circle(wider, ball, 16, cv::Scalar(255), cv::FILLED);
+  segmenter.setRegionOfInterest(region, RegionSource::kTrack, wider);
+  segmenter.segmentFrame(image(9));
+  EXPECT_EQ(maskAt(segmenter, ball), 255);
+
+  // Off (0), with a region of candidates, or without the model's silhouette: the ball stays.
+  for (const int variant : {0, 1, 2}) {
+    SegmentationParams p = roomSkinParams();
+    if (variant == 0) p.room.still_object_frames = 0;
+    ImageSegmenter s(p);
+    for (int frame = 1; frame <= 30; ++frame) {
+      if (variant == 1) {
+        s.setRegionOfInterest(region, RegionSource::kCandidates, silhouette);
+      } else {
+        s.setRegionOfInterest(region, RegionSource::kTrack, variant == 2 ? cv::Mat() : silhouette);
+      }
+      s.segmentFrame(image(frame));
+    }
+    EXPECT_EQ(maskAt(s, ball), 255) << "variant " << variant;
+  }
+  // A silhouette of another size or type is refused, naming it.
+  try {
+    segmenter.setRegionOfInterest(region, RegionSource::kTrack, cv::Mat(10, 10, CV_8UC1));
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("silhouette"), std::string::npos) << e.what();
+  }
+}
+
+// The model's own silhouette (cue 7) lies inside the region of interest, covers the rendered
+// hand, and is much tighter than the region; nothing behind the camera.
+TEST(RoomCues, TheModelSilhouetteCoversTheRenderedHandInsideTheRegion) {
+  const Pose pose = studioPose();
+  const PosedHand posed = forwardKinematics(model("sag"), pose);
+  static const StudioRenderer renderer(dexter5());
+  const auto images =
+      renderer.render({buildHandSurface(model("sag"), posed.bone_frames, HandSurfaceParams())}, 3);
+  for (size_t c = 0; c < dexter5().size(); ++c) {
+    const Camera& camera = dexter5()[c];
+    const cv::Mat silhouette = projectedModelSilhouette(posed, camera);
+    const cv::Mat region = projectedHandMask(posed, camera);
+    int hand = 0, covered = 0;
+    for (int i = 0; i < static_cast<int>(images[c].labels.total()); ++i) {
+      if (!isTrackedHandLabel(images[c].labels.data[i])) continue;
+      ++hand;
+      covered += silhouette.data[i] != 0;
+    }
+    ASSERT_GT(hand, 500) << camera.name;
+    EXPECT_GT(covered, 0.97 * hand) << camera.name;
+    EXPECT_EQ(cv::countNonZero(silhouette & ~region), 0) << camera.name;
+    EXPECT_LT(cv::countNonZero(silhouette), 0.6 * cv::countNonZero(region)) << camera.name;
+    std::printf("%s: the silhouette covers %.1f %% of the hand, %.0f %% of the region's area\n",
+                camera.name.c_str(), 100.0 * covered / hand,
+                100.0 * cv::countNonZero(silhouette) / cv::countNonZero(region));
+  }
+  Pose behind = pose;
+  const Camera& camera = dexter5()[0];
+  behind.translation = camera.centre() + 0.3 * (camera.centre() - pose.translation).normalized();
+  EXPECT_EQ(
+      cv::countNonZero(projectedModelSilhouette(forwardKinematics(model("sag"), behind), camera)),
+      0);
+}
+
 TEST(RoomCues, ThePlateFollowsTheLightWhereTheHandIsNot) {
   SegmentationParams params;
   params.mode = SegmentationMode::kPlate;
@@ -396,6 +493,15 @@ TEST(RoomCues, BadParametersAreNamed) {
     FAIL() << "colour_rim_depth == colour_core_depth accepted";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("room.colour_core_depth"), std::string::npos) << e.what();
+  }
+  SegmentationParams still;
+  still.room.still_object_frames = -1;
+  try {
+    validate(still);
+    FAIL() << "still_object_frames -1 accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("room.still_object_frames"), std::string::npos)
+        << e.what();
   }
 }
 

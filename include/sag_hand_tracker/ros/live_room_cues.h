@@ -52,6 +52,9 @@ PosedHand handFromRegionMsg(const sag_hand_tracker::HandRegion& msg);
 // The region of interest of a HandRegion in its camera (projectedHandMask with the camera at the
 // origin: the Gaussians are in its frame). Same errors as handFromRegionMsg.
 cv::Mat trackedRegionMask(const sag_hand_tracker::HandRegion& msg, const Camera& camera);
+// The tracked model's own silhouette of a HandRegion in its camera (projectedModelSilhouette;
+// RoomCueParams cue 7). Same errors as handFromRegionMsg.
+cv::Mat trackedModelSilhouette(const sag_hand_tracker::HandRegion& msg, const Camera& camera);
 // The union of the candidates' regions (candidateRegion, each grown by margin_cells); all zero
 // without candidates (nothing kept: no blob of this view can be the hand).
 cv::Mat candidatesRegionMask(const std::vector<HandCandidate>& candidates, int width, int height,

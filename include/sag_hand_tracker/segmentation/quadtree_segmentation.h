@@ -106,6 +106,12 @@ struct RoomCueParams {
   double colour_learning_rate = 0.05;
   double colour_core_depth = 16.0;  // pixels inside the region's edge: the hand is sampled there
   double colour_rim_depth = 5.0;    // pixels: the region's rim, sampled as background
+  // 7. still objects beside the hand (without a plate): a cell that has stayed outside the tracked
+  //    model's own silhouette (setRegionOfInterest's model_silhouette) with an unchanged colour
+  //    (cue 4's motion test) for still_object_frames frames in a row is not hand, even inside
+  //    the region: a skin-coloured ball at the fingertips, a wooden spoon, the other hand at rest.
+  //    It counts again once it moves or the model covers it. 0 turns the cue off.
+  int still_object_frames = 25;
 };
 
 struct SegmentationParams {
@@ -145,6 +151,8 @@ struct RoomCueState {
   // background; empty until learned.
   static constexpr int kColourBins = 64;
   std::vector<float> hand_colour, background_colour;
+  // Cue 7: per cell, the frames in a row it stayed still outside the model's silhouette.
+  std::vector<unsigned short> still_outside;
 };
 
 // One hand candidate of a frame without a region of interest (RoomCueParams, cue 3): a connected
@@ -213,7 +221,10 @@ class ImageSegmenter {
   // The same with the region as a mask (CV_8UC1 at image size, non-zero = region), e.g. the
   // tracked model's projected silhouette grown by a margin: tighter than its box, which in a room
   // holds much background. An empty mask clears the region. Throws InputError for another type.
-  void setRegionOfInterest(const cv::Mat& roi_mask, RegionSource source = RegionSource::kTrack);
+  // model_silhouette (optional, kTrack only; CV_8UC1 at the mask's size): the tracked model's own
+  // silhouette (projectedModelSilhouette), for cue 7.
+  void setRegionOfInterest(const cv::Mat& roi_mask, RegionSource source = RegionSource::kTrack,
+                           const cv::Mat& model_silhouette = cv::Mat());
   // The hand candidates of `rgb` as segmentFrame would choose among them when no region of
   // interest is set (best first, at most max_candidates), without changing any memory. Empty
   // when params().room.enabled is false or the mode is none. Same errors as segment.
@@ -240,6 +251,7 @@ class ImageSegmenter {
   BackgroundPlate plate_;
   cv::Rect roi_;
   cv::Mat roi_mask_;
+  cv::Mat model_silhouette_;
   RegionSource roi_source_ = RegionSource::kTrack;
   RoomCueState room_;
 };
