@@ -1,5 +1,9 @@
 #include "sag_hand_tracker/energy/hand_projection.h"
 
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+
 #include "sag_hand_tracker/energy/projection.h"
 
 namespace sag_hand_tracker {
@@ -17,6 +21,44 @@ std::vector<CameraGaussian> projectModel(const HandModel& model, const PosedHand
                               : projectScaledOrthographic(mean, cov, camera.K);
   }
   return result;
+}
+
+bool ellipseBox(const ProjectedGaussian& g, double sigmas, double margin_pixels,
+                cv::RotatedRect* box) {
+  if (!g.valid || !g.mean.allFinite() || !g.cov.allFinite()) return false;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(g.cov);
+  const Eigen::Vector2d radii = sigmas * eigen.eigenvalues().cwiseMax(0.0).cwiseSqrt() +
+                                Eigen::Vector2d::Constant(margin_pixels);
+  const Eigen::Vector2d major = eigen.eigenvectors().col(1);
+  const double angle = std::atan2(major.y(), major.x()) * 180.0 / M_PI;
+  if (!radii.allFinite() || !std::isfinite(angle)) return false;
+  *box = cv::RotatedRect(
+      cv::Point2f(static_cast<float>(g.mean.x()), static_cast<float>(g.mean.y())),
+      cv::Size2f(static_cast<float>(2.0 * radii[1]), static_cast<float>(2.0 * radii[0])),
+      static_cast<float>(angle));
+  return true;
+}
+
+cv::Mat projectedModelSilhouette(const PosedHand& hand, const Camera& camera, double sigmas,
+                                 int margin_pixels) {
+  cv::Mat mask(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
+  for (const WorldGaussian& g : hand.gaussians) {
+    if ((camera.world_to_camera * g.mean).z() < 0.02) return mask;
+  }
+  const Eigen::Matrix3d R = camera.world_to_camera.linear();
+  for (const WorldGaussian& g : hand.gaussians) {
+    const ProjectedGaussian p =
+        projectPerspective(camera.world_to_camera * g.mean, R * g.cov * R.transpose(), camera.K);
+    cv::RotatedRect box;
+    if (!ellipseBox(p, sigmas, margin_pixels, &box)) continue;
+    // Far outside the image (a Gaussian seen almost edge-on): nothing to draw.
+    if (std::fabs(box.center.x) > 4.0f * camera.width ||
+        std::fabs(box.center.y) > 4.0f * camera.height) {
+      continue;
+    }
+    cv::ellipse(mask, box, cv::Scalar(255), cv::FILLED);
+  }
+  return mask;
 }
 
 }  // namespace sag_hand_tracker

@@ -21,14 +21,23 @@ constexpr double kRadToDeg = 180.0 / M_PI;
 
 bool positiveFactor(double value) { return std::isfinite(value) && value > 0.0; }
 
-// The mean over the frames of the shape score at the given poses.
+// The frames the fit uses, with what does not depend on the shape: each camera's foreground for
+// the silhouette score.
+struct FitFrame {
+  const CalibrationFrame* frame = nullptr;
+  std::vector<cv::Mat> foregrounds;  // per observation; empty for the overlap score
+};
+
+// The mean over the frames of the shape score (params.score) at the given poses.
 double meanShapeScore(const HandModel& model, const HandFitParams& params,
-                      const std::vector<const CalibrationFrame*>& frames,
-                      const std::vector<Pose>& poses) {
+                      const std::vector<FitFrame>& frames, const std::vector<Pose>& poses) {
   double sum = 0.0;
   for (size_t f = 0; f < frames.size(); ++f) {
-    sum += shapeScore(model, params.energy, frames[f]->observations, poses[f],
-                      params.model_mass_weight);
+    const std::vector<CameraObservation>& observations = frames[f].frame->observations;
+    sum += params.score == HandFitParams::Score::kSilhouette
+               ? silhouetteScore(model, observations, frames[f].foregrounds, poses[f],
+                                 params.silhouette_sigmas)
+               : shapeScore(model, params.energy, observations, poses[f], params.model_mass_weight);
   }
   return frames.empty() ? 0.0 : sum / frames.size();
 }
@@ -172,6 +181,47 @@ double shapeScore(const HandModel& model, const EnergyParams& params,
   return kept > 0 ? score / kept : 0.0;
 }
 
+cv::Mat foregroundOfSoG(const ImageSoG& sog, int width, int height) {
+  cv::Mat mask(height, width, CV_8UC1, cv::Scalar(0));
+  const double side_per_sigma = std::sqrt(2.0 * M_PI);
+  for (const ImageGaussian& g : sog.gaussians) {
+    if (!g.mean.allFinite() || !(g.sigma > 0.0) || !std::isfinite(g.sigma)) continue;
+    const double half = 0.5 * side_per_sigma * g.sigma;
+    const cv::Rect leaf(cv::Point(static_cast<int>(std::lround(g.mean.x() - half)),
+                                  static_cast<int>(std::lround(g.mean.y() - half))),
+                        cv::Point(static_cast<int>(std::lround(g.mean.x() + half)),
+                                  static_cast<int>(std::lround(g.mean.y() + half))));
+    mask(leaf & cv::Rect(0, 0, width, height)).setTo(255);
+  }
+  return mask;
+}
+
+double silhouetteScore(const HandModel& model, const std::vector<CameraObservation>& observations,
+                       const std::vector<cv::Mat>& foregrounds, const Pose& pose, double sigmas) {
+  if (foregrounds.size() != observations.size()) {
+    throw InputError("silhouetteScore: " + std::to_string(observations.size()) +
+                     " observations but " + std::to_string(foregrounds.size()) + " foregrounds");
+  }
+  const PosedHand hand = forwardKinematics(model, pose);
+  double score = 0.0;
+  int cameras = 0;
+  for (size_t c = 0; c < observations.size(); ++c) {
+    const cv::Mat& foreground = foregrounds[c];
+    if (foreground.empty()) continue;
+    const cv::Mat silhouette = projectedModelSilhouette(hand, observations[c].camera, sigmas, 0);
+    if (silhouette.size() != foreground.size()) {
+      throw InputError("silhouetteScore: camera '" + observations[c].camera.name +
+                       "': the foreground is not of the camera's size");
+    }
+    const double both = cv::countNonZero(foreground & silhouette);
+    const double sizes = cv::countNonZero(foreground) + cv::countNonZero(silhouette);
+    if (sizes <= 0.0) continue;
+    score += 2.0 * both / sizes;
+    ++cameras;
+  }
+  return cameras > 0 ? score / cameras : 0.0;
+}
+
 void sampleGaussianColours(const std::vector<CalibrationFrame>& frames,
                            const std::vector<Pose>& poses, HandModel* model) {
   GaussianColourStatistics statistics(model->gaussians.size());
@@ -299,10 +349,23 @@ HandFitResult fitHandModel(const HandModel& start, const std::vector<Calibration
   result.frame_indices =
       selectCalibrationFrames(static_cast<int>(frames.size()), params.max_frames);
   std::vector<const CalibrationFrame*> used;
+  std::vector<FitFrame> fit_frames;
   std::vector<Pose> poses;
   for (int index : result.frame_indices) {
     used.push_back(&frames[index]);
     poses.push_back(frames[index].pose);
+    FitFrame fit_frame;
+    fit_frame.frame = &frames[index];
+    if (params.score == HandFitParams::Score::kSilhouette) {
+      for (const CameraObservation& observation : frames[index].observations) {
+        fit_frame.foregrounds.push_back(observation.sog.gaussians.empty()
+                                            ? cv::Mat()
+                                            : foregroundOfSoG(observation.sog,
+                                                              observation.camera.width,
+                                                              observation.camera.height));
+      }
+    }
+    fit_frames.push_back(std::move(fit_frame));
   }
 
   HandModel model = start;
@@ -311,7 +374,7 @@ HandFitResult fitHandModel(const HandModel& start, const std::vector<Calibration
   // The tracked poses came from the start model frame by frame; refine them once.
   poses = optimizePoses(model, params, used, poses, initial, nullptr);
   result.energy_before = meanEnergy(model, params.energy, used, poses);
-  result.score_before = meanShapeScore(model, params, used, poses);
+  result.score_before = meanShapeScore(model, params, fit_frames, poses);
 
   auto sampleColours = [&]() {
     if (!params.fit_colours) return;
@@ -330,7 +393,7 @@ HandFitResult fitHandModel(const HandModel& start, const std::vector<Calibration
   HandModel base = model;  // the start model with the person's colours: what the shape acts on
   HandShapeParameters shape = HandShapeParameters::identity(base);
   poses = optimizePoses(model, params, used, poses, params.pose_optimizer, nullptr);
-  double score = meanShapeScore(model, params, used, poses);
+  double score = meanShapeScore(model, params, fit_frames, poses);
 
   // The parameters, as pointers into `shape`, in the paper's order: global, then (ours) the
   // bone lengths, then the per-Gaussian principal-axis scales.
@@ -407,7 +470,7 @@ HandFitResult fitHandModel(const HandModel& start, const std::vector<Calibration
               const std::vector<Pose> candidate_poses =
                   optimizePoses(candidate, params, used, poses, params.pose_optimizer, nullptr);
               const double candidate_score =
-                  meanShapeScore(candidate, params, used, candidate_poses);
+                  meanShapeScore(candidate, params, fit_frames, candidate_poses);
               ++result.trials;
               if (candidate_score > score + params.min_gain) {
                 score = candidate_score;
@@ -437,7 +500,7 @@ HandFitResult fitHandModel(const HandModel& start, const std::vector<Calibration
   result.model = model;
   result.shape = shape;
   result.poses = poses;
-  result.score_after = meanShapeScore(model, params, used, poses);
+  result.score_after = meanShapeScore(model, params, fit_frames, poses);
   result.energy_after = meanEnergy(model, params.energy, used, poses);
   report(1.0, "fitted");
   return result;
@@ -513,16 +576,11 @@ cv::Mat drawModelOverlay(const cv::Mat& rgb, const Camera& camera, const HandMod
   cv::Mat out = rgb.clone();
   const PosedHand hand = forwardKinematics(model, pose);
   const std::vector<CameraGaussian> projected = projectModel(model, hand, camera);
-  for (size_t p = 0; p < projected.size(); ++p) {
-    if (!projected[p].projected.valid) continue;
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(projected[p].projected.cov);
-    const Eigen::Vector2d radii = eigen.eigenvalues().cwiseMax(0.0).cwiseSqrt();
-    const Eigen::Vector2d major = eigen.eigenvectors().col(1);
-    const double angle = std::atan2(major.y(), major.x()) * kRadToDeg;
-    const Eigen::Vector3d colour(255.0, 230.0, 0.0);  // yellow: seen on skin and on the table
-    const cv::Point2d centre(projected[p].projected.mean.x(), projected[p].projected.mean.y());
-    cv::ellipse(out, cv::RotatedRect(centre, cv::Size2f(2 * radii[1], 2 * radii[0]), angle),
-                cv::Scalar(colour[0], colour[1], colour[2]), 1, cv::LINE_AA);
+  for (const CameraGaussian& g : projected) {
+    cv::RotatedRect box;
+    if (!ellipseBox(g.projected, 1.0, 0.0, &box)) continue;
+    // Yellow: seen on skin and on the table.
+    cv::ellipse(out, box, cv::Scalar(255, 230, 0), 1, cv::LINE_AA);
   }
   for (const Eigen::Vector3d& tip : fingertips(model, hand)) {
     Eigen::Vector2d pixel;

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <string>
 
+#include "sag_hand_tracker/energy/hand_projection.h"
 #include "sag_hand_tracker/tracking/tracking_pipeline.h"
 
 namespace sag_hand_tracker {

@@ -5,6 +5,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "sag_hand_tracker/energy/colour.h"
+#include "sag_hand_tracker/energy/hand_projection.h"
 #include "sag_hand_tracker/energy/projection.h"
 
 namespace sag_hand_tracker {
@@ -86,14 +87,9 @@ void drawHandOverlay(const Camera& camera, const PosedHand& hand, cv::Mat* bgr) 
   for (const auto& gaussian : hand.gaussians) {
     const ProjectedGaussian p = projectPerspective(camera.world_to_camera * gaussian.mean,
                                                    R * gaussian.cov * R.transpose(), camera.K);
-    if (!p.valid) continue;
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(p.cov);
-    const Eigen::Vector2d axes = eig.eigenvalues().cwiseMax(0.0).cwiseSqrt();
-    const double angle =
-        std::atan2(eig.eigenvectors()(1, 1), eig.eigenvectors()(0, 1)) * 180.0 / M_PI;
-    if (!p.mean.allFinite() || !axes.allFinite()) continue;
-    cv::ellipse(*bgr, cv::Point2d(p.mean.x(), p.mean.y()), cv::Size2d(axes[1], axes[0]), angle, 0,
-                360, cv::Scalar(255, 255, 0), 1, cv::LINE_AA);
+    cv::RotatedRect box;
+    if (!ellipseBox(p, 1.0, 0.0, &box)) continue;
+    cv::ellipse(*bgr, box, cv::Scalar(255, 255, 0), 1, cv::LINE_AA);
   }
 }
 

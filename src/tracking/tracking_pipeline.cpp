@@ -5,9 +5,7 @@
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 
-#include <Eigen/Eigenvalues>
-
-#include "sag_hand_tracker/energy/projection.h"
+#include "sag_hand_tracker/energy/hand_projection.h"
 #include "sag_hand_tracker/model/kinematics.h"
 #include "sag_hand_tracker/util/timing.h"
 #include "sag_hand_tracker/util/types.h"
@@ -72,35 +70,6 @@ cv::Mat projectedHandMask(const PosedHand& hand, const Camera& camera, int margi
     if (std::fabs(u) > 4.0 * camera.width || std::fabs(v) > 4.0 * camera.height) continue;
     cv::circle(mask, cv::Point(static_cast<int>(std::lround(u)), static_cast<int>(std::lround(v))),
                static_cast<int>(std::ceil(radius)), cv::Scalar(255), cv::FILLED);
-  }
-  return mask;
-}
-
-cv::Mat projectedModelSilhouette(const PosedHand& hand, const Camera& camera, double sigmas,
-                                 int margin_pixels) {
-  cv::Mat mask(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
-  for (const WorldGaussian& g : hand.gaussians) {
-    if ((camera.world_to_camera * g.mean).z() < 0.02) return mask;  // as projectedHandMask
-  }
-  for (const WorldGaussian& g : hand.gaussians) {
-    const Eigen::Vector3d mean = camera.world_to_camera * g.mean;
-    const Eigen::Matrix3d rotation = camera.world_to_camera.linear();
-    const ProjectedGaussian p =
-        projectPerspective(mean, rotation * g.cov * rotation.transpose(), camera.K);
-    if (!p.valid) continue;
-    if (std::fabs(p.mean.x()) > 4.0 * camera.width || std::fabs(p.mean.y()) > 4.0 * camera.height)
-      continue;
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(p.cov);
-    const Eigen::Vector2d axis = eigen.eigenvectors().col(1);
-    const double major = sigmas * std::sqrt(std::max(eigen.eigenvalues()(1), 0.0)) + margin_pixels;
-    const double minor = sigmas * std::sqrt(std::max(eigen.eigenvalues()(0), 0.0)) + margin_pixels;
-    const double angle = std::atan2(axis.y(), axis.x()) * 180.0 / M_PI;
-    cv::ellipse(mask,
-                cv::RotatedRect(
-                    cv::Point2f(static_cast<float>(p.mean.x()), static_cast<float>(p.mean.y())),
-                    cv::Size2f(static_cast<float>(2.0 * major), static_cast<float>(2.0 * minor)),
-                    static_cast<float>(angle)),
-                cv::Scalar(255), cv::FILLED);
   }
   return mask;
 }

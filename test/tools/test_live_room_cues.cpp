@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "sag_hand_tracker/camera/calibration.h"
+#include "sag_hand_tracker/energy/hand_projection.h"
 #include "sag_hand_tracker/model/hand_model.h"
 #include "sag_hand_tracker/model/kinematics.h"
 #include "sag_hand_tracker/ros/live_room_cues.h"

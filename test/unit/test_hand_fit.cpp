@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <map>
+#include <tuple>
 
 #include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/fitting/hand_fit.h"
@@ -326,6 +327,66 @@ double meanTipError(const HandModel& model, const Recording& recording) {
   return count > 0 ? 1e3 * sum / count : 1e9;
 }
 
+// The silhouette score (the fit's criterion) on the default hand, tracked with the default model:
+// the true thickness scores higher than a thinner or a thicker hand, where the overlap score of
+// sessions 3-14 prefers the thinner one.
+TEST(HandFitScore, TheSilhouetteScorePeaksAtTheRenderedThickness) {
+  const Recording pinch = renderAndTrack("pinch", studio::HandShape(), {handModel()}, 14).front();
+  ASSERT_GE(pinch.frames.size(), 3u);
+  auto shaped = [](double thickness) {
+    HandShapeParameters shape = HandShapeParameters::identity(handModel());
+    shape.thickness = thickness;
+    return applyHandShape(handModel(), shape);
+  };
+  const HandModel thin = shaped(0.7), thick = shaped(1.4);
+  const double sigmas = HandFitParams().silhouette_sigmas;
+  for (const CalibrationFrame& frame : pinch.frames) {
+    std::vector<cv::Mat> foregrounds;
+    for (const CameraObservation& observation : frame.observations) {
+      foregrounds.push_back(
+          foregroundOfSoG(observation.sog, observation.camera.width, observation.camera.height));
+    }
+    const double right =
+        silhouetteScore(handModel(), frame.observations, foregrounds, frame.pose, sigmas);
+    const double thinner =
+        silhouetteScore(thin, frame.observations, foregrounds, frame.pose, sigmas);
+    const double thicker =
+        silhouetteScore(thick, frame.observations, foregrounds, frame.pose, sigmas);
+    std::printf(
+        "silhouette score: thickness 0.7 %.3f, 1.0 %.3f, 1.4 %.3f; overlap score %.3f, "
+        "%.3f, %.3f\n",
+        thinner, right, thicker, shapeScore(thin, EnergyParams(), frame.observations, frame.pose),
+        shapeScore(handModel(), EnergyParams(), frame.observations, frame.pose),
+        shapeScore(thick, EnergyParams(), frame.observations, frame.pose));
+    EXPECT_GT(right, 0.8);
+    EXPECT_GT(right, thinner);
+    EXPECT_GT(right, thicker);
+  }
+  // The foregrounds must match the observations.
+  EXPECT_THROW(
+      silhouetteScore(handModel(), pinch.frames[0].observations, {}, pinch.frames[0].pose, sigmas),
+      InputError);
+}
+
+TEST(HandFitScore, TheForegroundOfASoGIsItsLeaves) {
+  ImageSoG sog;
+  sog.width = 64;
+  sog.height = 48;
+  const double sigma_per_side = QuadtreeParams().sigma_per_leaf_size;
+  for (const auto& [x, y, side] : {std::tuple<double, double, double>{10, 10, 4},
+                                   {30, 20, 16},
+                                   {62, 46, 8}}) {  // the last one clipped
+    ImageGaussian g;
+    g.mean = Eigen::Vector2d(x, y);
+    g.sigma = sigma_per_side * side;
+    sog.gaussians.push_back(g);
+  }
+  const cv::Mat mask = foregroundOfSoG(sog, sog.width, sog.height);
+  EXPECT_EQ(cv::countNonZero(mask), 4 * 4 + 16 * 16 + 6 * 6);
+  EXPECT_EQ(mask.at<unsigned char>(20, 30), 255);
+  EXPECT_EQ(mask.at<unsigned char>(0, 0), 0);
+}
+
 struct ShapeCase {
   const char* name;
   studio::HandShape shape;
@@ -378,14 +439,24 @@ TEST_P(FitOnStudioHands, TrackingWithTheFittedModelBeatsTheDefault) {
   EXPECT_LT(fitted_error, default_error) << shape_case.name;
 }
 
-// The bar of issue 10: every fitted finger bone within 5 % of the rendered hand's. NOT MET
-// (doc/calibration.md, "Measured" and "Why the size comes out small"): wrist to fingertip is
-// within 5 %, but the shape score does not fix where the knuckles sit, and single fingers are off
-// by up to 8 % here and the thumb of short_wide_thick by 14.5 % (up to 6 % with calibrate_hand's
-// 16 frames and 2 rounds), so this test fails.
-// It is disabled to keep the suite green, at the bar, not loosened: run it with
-// --gtest_also_run_disabled_tests.
-TEST_P(FitOnStudioHands, DISABLED_BoneLengthsWithinFivePercent) {
+// The fitted thickness follows the rendered hand's (0.8 and 1.2). The overlap score of sessions
+// 3-14 thinned every hand to 0.6-0.83, the default one to 0.66 (doc/calibration.md).
+TEST_P(FitOnStudioHands, TheFittedThicknessIsTheHands) {
+  const ShapeCase& shape_case = shapeCases()[GetParam()];
+  const HandFitResult& fit = fitFor(GetParam());
+  std::printf("%s: thickness %.3f (rendered %.2f), size %.3f, palm width %.3f, fingers %.3f\n",
+              shape_case.name, fit.shape.thickness, shape_case.shape.thickness, fit.shape.scale,
+              fit.shape.palm_width, fit.shape.finger_length);
+  EXPECT_NEAR(fit.shape.thickness, shape_case.shape.thickness, 0.1) << shape_case.name;
+}
+
+// The bar of issue 10: every fitted finger bone within 5 % of the rendered hand's. Met on these
+// two hands since session 15's silhouette score (before it, with the overlap score, single fingers
+// were off by up to 8 % and the thumb of short_wide_thick by 14.5 %, and this test was disabled).
+// Not met on every studio hand: calibrate_hand gives the benchmark's stocky hand fingers 13.6 %
+// short, and a finger's phalanges share one factor, so long_distal's split is out of reach
+// (doc/calibration.md, "Session 15").
+TEST_P(FitOnStudioHands, BoneLengthsWithinFivePercent) {
   const ShapeCase& shape_case = shapeCases()[GetParam()];
   const HandFitResult& fit = fitFor(GetParam());
   const HandModel truth = studio::shapeHandModel(handModel(), shape_case.shape);

@@ -9,6 +9,7 @@
 #include "sag_hand_tracker/apps/room_evaluation.h"
 #include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/energy/energy.h"
+#include "sag_hand_tracker/energy/hand_projection.h"
 #include "sag_hand_tracker/model/kinematics.h"
 #include "sag_hand_tracker/optimization/optimizer.h"
 #include "sag_hand_tracker/segmentation/multi_view_consistency.h"

@@ -1,8 +1,10 @@
 // The posed hand's Gaussians seen by one camera: each one's projected ellipse (paper eq. 5) and
 // the depth of its mean, for the work outside the energy that needs to know which model Gaussian
-// an image region belongs to (colour sampling, the shape fit's score, overlays).
+// an image region belongs to (colour sampling, the shape fit's score, overlays), and the model's
+// silhouette drawn from them.
 #pragma once
 
+#include <opencv2/core.hpp>
 #include <vector>
 
 #include "sag_hand_tracker/camera/camera.h"
@@ -20,5 +22,20 @@ struct CameraGaussian {
 // One per model Gaussian of `hand`, in its order; with the model's projection.
 std::vector<CameraGaussian> projectModel(const HandModel& model, const PosedHand& hand,
                                          const Camera& camera);
+
+// The ellipse of a projected Gaussian at `sigmas` standard deviations, grown by margin_pixels, as
+// cv::ellipse draws it (full axes, degrees). False for an invalid projection or a non-finite
+// result.
+bool ellipseBox(const ProjectedGaussian& g, double sigmas, double margin_pixels,
+                cv::RotatedRect* box);
+
+// The posed model's own silhouette in one camera (CV_8UC1 at image size, 255 inside): every model
+// Gaussian's exact projected ellipse (projectPerspective) at `sigmas` standard deviations, grown
+// by margin_pixels (an ellipse the projection leaves undefined is left out). All zero when the
+// hand is at or behind the camera (a Gaussian's centre less than 2 cm in front of it), as
+// projectedHandMask (tracking_pipeline.h). Used for what the model does not explain (the room
+// cues' still things, RoomCueParams) and for the shape fit's silhouette score (hand_fit.h).
+cv::Mat projectedModelSilhouette(const PosedHand& hand, const Camera& camera, double sigmas = 1.0,
+                                 int margin_pixels = 3);
 
 }  // namespace sag_hand_tracker

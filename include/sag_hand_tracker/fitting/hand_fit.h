@@ -94,7 +94,16 @@ struct HandFitParams {
   std::vector<double> gaussian_steps{0.12, 0.06};
   double min_factor = 0.6;  // every factor stays in [min_factor, max_factor]
   double max_factor = 1.6;
-  // The shape score's model mass M = model_mass_weight * sum_p 2 pi sqrt(det Sigma_p) (see
+  // What the search maximises (doc/calibration.md, "Session 15"): the Dice coefficient of the
+  // foreground's and the model's silhouettes (silhouetteScore), or, until session 14, eq. 8's
+  // overlap against the model's projected mass (shapeScore), which makes every hand thin.
+  enum class Score { kSilhouette, kOverlap };
+  Score score = Score::kSilhouette;
+  // kSilhouette: the model's silhouette is its Gaussians' projected ellipses at this many sigmas.
+  // 1.3 gives the default hand back unchanged (thickness x0.98, size and finger length x1.00)
+  // against the foreground's cells, which reach past the skin's edge by up to a cell.
+  double silhouette_sigmas = 1.3;
+  // kOverlap: the model mass M = model_mass_weight * sum_p 2 pi sqrt(det Sigma_p) (see
   // shapeScore). 0.25: half the area of the projected 1-sigma ellipses (the hand's surface passes
   // at 1 sigma), as sum_q E_qq = pi sigma_q^2 is half the area of the foreground's quad-tree
   // leaves.
@@ -136,6 +145,18 @@ std::vector<int> selectCalibrationFrames(int frame_count, int max_frames);
 double shapeScore(const HandModel& model, const EnergyParams& params,
                   const std::vector<CameraObservation>& observations, const Pose& pose,
                   double model_mass_weight = 0.25);
+
+// The foreground an image SoG stands for (CV_8UC1, width x height, 255 inside): each image
+// Gaussian's square leaf (side sigma sqrt(2 pi), QuadtreeParams::sigma_per_leaf_size).
+cv::Mat foregroundOfSoG(const ImageSoG& sog, int width, int height);
+
+// The silhouette score of a model at a pose in a frame: per camera with a foreground, the Dice
+// coefficient 2 |F and M| / (|F| + |M|) of the foreground F (`foregrounds[c]`, foregroundOfSoG of
+// observation c's SoG; empty: the camera is left out) and the model's silhouette M
+// (projectedModelSilhouette at `sigmas`, no margin); averaged over those cameras. Overlapping
+// Gaussians count once, and the model's mass over the background costs what it covers.
+double silhouetteScore(const HandModel& model, const std::vector<CameraObservation>& observations,
+                       const std::vector<cv::Mat>& foregrounds, const Pose& pose, double sigmas);
 
 // Each Gaussian's HSV colour: the area-weighted mean colour of the image Gaussians whose centres
 // fall inside its projected 1-sigma ellipse, where it is the nearest model Gaussian to the

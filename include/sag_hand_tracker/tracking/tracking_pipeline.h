@@ -59,14 +59,6 @@ cv::Rect projectedHandBox(const HandModel& model, const Pose& pose, const Camera
 cv::Mat projectedHandMask(const PosedHand& hand, const Camera& camera, int margin_pixels = 10,
                           double radius_scale = 1.5);
 
-// The posed model's own silhouette in one camera (CV_8UC1 at image size, 255 inside): every model
-// Gaussian's exact projected ellipse (projectPerspective) at `sigmas` standard deviations, grown
-// by margin_pixels (an ellipse the projection leaves undefined is left out). What lies outside it
-// is not explained by the model (RoomCueParams, cue 7). All zero when the hand is at or behind the
-// camera, as projectedHandMask.
-cv::Mat projectedModelSilhouette(const PosedHand& hand, const Camera& camera, double sigmas = 1.0,
-                                 int margin_pixels = 3);
-
 // The radius (in sqrt(trace Sigma)) of the discs that draw the model's core in modelOnForeground.
 constexpr double kModelCoreRadius = 0.5;
 
