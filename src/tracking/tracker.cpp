@@ -823,7 +823,9 @@ void HandTracker::startWithForearmIfItIsBare(PoseEnergy& energy,
   if (params_.energy.forearm_gaussians <= 0 || params_.asynchronous_search) return;
   // The second search doubled every start's time (in the live graph, the sets that wait for it);
   // it is skipped when a cheap test says that its candidates would be discarded anyway.
-  if (!candidates->empty() &&
+  // A start that explains the foreground poorly searches again whatever the test says: the arm it
+  // left out may be why (TrackerParams::forearm_start_weak_energy).
+  if (!candidates->empty() && candidates->front().energy >= params_.forearm_start_weak_energy &&
       !forearmMayBeBare(model_, energy, candidates->front().pose, params_.forearm_start_gain)) {
     return;
   }
