@@ -69,19 +69,25 @@ StartOutcome firstStart(const std::string& shape, const TrackerParams& tracker) 
   return outcome;
 }
 
+// The start found the hand: near it and the right way round.
+void expectTheHandFound(const StartOutcome& start) {
+  ASSERT_TRUE(start.result.has_pose);
+  EXPECT_EQ(start.result.status, TrackStatus::kStarted);
+  EXPECT_LT(start.error_mm, 20.0);
+  EXPECT_LT(start.axis_degrees, 45.0);
+}
+
 }  // namespace
 
 // With the 4 candidates a re-detection refines, this start ended on a reversed hand (energy 0.35,
 // 240 mm off; the right pose, energy 0.62, ranked fifth or lower after the coarse stage), and the
 // track stayed reversed for 65 frames of the benchmark's `wristflex`. The default start_kept, 8,
-// finds the hand.
+// finds the hand. (Since session 15 a start that weak also searches again with the forearm,
+// AWeakStartSearchesAgainWithTheBareForearm below, and with 4 candidates finds it too.)
 TEST(StartSearch, TheFirstStartFindsAFlexedWristOnALargerHandWithItsFittedModel) {
   ASSERT_EQ(TrackerParams().start_kept, 8);
   const StartOutcome wide = firstStart("long_distal_large", TrackerParams());
-  ASSERT_TRUE(wide.result.has_pose);
-  EXPECT_EQ(wide.result.status, TrackStatus::kStarted);
-  EXPECT_LT(wide.error_mm, 20.0);
-  EXPECT_LT(wide.axis_degrees, 45.0);
+  expectTheHandFound(wide);
 
   TrackerParams four;
   four.start_kept = 4;
@@ -104,10 +110,7 @@ TEST(StartSearch, TheFirstStartFindsAFlexedWristOnALargerHandWithItsFittedModel)
 TEST(StartSearch, AWeakStartSearchesAgainWithTheBareForearm) {
   ASSERT_EQ(TrackerParams().forearm_start_weak_energy, 0.5);
   const StartOutcome start = firstStart("stocky", TrackerParams());
-  ASSERT_TRUE(start.result.has_pose);
-  EXPECT_EQ(start.result.status, TrackStatus::kStarted);
-  EXPECT_LT(start.error_mm, 20.0);
-  EXPECT_LT(start.axis_degrees, 45.0);
+  expectTheHandFound(start);
   EXPECT_GT(start.result.energy.total, 0.5);
 
   TrackerParams test_only;

@@ -141,8 +141,8 @@ struct TrackerParams {
   // bare forearm out can be wrong where the forearm gains little: the fitted model of the studio's
   // stocky hand started `wristflex` 93 mm off at 0.40, where the forearm straight on gains less
   // than 0.12 (refined, 0.065); with the forearm the true pose scores 0.63 (README "Session
-  // 15"). Every start of the benchmark's 77 default-model runs ends at 0.57 or more, so they keep
-  // the single search.
+  // 15"). Every start of the benchmark's 77 default-model runs ends at 0.57 or more, so none of
+  // them searches more than before.
   double forearm_start_weak_energy = 0.5;
   // Plausibility: the hand centre must lie at least `min_camera_depth` (m) in front of every
   // camera and inside the image of at least `min_cameras_for_start` cameras; a pose that is not is
