@@ -23,6 +23,13 @@ std::vector<CameraGaussian> projectModel(const HandModel& model, const PosedHand
   return result;
 }
 
+bool handInFrontOf(const PosedHand& hand, const Camera& camera) {
+  for (const WorldGaussian& g : hand.gaussians) {
+    if ((camera.world_to_camera * g.mean).z() < 0.02) return false;
+  }
+  return true;
+}
+
 bool ellipseBox(const ProjectedGaussian& g, double sigmas, double margin_pixels,
                 cv::RotatedRect* box) {
   if (!g.valid || !g.mean.allFinite() || !g.cov.allFinite()) return false;
@@ -42,9 +49,7 @@ bool ellipseBox(const ProjectedGaussian& g, double sigmas, double margin_pixels,
 cv::Mat projectedModelSilhouette(const PosedHand& hand, const Camera& camera, double sigmas,
                                  int margin_pixels) {
   cv::Mat mask(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
-  for (const WorldGaussian& g : hand.gaussians) {
-    if ((camera.world_to_camera * g.mean).z() < 0.02) return mask;
-  }
+  if (!handInFrontOf(hand, camera)) return mask;
   const Eigen::Matrix3d R = camera.world_to_camera.linear();
   for (const WorldGaussian& g : hand.gaussians) {
     const ProjectedGaussian p =

@@ -21,21 +21,33 @@ constexpr double kRadToDeg = 180.0 / M_PI;
 
 bool positiveFactor(double value) { return std::isfinite(value) && value > 0.0; }
 
-// The frames the fit uses, with what does not depend on the shape: each camera's foreground for
-// the silhouette score.
-struct FitFrame {
-  const CalibrationFrame* frame = nullptr;
-  std::vector<cv::Mat> foregrounds;  // per observation; empty for the overlap score
-};
+// Per frame, per observation, its foreground (foregroundOfSoG, an empty mask for a camera without
+// foreground): the silhouette score's part that does not depend on the shape, made once.
+using FrameForegrounds = std::vector<std::vector<cv::Mat>>;
 
-// The mean over the frames of the shape score (params.score) at the given poses.
+FrameForegrounds foregroundsOf(const std::vector<const CalibrationFrame*>& frames) {
+  FrameForegrounds foregrounds(frames.size());
+  for (size_t f = 0; f < frames.size(); ++f) {
+    for (const CameraObservation& observation : frames[f]->observations) {
+      foregrounds[f].push_back(observation.sog.gaussians.empty()
+                                   ? cv::Mat()
+                                   : foregroundOfSoG(observation.sog, observation.camera.width,
+                                                     observation.camera.height));
+    }
+  }
+  return foregrounds;
+}
+
+// The mean over the frames of the shape score (params.score) at the given poses; `foregrounds`
+// (foregroundsOf `frames`) only for the silhouette score.
 double meanShapeScore(const HandModel& model, const HandFitParams& params,
-                      const std::vector<FitFrame>& frames, const std::vector<Pose>& poses) {
+                      const std::vector<const CalibrationFrame*>& frames,
+                      const FrameForegrounds& foregrounds, const std::vector<Pose>& poses) {
   double sum = 0.0;
   for (size_t f = 0; f < frames.size(); ++f) {
-    const std::vector<CameraObservation>& observations = frames[f].frame->observations;
+    const std::vector<CameraObservation>& observations = frames[f]->observations;
     sum += params.score == HandFitParams::Score::kSilhouette
-               ? silhouetteScore(model, observations, frames[f].foregrounds, poses[f],
+               ? silhouetteScore(model, observations, foregrounds[f], poses[f],
                                  params.silhouette_sigmas)
                : shapeScore(model, params.energy, observations, poses[f], params.model_mass_weight);
   }
@@ -349,24 +361,13 @@ HandFitResult fitHandModel(const HandModel& start, const std::vector<Calibration
   result.frame_indices =
       selectCalibrationFrames(static_cast<int>(frames.size()), params.max_frames);
   std::vector<const CalibrationFrame*> used;
-  std::vector<FitFrame> fit_frames;
   std::vector<Pose> poses;
   for (int index : result.frame_indices) {
     used.push_back(&frames[index]);
     poses.push_back(frames[index].pose);
-    FitFrame fit_frame;
-    fit_frame.frame = &frames[index];
-    if (params.score == HandFitParams::Score::kSilhouette) {
-      for (const CameraObservation& observation : frames[index].observations) {
-        fit_frame.foregrounds.push_back(observation.sog.gaussians.empty()
-                                            ? cv::Mat()
-                                            : foregroundOfSoG(observation.sog,
-                                                              observation.camera.width,
-                                                              observation.camera.height));
-      }
-    }
-    fit_frames.push_back(std::move(fit_frame));
   }
+  const FrameForegrounds foregrounds =
+      params.score == HandFitParams::Score::kSilhouette ? foregroundsOf(used) : FrameForegrounds();
 
   HandModel model = start;
   OptimizerParams initial = params.pose_optimizer;
@@ -374,7 +375,7 @@ HandFitResult fitHandModel(const HandModel& start, const std::vector<Calibration
   // The tracked poses came from the start model frame by frame; refine them once.
   poses = optimizePoses(model, params, used, poses, initial, nullptr);
   result.energy_before = meanEnergy(model, params.energy, used, poses);
-  result.score_before = meanShapeScore(model, params, fit_frames, poses);
+  result.score_before = meanShapeScore(model, params, used, foregrounds, poses);
 
   auto sampleColours = [&]() {
     if (!params.fit_colours) return;
@@ -393,7 +394,7 @@ HandFitResult fitHandModel(const HandModel& start, const std::vector<Calibration
   HandModel base = model;  // the start model with the person's colours: what the shape acts on
   HandShapeParameters shape = HandShapeParameters::identity(base);
   poses = optimizePoses(model, params, used, poses, params.pose_optimizer, nullptr);
-  double score = meanShapeScore(model, params, fit_frames, poses);
+  double score = meanShapeScore(model, params, used, foregrounds, poses);
 
   // The parameters, as pointers into `shape`, in the paper's order: global, then (ours) the
   // bone lengths, then the per-Gaussian principal-axis scales.
@@ -470,7 +471,7 @@ HandFitResult fitHandModel(const HandModel& start, const std::vector<Calibration
               const std::vector<Pose> candidate_poses =
                   optimizePoses(candidate, params, used, poses, params.pose_optimizer, nullptr);
               const double candidate_score =
-                  meanShapeScore(candidate, params, fit_frames, candidate_poses);
+                  meanShapeScore(candidate, params, used, foregrounds, candidate_poses);
               ++result.trials;
               if (candidate_score > score + params.min_gain) {
                 score = candidate_score;
@@ -500,7 +501,7 @@ HandFitResult fitHandModel(const HandModel& start, const std::vector<Calibration
   result.model = model;
   result.shape = shape;
   result.poses = poses;
-  result.score_after = meanShapeScore(model, params, fit_frames, poses);
+  result.score_after = meanShapeScore(model, params, used, foregrounds, poses);
   result.energy_after = meanEnergy(model, params.energy, used, poses);
   report(1.0, "fitted");
   return result;

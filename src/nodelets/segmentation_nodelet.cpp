@@ -255,11 +255,10 @@ class SegmentationNodelet : public nodelet::Nodelet {
       try {
         if (region_ != applied_region_) {
           const Camera camera = fromCameraInfo(info);
-          const bool still_objects = segmenter_.params().room.still_object_frames > 0 &&
-                                     segmenter_.effectiveMode() == SegmentationMode::kSkin;
-          segmenter_.setRegionOfInterest(
-              trackedRegionMask(*region_, camera), RegionSource::kTrack,
-              still_objects ? trackedModelSilhouette(*region_, camera) : cv::Mat());
+          segmenter_.setRegionOfInterest(trackedRegionMask(*region_, camera), RegionSource::kTrack,
+                                         segmenter_.usesModelSilhouette()
+                                             ? trackedModelSilhouette(*region_, camera)
+                                             : cv::Mat());
           applied_region_ = region_;
         }
         if (region_->candidates_wanted)

@@ -578,6 +578,11 @@ void ImageSegmenter::setRegionOfInterest(const cv::Mat& roi_mask, RegionSource s
   }
 }
 
+bool ImageSegmenter::usesModelSilhouette() const {
+  return params_.room.enabled && params_.room.still_object_frames > 0 &&
+         effectiveMode() == SegmentationMode::kSkin;
+}
+
 std::vector<HandCandidate> ImageSegmenter::handCandidates(const cv::Mat& rgb,
                                                           int max_candidates) const {
   Workspace& ws = workspace();

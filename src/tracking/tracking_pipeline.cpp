@@ -57,10 +57,7 @@ cv::Rect projectedHandBox(const HandModel& model, const Pose& pose, const Camera
 cv::Mat projectedHandMask(const PosedHand& hand, const Camera& camera, int margin_pixels,
                           double radius_scale) {
   cv::Mat mask(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
-  for (const WorldGaussian& g : hand.gaussians) {
-    const Eigen::Vector3d p = camera.world_to_camera * g.mean;
-    if (p.z() < 0.02) return cv::Mat(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
-  }
+  if (!handInFrontOf(hand, camera)) return mask;
   for (const WorldGaussian& g : hand.gaussians) {
     const Eigen::Vector3d p = camera.world_to_camera * g.mean;
     const double radius =
@@ -316,12 +313,10 @@ ProcessedFrame TrackingPipeline::process(const FrameSet& set,
         segmenters_[c].setRegionOfInterest(cv::Mat());
         continue;
       }
-      // Cue 7 needs the model's own silhouette only without a plate.
-      const bool still_objects = params_.segmentation.room.still_object_frames > 0 &&
-                                 segmenters_[c].effectiveMode() == SegmentationMode::kSkin;
-      segmenters_[c].setRegionOfInterest(
-          projectedHandMask(hand, cameras_[c]), RegionSource::kTrack,
-          still_objects ? projectedModelSilhouette(hand, cameras_[c]) : cv::Mat());
+      segmenters_[c].setRegionOfInterest(projectedHandMask(hand, cameras_[c]), RegionSource::kTrack,
+                                         segmenters_[c].usesModelSilhouette()
+                                             ? projectedModelSilhouette(hand, cameras_[c])
+                                             : cv::Mat());
     }
     tracked_regions_ = tracked;
     if (tracked) {

@@ -23,6 +23,10 @@ struct CameraGaussian {
 std::vector<CameraGaussian> projectModel(const HandModel& model, const PosedHand& hand,
                                          const Camera& camera);
 
+// Whether every Gaussian centre of `hand` lies at least 2 cm in front of `camera`: the regions and
+// silhouettes drawn from a hand are all zero otherwise (a hand at or behind the camera).
+bool handInFrontOf(const PosedHand& hand, const Camera& camera);
+
 // The ellipse of a projected Gaussian at `sigmas` standard deviations, grown by margin_pixels, as
 // cv::ellipse draws it (full axes, degrees). False for an invalid projection or a non-finite
 // result.
@@ -31,10 +35,10 @@ bool ellipseBox(const ProjectedGaussian& g, double sigmas, double margin_pixels,
 
 // The posed model's own silhouette in one camera (CV_8UC1 at image size, 255 inside): every model
 // Gaussian's exact projected ellipse (projectPerspective) at `sigmas` standard deviations, grown
-// by margin_pixels (an ellipse the projection leaves undefined is left out). All zero when the
-// hand is at or behind the camera (a Gaussian's centre less than 2 cm in front of it), as
-// projectedHandMask (tracking_pipeline.h). Used for what the model does not explain (the room
-// cues' still things, RoomCueParams) and for the shape fit's silhouette score (hand_fit.h).
+// by margin_pixels (an ellipse the projection leaves undefined is left out). All zero unless
+// handInFrontOf, as projectedHandMask (tracking_pipeline.h). Used for what the model does not
+// explain (the room cues' still things, RoomCueParams) and for the shape fit's silhouette score
+// (hand_fit.h).
 cv::Mat projectedModelSilhouette(const PosedHand& hand, const Camera& camera, double sigmas = 1.0,
                                  int margin_pixels = 3);
 

@@ -225,6 +225,9 @@ class ImageSegmenter {
   // silhouette (projectedModelSilhouette), for cue 7.
   void setRegionOfInterest(const cv::Mat& roi_mask, RegionSource source = RegionSource::kTrack,
                            const cv::Mat& model_silhouette = cv::Mat());
+  // Whether cue 7 runs, so that a tracked region should come with the model's silhouette: room
+  // cues on, still_object_frames > 0, and no plate in use (a plate holds still things already).
+  bool usesModelSilhouette() const;
   // The hand candidates of `rgb` as segmentFrame would choose among them when no region of
   // interest is set (best first, at most max_candidates), without changing any memory. Empty
   // when params().room.enabled is false or the mode is none. Same errors as segment.
