@@ -103,7 +103,8 @@ std::string calibrateHandUsage() {
   return R"(Usage: calibrate_hand --bag IN.bag --out my_hand.yaml [options]
 
 Fits the hand model to the hand in a recording of the calibration routine (3-5 s: open hand with
-the fingers spread, the palm turned up to the cameras and back, a fist; doc/calibration.md):
+the fingers spread, the palm turned up to the cameras and back, a fist; doc/calibration.md), or any recording of
+at least 2.5 s with the hand open in some frames (the fit uses the open-hand frames):
 overall size, palm width, finger length, bone lengths, the Gaussians' widths and colours. Writes
 an ordinary model file for track_bag --model, the benchmark and the tracker's 'model' parameter.
 The bag is what track_bag reads (/cam<i>/image_raw, /cam<i>/camera_info, /tf_static); its first
@@ -118,6 +119,8 @@ Options:
   --contact-sheet PNG      also write the fitted model drawn over the images of 4 frames
   --max-frames N           frames of the recording the fit uses (16)
   --rounds N               sweeps of the greedy search (2)
+  --require-routine        refuse a recording without every pose of the routine (default: fit
+                           what it shows, on its open-hand frames, and say what was missing)
   --truth-shape NAME|FILE  a studio hand (config/hand_shapes.yaml, or a shape file) shown in
                            the bag: also print the fitted bones' errors against its true skeleton
   --quiet                  no progress bar
@@ -139,6 +142,8 @@ CalibrateHandOptions parseCalibrateHandArguments(const std::vector<std::string>&
       options.rounds = parseIntOption(arg, value(), 1);
     } else if (arg == "--config-dir") {
       options.config_dir = value();
+    } else if (arg == "--require-routine") {
+      options.require_routine = true;
     } else if (arg == "--truth-shape") {
       options.truth_shape = value();
     } else {
@@ -208,7 +213,9 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
 
   // 2. Was the routine followed?
   summary.routine = checkCalibrationRoutine(start, frames, summary.cameras);
-  if (!summary.routine.ok) {
+  // Without some of the routine's poses (the first seconds of any sequence) the fit still runs,
+  // on the open-hand frames, and the summary says what was missing; --require-routine refuses.
+  if (!summary.routine.ok || (options.require_routine && !summary.routine.complete)) {
     std::string missing;
     for (const std::string& item : summary.routine.missing) missing += "\n  - " + item;
     throw InputError(options.bag +
@@ -221,6 +228,7 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
   HandFitParams fit_params;
   fit_params.max_frames = options.max_frames;
   fit_params.rounds = options.rounds;
+  fit_params.open_hand_frames = !summary.routine.complete;
   summary.fit =
       fitHandModel(start, frames, fit_params, [&](double fraction, const std::string& status) {
         if (stop && stop->load()) throw InputError("interrupted");
@@ -293,11 +301,17 @@ std::string formatCalibrateHandSummary(const CalibrateHandSummary& s) {
   const HandFitResult& fit = s.fit;
   out << "calibrate_hand: " << s.bag << "\n";
   out << "  frames:       " << s.frames << " read, " << s.tracked_frames << " with the hand ("
-      << fixed(s.routine.duration, 1) << " s), " << fit.frame_indices.size() << " used by the fit; "
-      << s.cameras << " cameras, " << s.routine.views << " seeing the hand\n";
+      << fixed(s.routine.duration, 1) << " s), " << fit.frame_indices.size() << " used by the fit"
+      << (fit.open_frames_only ? " (open hand)" : "") << "; " << s.cameras << " cameras, "
+      << s.routine.views << " seeing the hand\n";
   out << "  routine:      open hand " << s.routine.open_frames << ", palm to a camera "
       << s.routine.palm_frames << ", back to a camera " << s.routine.back_frames << ", fist "
       << s.routine.fist_frames << " frames\n";
+  if (!s.routine.complete) {
+    out << "  warning:      the recording does not show the whole routine; fitted from what it "
+           "shows:\n";
+    for (const std::string& item : s.routine.missing) out << "                - " << item << "\n";
+  }
   out << "  global shape: thickness x" << fixed(fit.shape.thickness, 3) << ", size x"
       << fixed(fit.shape.scale, 3) << ", palm width x" << fixed(fit.shape.palm_width, 3)
       << ", finger length x" << fixed(fit.shape.finger_length, 3) << "\n";

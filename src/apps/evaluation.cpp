@@ -127,11 +127,14 @@ std::string readFile(const std::string& path) {
 }
 
 // `frames` rendered (0: the motion's full length).
+// `name`: the bag's name instead of the sequence's (a fit's bag of a tracked sequence's first
+// frames must not replace that sequence's bag).
 SequenceBag prepareBag(const BenchmarkOptions& options, const std::string& sequence,
-                       const studio::StudioHand& hand, int frames, std::ostream& log) {
+                       const studio::StudioHand& hand, int frames, std::ostream& log,
+                       const std::string& name = "") {
   const fs::path dir = fs::path(options.out_dir) / "bags";
   fs::create_directories(dir);
-  const std::string seq = fs::path(sequence).stem().string();
+  const std::string seq = name.empty() ? fs::path(sequence).stem().string() : name;
   const std::string stem = runStem(seq, hand.name);
   SequenceBag bag{seq, hand.name, (dir / (stem + ".bag")).string(),
                   (dir / (stem + "_gt.csv")).string()};
@@ -227,8 +230,10 @@ ShapeFit fitShape(const BenchmarkOptions& options, const studio::StudioHand& han
   const fs::path model = models / (hand.name + ".yaml");
   const fs::path staging = models / ("." + hand.name + ".yaml.fitting.yaml");
   try {
+    const bool routine_sequence = options.fit_sequence == "calibration_routine";
     const SequenceBag routine =
-        prepareBag(options, "calibration_routine", hand, options.routine_frames, log);
+        prepareBag(options, options.fit_sequence, hand, options.routine_frames, log,
+                   routine_sequence ? "" : "fit_" + fs::path(options.fit_sequence).stem().string());
     fit.routine_bag = routine.bag;
     std::error_code ignored;
     fs::remove(staging, ignored);  // a leftover of an interrupted run
@@ -415,7 +420,11 @@ std::string fittedReport(const BenchmarkOptions& options, const BenchmarkResults
   const std::vector<FittedComparison> rows = compareFitted(results);
   md << "## Default model against fitted model per hand shape (mm), all sequences\n\n";
   md << "SAG with its default model and with the model fitted to each hand (`calibrate_hand`'s "
-        "code on the calibration routine rendered on that hand, "
+        "code on "
+     << (options.fit_sequence == "calibration_routine"
+             ? std::string("the calibration routine")
+             : "`" + options.fit_sequence + "` (not the routine: `--fit-sequence`)")
+     << " rendered on that hand, "
      << (options.routine_frames > 0 ? std::to_string(options.routine_frames) + " frames"
                                     : std::string("full length"))
      << "; DIR/models/<shape>.yaml). **bar** (issue 10, shapes but the default): the fitted "
@@ -993,6 +1002,8 @@ Options:
                        every sequence of the hand with it: the tracker "fitted" beside SAG with
                        the default model (needs sag among --models); DIR/fitted.csv
   --routine-frames N   frames of the rendered calibration routine (its full length, 125)
+  --fit-sequence NAME  fit from this motion instead of the routine (with --routine-frames 75:
+                       its first 3 s, what calibrate_hand gets from the start of a recording)
   --rooms a,b|all      the studio rooms (office, kitchen, daylight) against the clean studio:
                        skin gate and plate, without and with the room cues; foreground precision
                        and recall, fingertip error; DIR/rooms.md, rooms.csv, rooms/*.png
@@ -1052,6 +1063,8 @@ BenchmarkOptions parseBenchmarkArguments(const std::vector<std::string>& args) {
       options.fitted = true;
     } else if (arg == "--routine-frames") {
       options.routine_frames = parseIntOption(arg, value(), 1);
+    } else if (arg == "--fit-sequence") {
+      options.fit_sequence = value();
     } else {
       throw UsageError("unknown argument '" + arg + "'");
     }

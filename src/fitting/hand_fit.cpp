@@ -299,13 +299,14 @@ RoutineCheck checkCalibrationRoutine(const HandModel& model,
   auto need = [&](bool condition, const std::string& what) {
     if (!condition) check.missing.push_back(what);
   };
-  std::ostringstream text;
+  std::size_t hard_problems = 0;
   need(cameras_in_recording >= requirements.min_views,
        "the recording has " + std::to_string(cameras_in_recording) + " camera" +
            (cameras_in_recording == 1 ? "" : "s") + "; the fit needs at least " +
            std::to_string(requirements.min_views) + " views of the hand");
   if (check.frames == 0) {
     check.missing.push_back("no frame with the hand: the hand was never found in the images");
+    hard_problems = check.missing.size();
   } else {
     need(check.frames >= requirements.min_frames, "only " + std::to_string(check.frames) +
                                                       " frames with the hand, the fit needs " +
@@ -321,6 +322,8 @@ RoutineCheck checkCalibrationRoutine(const HandModel& model,
                " saw the hand in a third of the frames; keep it where at least " +
                std::to_string(requirements.min_views) + " cameras see it");
     }
+    // The poses: a fit is possible without them (check.ok), the routine is not complete.
+    hard_problems = check.missing.size();
     need(check.open_frames >= requirements.min_pose_frames,
          "no open hand with the fingers spread (" + std::to_string(check.open_frames) + " frames)");
     need(check.palm_frames >= requirements.min_pose_frames,
@@ -331,7 +334,8 @@ RoutineCheck checkCalibrationRoutine(const HandModel& model,
     need(check.fist_frames >= requirements.min_pose_frames,
          "no fist (" + std::to_string(check.fist_frames) + " frames)");
   }
-  check.ok = check.missing.empty();
+  check.ok = hard_problems == 0;
+  check.complete = check.missing.empty();
   return check;
 }
 
@@ -358,8 +362,23 @@ HandFitResult fitHandModel(const HandModel& start, const std::vector<Calibration
   };
 
   HandFitResult result;
-  result.frame_indices =
-      selectCalibrationFrames(static_cast<int>(frames.size()), params.max_frames);
+  // The open-hand frames when asked for and there are enough of them
+  // (HandFitParams::open_hand_frames).
+  std::vector<int> candidates;
+  for (int i = 0; params.open_hand_frames && i < static_cast<int>(frames.size()); ++i) {
+    if (meanFingerFlexion(start, frames[i].pose) * kRadToDeg <= params.open_flexion_deg) {
+      candidates.push_back(i);
+    }
+  }
+  result.open_frames_only =
+      params.open_hand_frames && static_cast<int>(candidates.size()) >= params.min_open_frames;
+  if (!result.open_frames_only) {
+    candidates.resize(frames.size());
+    for (int i = 0; i < static_cast<int>(frames.size()); ++i) candidates[i] = i;
+  }
+  for (int k : selectCalibrationFrames(static_cast<int>(candidates.size()), params.max_frames)) {
+    result.frame_indices.push_back(candidates[k]);
+  }
   std::vector<const CalibrationFrame*> used;
   std::vector<Pose> poses;
   for (int index : result.frame_indices) {

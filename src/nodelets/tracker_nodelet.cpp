@@ -775,13 +775,15 @@ class TrackerNodelet : public nodelet::Nodelet {
         "current model)",
         recording.frames.size());
     // The fit on a thread of its own; this service thread only waits for it.
+    HandFitParams fit_params = fit_params_;
+    fit_params.open_hand_frames = !routine.complete;  // as calibrate_hand
     std::future<HandFitResult> fitting =
-        std::async(std::launch::async, [this, &start_model, &recording] {
+        std::async(std::launch::async, [this, &start_model, &recording, &fit_params] {
           // Below the tracking threads: on a busy machine the fit waits, not the sets (Linux
           // gives each thread its own nice value).
           ::setpriority(PRIO_PROCESS, static_cast<id_t>(::syscall(SYS_gettid)), kFitNiceness);
           return fitHandModel(
-              start_model, recording.frames, fit_params_,
+              start_model, recording.frames, fit_params,
               [this](double fraction, const std::string& status) {
                 if (stopping_) throw InputError("the tracker is shutting down");
                 setCalibrationState("fitting " + fixed(100.0 * fraction, 0) + " %: " + status);
@@ -810,13 +812,19 @@ class TrackerNodelet : public nodelet::Nodelet {
     }
     std::ostringstream summary;
     summary << "fitted on " << fit.frame_indices.size() << " of " << recording.frames.size()
-            << " frames with the hand (" << recording.sets << " sets, " << routine.views
-            << " views): size x" << fixed(fit.shape.scale, 3) << ", palm width x"
-            << fixed(fit.shape.palm_width, 3) << ", finger length x"
-            << fixed(fit.shape.finger_length, 3) << ", thickness x" << fixed(fit.shape.thickness, 3)
-            << "; energy E " << fixed(fit.energy_before, 4) << " -> " << fixed(fit.energy_after, 4)
-            << ", shape score " << fixed(fit.score_before, 4) << " -> "
-            << fixed(fit.score_after, 4);
+            << " frames with the hand" << (fit.open_frames_only ? " (open hand)" : "") << " ("
+            << recording.sets << " sets, " << routine.views << " views): size x"
+            << fixed(fit.shape.scale, 3) << ", palm width x" << fixed(fit.shape.palm_width, 3)
+            << ", finger length x" << fixed(fit.shape.finger_length, 3) << ", thickness x"
+            << fixed(fit.shape.thickness, 3) << "; energy E " << fixed(fit.energy_before, 4)
+            << " -> " << fixed(fit.energy_after, 4) << ", shape score "
+            << fixed(fit.score_before, 4) << " -> " << fixed(fit.score_after, 4);
+    if (!routine.complete) {
+      // As calibrate_hand: a recording with the hand long enough is fitted from what it shows.
+      summary << "; the sets did not show the whole routine:";
+      for (const std::string& item : routine.missing) summary << " " << item << ";";
+      summary << " fitted from what they show";
+    }
 
     // Saved before the switch: when the file cannot be written, nothing changes.
     if (!request.save_path.empty()) {

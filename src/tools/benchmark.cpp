@@ -5,10 +5,11 @@
 //
 //   rosrun sag_hand_tracker benchmark [--sequences a,b,..] [--camera-counts] [--frames N]
 //       [--out-dir DIR] [--csv FILE] [--rig dexter5] [--iterations N] [--models sag,sog]
-//       [--reuse|--rerender] [--fitted [--routine-frames N]]
+//       [--reuse|--rerender] [--fitted [--routine-frames N] [--fit-sequence NAME]]
 //
 // --fitted: per hand shape, the model fitted to the calibration routine on that hand
-// (calibrate_hand's code) is tracked too, beside the default model (evaluation.h).
+// (calibrate_hand's code; --fit-sequence: to the first --routine-frames of another motion) is
+// tracked too, beside the default model (evaluation.h).
 //
 // Exit status: 0 done; 1 bad input (one-line message on stderr); 2 bad command line.
 #include <cstdio>

@@ -476,6 +476,11 @@ TEST(BenchmarkArguments, BenchmarkParsesTheFittedOptions) {
                UsageError);
   EXPECT_THROW(parseBenchmarkArguments({"--fitted", "--rooms", "office"}), UsageError);
   EXPECT_THROW(parseBenchmarkArguments({"--routine-frames", "0"}), UsageError);
+  EXPECT_EQ(plain.fit_sequence, "calibration_routine");
+  EXPECT_EQ(parseBenchmarkArguments({"--fitted", "--fit-sequence", "random", "--models", "sag"})
+                .fit_sequence,
+            "random");
+  EXPECT_THROW(parseBenchmarkArguments({"--fit-sequence"}), UsageError);
 }
 
 TEST(BenchmarkArguments, RoomConfigsSelectTheRoomRuns) {

@@ -1,12 +1,14 @@
 // calibrate_hand end to end on studio bags written in the test: bad recordings (no hand, one view,
-// too short) end with a clear message, exit status 1 and no file; existing files are not replaced;
-// the command line is checked. (The fit itself is tested in test/unit/test_hand_fit.cpp.)
+// too short) end with a clear message, exit status 1 and no file; a recording without the whole
+// routine is fitted with a warning (refused with --require-routine); existing files are not
+// replaced; the command line is checked. (The fit itself is tested in test/unit/test_hand_fit.cpp.)
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <fstream>
 
 #include "sag_hand_tracker/apps/render_runner.h"
+#include "sag_hand_tracker/model/hand_model.h"
 #include "test_support/temp_files.h"
 
 using namespace sag_hand_tracker;
@@ -23,10 +25,12 @@ class CalibrateHandTool : public sag_test::TempDirTest {
                    "' --quiet " + arguments);
   }
 
-  // The calibration routine rendered into a bag: `frames` frames (the first 10 without the hand).
-  std::string routineBag(const std::string& name, int frames, const std::string& rig = "dexter5") {
+  // The calibration routine (or `sequence`) rendered into a bag: `frames` frames (the first 10
+  // without the hand).
+  std::string routineBag(const std::string& name, int frames, const std::string& rig = "dexter5",
+                         const std::string& sequence = "calibration_routine") {
     RenderBagOptions options;
-    options.sequence = "calibration_routine";
+    options.sequence = sequence;
     options.rig = rig;
     options.out = path(name);
     options.gt_csv = path(name + ".gt.csv");
@@ -72,6 +76,28 @@ TEST_F(CalibrateHandTool, TooShortARecording) {
   EXPECT_NE(run.err.find("the routine needs 2.5 s"), std::string::npos) << run.err;
   EXPECT_NE(run.err.find("no fist"), std::string::npos) << run.err;
   EXPECT_NE(run.err.find("the palm was not turned to a camera"), std::string::npos) << run.err;
+}
+
+// The first 3 s of another sequence (pinch: the back of the open hand to the cameras, no palm
+// turned up, no fist): fitted from its open-hand frames, written, and the summary says what the
+// routine would have added; --require-routine refuses it and writes nothing.
+TEST_F(CalibrateHandTool, FitsTheFirstSecondsOfAnySequenceAndSaysWhatWasMissing) {
+  const std::string bag = routineBag("pinch.bag", 75, "dexter5", "pinch");
+  expectFailure(bag, "does not show the calibration routine", "--require-routine");
+  expectFailure(bag, "no fist", "--require-routine");
+
+  const std::string out = path("hand.yaml");
+  const ToolRun run = calibrateHand("--bag '" + bag + "' --out '" + out + "'");
+  EXPECT_EQ(run.status, 0) << run.err;
+  EXPECT_NE(run.out.find("warning:      the recording does not show the whole routine"),
+            std::string::npos)
+      << run.out;
+  EXPECT_NE(run.out.find("- no fist (0 frames)"), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("- the palm was not turned to a camera"), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("used by the fit (open hand)"), std::string::npos) << run.out;
+  EXPECT_TRUE(fs::exists(out));
+  const HandModel fitted = loadHandModel(out);
+  EXPECT_TRUE(fitted.colours_fitted);
 }
 
 TEST_F(CalibrateHandTool, OneView) {

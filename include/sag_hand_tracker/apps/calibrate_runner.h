@@ -24,6 +24,7 @@ struct CalibrateHandOptions {
   std::string contact_sheet;             // --contact-sheet PNG (must not exist)
   int max_frames = 16;                   // --max-frames N: frames used by the fit
   int rounds = 2;                        // --rounds N: sweeps of the greedy search
+  bool require_routine = false;          // --require-routine: refuse an incomplete routine
   // --truth-shape NAME|FILE: a studio hand (config/hand_shapes.yaml) whose true skeleton the
   // summary compares the fitted one with (the bag must show that hand; empty: no comparison)
   std::string truth_shape;
@@ -53,7 +54,8 @@ struct CalibrateHandSummary {
 };
 
 // The whole tool. Throws InputError with a message naming the problem (bad bag, fewer than two
-// cameras, the routine not followed and what is missing, an existing output file); on any error
+// cameras, too little of the hand to fit and what is missing, with --require-routine any pose of
+// the routine missing, an existing output file); on any error
 // neither the model nor the contact sheet is left behind. `stop` may be null.
 CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, ProgressBar* progress,
                                    const std::atomic<bool>* stop = nullptr);

@@ -62,6 +62,10 @@ struct BenchmarkOptions {
   // track with it too (tracker "fitted"); needs "sag" among the models, the default it starts from.
   bool fitted = false;
   int routine_frames = 0;  // --routine-frames N of the rendered routine (0: its full length)
+  // --fit-sequence NAME: fit from this motion rendered on each hand (the first --routine-frames
+  // of it) instead of the calibration routine: what a user gets from calibrate_hand on the first
+  // seconds of any recording.
+  std::string fit_sequence = "calibration_routine";
   bool help = false;
 };
 
