@@ -104,7 +104,7 @@ std::string calibrateHandUsage() {
 
 Fits the hand model to the hand in a recording of the calibration routine (3-5 s: open hand with
 the fingers spread, the palm turned up to the cameras and back, a fist; doc/calibration.md), or any recording of
-at least 2.5 s with the hand open in some frames (the fit uses the open-hand frames):
+at least 2 s with the hand open in some frames (the fit uses the open-hand frames):
 overall size, palm width, finger length, bone lengths, the Gaussians' widths and colours. Writes
 an ordinary model file for track_bag --model, the benchmark and the tracker's 'model' parameter.
 The bag is what track_bag reads (/cam<i>/image_raw, /cam<i>/camera_info, /tf_static); its first

@@ -313,7 +313,7 @@ RoutineCheck checkCalibrationRoutine(const HandModel& model,
                                                       std::to_string(requirements.min_frames));
     char duration[96];
     std::snprintf(duration, sizeof(duration),
-                  "the hand was in view for %.1f s, the routine needs %.1f s", check.duration,
+                  "the hand was in view for %.1f s, the fit needs %.1f s", check.duration,
                   requirements.min_duration);
     need(check.duration >= requirements.min_duration, duration);
     if (cameras_in_recording >= requirements.min_views) {

@@ -171,7 +171,7 @@ TEST_F(CalibrateChecker, TooShortForTheRoutineFailsWithItsComplaintsAndNoFile) {
   EXPECT_GT(srv.response.sets, 0);
   EXPECT_TRUE(contains(srv.response.message, "do not show the calibration routine"))
       << srv.response.message;
-  EXPECT_TRUE(contains(srv.response.message, "the routine needs 2.5 s") ||
+  EXPECT_TRUE(contains(srv.response.message, "the fit needs 2.0 s") ||
               contains(srv.response.message, "no frame with the hand"))
       << srv.response.message;
   EXPECT_FALSE(fs::exists(path));

@@ -73,7 +73,7 @@ TEST_F(CalibrateHandTool, TooShortARecording) {
   const std::string bag = routineBag("short.bag", 30);
   expectFailure(bag, "frames with the hand, the fit needs 40");
   const ToolRun run = calibrateHand("--bag '" + bag + "' --out '" + path("hand.yaml") + "'");
-  EXPECT_NE(run.err.find("the routine needs 2.5 s"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("the fit needs 2.0 s"), std::string::npos) << run.err;
   EXPECT_NE(run.err.find("no fist"), std::string::npos) << run.err;
   EXPECT_NE(run.err.find("the palm was not turned to a camera"), std::string::npos) << run.err;
 }

@@ -58,7 +58,9 @@ constexpr double kOpenHandFlexionDeg = 40.0;
 // What the routine needs, and whether the recording followed it.
 struct RoutineRequirements {
   int min_frames = 40;               // frames with the hand tracked
-  double min_duration = 2.5;         // seconds between the first and the last of them
+  // Seconds between the first and the last of them. 2.0 (2.5 until session 16): the first 3 s of
+  // a recording, less its 0.4 s of background frames and a start that takes a few frames.
+  double min_duration = 2.0;
   int min_views = 2;                 // cameras that see the hand in at least a third of the frames
   int min_foreground_gaussians = 8;  // for a camera to count as seeing the hand in a frame
   int min_pose_frames = 3;           // frames needed for each pose (palm, back, fist, open)
