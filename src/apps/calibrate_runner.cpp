@@ -103,8 +103,8 @@ std::string calibrateHandUsage() {
   return R"(Usage: calibrate_hand --bag IN.bag --out my_hand.yaml [options]
 
 Fits the hand model to the hand in a recording of the calibration routine (3-5 s: open hand with
-the fingers spread, the palm turned up to the cameras and back, a fist; doc/calibration.md), or any recording of
-at least 2 s with the hand open in some frames (the fit uses the open-hand frames):
+the fingers spread, the palm turned up to the cameras and back, a fist; doc/calibration.md), or
+in any recording of at least 2 s with the hand open in some frames (the fit then uses those):
 overall size, palm width, finger length, bone lengths, the Gaussians' widths and colours. Writes
 an ordinary model file for track_bag --model, the benchmark and the tracker's 'model' parameter.
 The bag is what track_bag reads (/cam<i>/image_raw, /cam<i>/camera_info, /tf_static); its first

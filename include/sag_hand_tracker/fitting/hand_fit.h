@@ -72,7 +72,7 @@ struct RoutineRequirements {
 // A fit needs the hand in view long enough from enough cameras (`ok`); the routine's poses (open
 // hand, palm, back, fist) make it `complete`. A recording without some of the poses (the first
 // seconds of any sequence) can still be fitted: the fit takes its open-hand frames
-// (HandFitParams::min_open_frames), and calibrate_hand warns.
+// (HandFitParams::open_hand_frames), and calibrate_hand warns.
 struct RoutineCheck {
   bool ok = false;        // a fit is possible: the hand seen, enough frames, time and views
   bool complete = false;  // ok, and every pose of the routine shown
