@@ -8,19 +8,24 @@
 
 namespace sag_hand_tracker {
 
-std::vector<CameraGaussian> projectModel(const HandModel& model, const PosedHand& hand,
-                                         const Camera& camera) {
+std::vector<CameraGaussian> projectHand(const PosedHand& hand, const Camera& camera,
+                                        ProjectionMode mode) {
   const Eigen::Matrix3d R = camera.world_to_camera.linear();
   std::vector<CameraGaussian> result(hand.gaussians.size());
   for (size_t p = 0; p < hand.gaussians.size(); ++p) {
     const Eigen::Vector3d mean = camera.world_to_camera * hand.gaussians[p].mean;
     const Eigen::Matrix3d cov = R * hand.gaussians[p].cov * R.transpose();
     result[p].depth = mean.z();
-    result[p].projected = model.projection == ProjectionMode::kPerspective
+    result[p].projected = mode == ProjectionMode::kPerspective
                               ? projectPerspective(mean, cov, camera.K)
                               : projectScaledOrthographic(mean, cov, camera.K);
   }
   return result;
+}
+
+std::vector<CameraGaussian> projectModel(const HandModel& model, const PosedHand& hand,
+                                         const Camera& camera) {
+  return projectHand(hand, camera, model.projection);
 }
 
 bool handInFrontOf(const PosedHand& hand, const Camera& camera) {
@@ -50,12 +55,9 @@ cv::Mat projectedModelSilhouette(const PosedHand& hand, const Camera& camera, do
                                  int margin_pixels) {
   cv::Mat mask(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
   if (!handInFrontOf(hand, camera)) return mask;
-  const Eigen::Matrix3d R = camera.world_to_camera.linear();
-  for (const WorldGaussian& g : hand.gaussians) {
-    const ProjectedGaussian p =
-        projectPerspective(camera.world_to_camera * g.mean, R * g.cov * R.transpose(), camera.K);
+  for (const CameraGaussian& g : projectHand(hand, camera)) {
     cv::RotatedRect box;
-    if (!ellipseBox(p, sigmas, margin_pixels, &box)) continue;
+    if (!ellipseBox(g.projected, sigmas, margin_pixels, &box)) continue;
     // Far outside the image (a Gaussian seen almost edge-on): nothing to draw.
     if (std::fabs(box.center.x) > 4.0f * camera.width ||
         std::fabs(box.center.y) > 4.0f * camera.height) {
@@ -64,6 +66,15 @@ cv::Mat projectedModelSilhouette(const PosedHand& hand, const Camera& camera, do
     cv::ellipse(mask, box, cv::Scalar(255), cv::FILLED);
   }
   return mask;
+}
+
+void drawProjectedEllipses(const std::vector<CameraGaussian>& projected, const cv::Scalar& colour,
+                           cv::Mat* image) {
+  for (const CameraGaussian& g : projected) {
+    cv::RotatedRect box;
+    if (!ellipseBox(g.projected, 1.0, 0.0, &box)) continue;
+    cv::ellipse(*image, box, colour, 1, cv::LINE_AA);
+  }
 }
 
 }  // namespace sag_hand_tracker

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
@@ -20,6 +21,12 @@ namespace {
 constexpr double kRadToDeg = 180.0 / M_PI;
 
 bool positiveFactor(double value) { return std::isfinite(value) && value > 0.0; }
+
+// Mean MCP + PIP flexion of the four fingers in degrees: what tells an open hand from a fist, for
+// the routine check and for the frames the fit takes.
+double fingerFlexionDeg(const HandModel& model, const Pose& pose) {
+  return meanFingerFlexion(model, pose) * kRadToDeg;
+}
 
 // Per frame, per observation, its foreground (foregroundOfSoG, an empty mask for a camera without
 // foreground): the silhouette score's part that does not depend on the shape, made once.
@@ -286,7 +293,7 @@ RoutineCheck checkCalibrationRoutine(const HandModel& model,
       if (facing >= requirements.facing_cos) back_seen = true;
       if (-facing >= requirements.facing_cos) palm_seen = true;
     }
-    const double flexion = meanFingerFlexion(model, frame.pose) * kRadToDeg;
+    const double flexion = fingerFlexionDeg(model, frame.pose);
     if (palm_seen) ++check.palm_frames;
     if (back_seen) ++check.back_frames;
     if (flexion >= requirements.fist_flexion_deg) ++check.fist_frames;
@@ -299,14 +306,12 @@ RoutineCheck checkCalibrationRoutine(const HandModel& model,
   auto need = [&](bool condition, const std::string& what) {
     if (!condition) check.missing.push_back(what);
   };
-  std::size_t hard_problems = 0;
   need(cameras_in_recording >= requirements.min_views,
        "the recording has " + std::to_string(cameras_in_recording) + " camera" +
            (cameras_in_recording == 1 ? "" : "s") + "; the fit needs at least " +
            std::to_string(requirements.min_views) + " views of the hand");
   if (check.frames == 0) {
     check.missing.push_back("no frame with the hand: the hand was never found in the images");
-    hard_problems = check.missing.size();
   } else {
     need(check.frames >= requirements.min_frames, "only " + std::to_string(check.frames) +
                                                       " frames with the hand, the fit needs " +
@@ -322,8 +327,10 @@ RoutineCheck checkCalibrationRoutine(const HandModel& model,
                " saw the hand in a third of the frames; keep it where at least " +
                std::to_string(requirements.min_views) + " cameras see it");
     }
-    // The poses: a fit is possible without them (check.ok), the routine is not complete.
-    hard_problems = check.missing.size();
+  }
+  // The poses: a fit is possible without them, the routine is not complete.
+  check.ok = check.missing.empty();
+  if (check.frames > 0) {
     need(check.open_frames >= requirements.min_pose_frames,
          "no open hand with the fingers spread (" + std::to_string(check.open_frames) + " frames)");
     need(check.palm_frames >= requirements.min_pose_frames,
@@ -334,7 +341,6 @@ RoutineCheck checkCalibrationRoutine(const HandModel& model,
     need(check.fist_frames >= requirements.min_pose_frames,
          "no fist (" + std::to_string(check.fist_frames) + " frames)");
   }
-  check.ok = hard_problems == 0;
   check.complete = check.missing.empty();
   return check;
 }
@@ -362,20 +368,15 @@ HandFitResult fitHandModel(const HandModel& start, const std::vector<Calibration
   };
 
   HandFitResult result;
-  // The open-hand frames when asked for and there are enough of them
-  // (HandFitParams::open_hand_frames).
-  std::vector<int> candidates;
+  // The frames to choose from: with open_hand_frames the open-hand ones, when there are enough.
+  std::vector<int> all(frames.size()), open;
+  std::iota(all.begin(), all.end(), 0);
   for (int i = 0; params.open_hand_frames && i < static_cast<int>(frames.size()); ++i) {
-    if (meanFingerFlexion(start, frames[i].pose) * kRadToDeg <= params.open_flexion_deg) {
-      candidates.push_back(i);
-    }
+    if (fingerFlexionDeg(start, frames[i].pose) <= params.open_flexion_deg) open.push_back(i);
   }
   result.open_frames_only =
-      params.open_hand_frames && static_cast<int>(candidates.size()) >= params.min_open_frames;
-  if (!result.open_frames_only) {
-    candidates.resize(frames.size());
-    for (int i = 0; i < static_cast<int>(frames.size()); ++i) candidates[i] = i;
-  }
+      params.open_hand_frames && static_cast<int>(open.size()) >= params.min_open_frames;
+  const std::vector<int>& candidates = result.open_frames_only ? open : all;
   for (int k : selectCalibrationFrames(static_cast<int>(candidates.size()), params.max_frames)) {
     result.frame_indices.push_back(candidates[k]);
   }
@@ -595,13 +596,8 @@ cv::Mat drawModelOverlay(const cv::Mat& rgb, const Camera& camera, const HandMod
                          const Pose& pose) {
   cv::Mat out = rgb.clone();
   const PosedHand hand = forwardKinematics(model, pose);
-  const std::vector<CameraGaussian> projected = projectModel(model, hand, camera);
-  for (const CameraGaussian& g : projected) {
-    cv::RotatedRect box;
-    if (!ellipseBox(g.projected, 1.0, 0.0, &box)) continue;
-    // Yellow: seen on skin and on the table.
-    cv::ellipse(out, box, cv::Scalar(255, 230, 0), 1, cv::LINE_AA);
-  }
+  // Yellow: seen on skin and on the table.
+  drawProjectedEllipses(projectModel(model, hand, camera), cv::Scalar(255, 230, 0), &out);
   for (const Eigen::Vector3d& tip : fingertips(model, hand)) {
     Eigen::Vector2d pixel;
     if (!camera.project(tip, &pixel)) continue;

@@ -6,7 +6,6 @@
 
 #include "sag_hand_tracker/energy/colour.h"
 #include "sag_hand_tracker/energy/hand_projection.h"
-#include "sag_hand_tracker/energy/projection.h"
 
 namespace sag_hand_tracker {
 namespace {
@@ -83,14 +82,7 @@ visualization_msgs::MarkerArray makeHandMarkers(const HandModel& model, const Po
 }
 
 void drawHandOverlay(const Camera& camera, const PosedHand& hand, cv::Mat* bgr) {
-  const Eigen::Matrix3d R = camera.world_to_camera.linear();
-  for (const auto& gaussian : hand.gaussians) {
-    const ProjectedGaussian p = projectPerspective(camera.world_to_camera * gaussian.mean,
-                                                   R * gaussian.cov * R.transpose(), camera.K);
-    cv::RotatedRect box;
-    if (!ellipseBox(p, 1.0, 0.0, &box)) continue;
-    cv::ellipse(*bgr, box, cv::Scalar(255, 255, 0), 1, cv::LINE_AA);
-  }
+  drawProjectedEllipses(projectHand(hand, camera), cv::Scalar(255, 255, 0), bgr);
 }
 
 }  // namespace sag_hand_tracker

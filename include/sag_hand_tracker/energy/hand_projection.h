@@ -19,7 +19,10 @@ struct CameraGaussian {
   double depth = 0.0;  // of the mean, along the camera's optical axis
 };
 
-// One per model Gaussian of `hand`, in its order; with the model's projection.
+// One per Gaussian of `hand`, in its order, with the projection `mode`.
+std::vector<CameraGaussian> projectHand(const PosedHand& hand, const Camera& camera,
+                                        ProjectionMode mode = ProjectionMode::kPerspective);
+// The same with the model's projection.
 std::vector<CameraGaussian> projectModel(const HandModel& model, const PosedHand& hand,
                                          const Camera& camera);
 
@@ -41,5 +44,10 @@ bool ellipseBox(const ProjectedGaussian& g, double sigmas, double margin_pixels,
 // (hand_fit.h).
 cv::Mat projectedModelSilhouette(const PosedHand& hand, const Camera& camera, double sigmas = 1.0,
                                  int margin_pixels = 3);
+
+// Draws each projected Gaussian's 1-sigma ellipse (1 px, anti-aliased) in `colour` on `image`
+// (the overlays of the live graph and of calibrate_hand's contact sheet).
+void drawProjectedEllipses(const std::vector<CameraGaussian>& projected, const cv::Scalar& colour,
+                           cv::Mat* image);
 
 }  // namespace sag_hand_tracker
