@@ -187,6 +187,12 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
   // The start model's colours, as before the tracker learnt colours (session 8): the fit takes
   // its own from the images, at its own poses.
   pipeline_params.tracker.colour_adaptation.enabled = false;
+  // Whole ascents, no races (TrackerParams::counter_turn_race_share, redetect_race_iterations): a
+  // routine is tracked once, and its poses decide the fit; with the counter-turn race the studio's
+  // long_thin hand was fitted with its index finger 6.2 % short, without it within 5 % (README
+  // "Session 17").
+  pipeline_params.tracker.counter_turn_race_share = 0.0;
+  pipeline_params.tracker.redetect_race_iterations = 0;
   TrackingPipeline pipeline(start, reader.cameras(), pipeline_params);
   std::vector<CalibrationFrame> frames;
   FrameSet set;

@@ -44,71 +44,81 @@ std::string toString(StepControl step_control) {
   return step_control == StepControl::kFixed ? "fixed" : "rprop";
 }
 
-OptimizationResult optimizePose(const PoseEnergy& energy, const Pose& start,
-                                const OptimizerParams& params) {
-  const HandModel& model = energy.model();
-  OptimizationResult best;
-  best.pose = start;
-  if (params.clamp_to_limits) clampToLimits(model, &best.pose);
-  best.energy = -std::numeric_limits<double>::infinity();
+PoseAscent::PoseAscent(const PoseEnergy& energy, const Pose& start, const OptimizerParams& params)
+    : energy_(&energy), params_(params), steps_(initialSteps(params)) {
+  best_.pose = start;
+  if (params_.clamp_to_limits) clampToLimits(energy.model(), &best_.pose);
+  best_.energy = -std::numeric_limits<double>::infinity();
+  pose_ = best_.pose;
+  max_steps_ = 4.0 * steps_;
+  min_steps_ = 1e-3 * steps_;
+  previous_gradient_.setZero();
+  best_gradient_.setZero();
+}
 
-  Pose pose = best.pose;
-  PoseVector steps = initialSteps(params);
-  const PoseVector max_steps = 4.0 * steps;
-  const PoseVector min_steps = 1e-3 * steps;
-  PoseVector previous_gradient = PoseVector::Zero();
+void PoseAscent::iterate(int iterations) {
   PoseVector gradient;
-  int evaluations = 0;
-
-  PoseVector best_gradient = PoseVector::Zero();
-  for (int iteration = 0; iteration < params.iterations; ++iteration) {
-    const double value = energy.evaluate(pose, &gradient);
-    ++evaluations;
-    if (!std::isfinite(value) || !gradient.allFinite()) break;
-    if (value > best.energy) {
-      best.energy = value;
-      best.pose = pose;
-      best_gradient = gradient;
-    } else if (params.step_control == StepControl::kRprop) {
+  for (int i = 0; i < iterations && !stopped_; ++i) {
+    const double value = energy_->evaluate(pose_, &gradient);
+    ++best_.evaluations;
+    ++iterations_;
+    if (!std::isfinite(value) || !gradient.allFinite()) {
+      stopped_ = true;
+      break;
+    }
+    if (value > best_.energy) {
+      best_.energy = value;
+      best_.pose = pose_;
+      best_gradient_ = gradient;
+    } else if (params_.step_control == StepControl::kRprop) {
       // iRprop+: the last step made things worse. Go back to the best pose and step again from
       // there with half the step sizes.
-      pose = best.pose;
-      gradient = best_gradient;
-      steps = (0.5 * steps).cwiseMax(min_steps);
-      previous_gradient.setZero();
+      pose_ = best_.pose;
+      gradient = best_gradient_;
+      steps_ = (0.5 * steps_).cwiseMax(min_steps_);
+      previous_gradient_.setZero();
     }
 
     PoseVector delta;
-    if (params.step_control == StepControl::kFixed) {
-      delta = fixedStep(gradient, steps);
+    if (params_.step_control == StepControl::kFixed) {
+      delta = fixedStep(gradient, steps_);
     } else {
       // Rprop: grow a parameter's step while its gradient keeps its sign, shrink it on a flip.
       delta.setZero();
-      for (int i = 0; i < kNumDof; ++i) {
-        const double agreement = gradient[i] * previous_gradient[i];
+      for (int k = 0; k < kNumDof; ++k) {
+        const double agreement = gradient[k] * previous_gradient_[k];
         if (agreement > 0.0) {
-          steps[i] = std::min(steps[i] * 1.2, max_steps[i]);
+          steps_[k] = std::min(steps_[k] * 1.2, max_steps_[k]);
         } else if (agreement < 0.0) {
-          steps[i] = std::max(steps[i] * 0.5, min_steps[i]);
+          steps_[k] = std::max(steps_[k] * 0.5, min_steps_[k]);
         }
-        delta[i] = gradient[i] > 0.0 ? steps[i] : (gradient[i] < 0.0 ? -steps[i] : 0.0);
+        delta[k] = gradient[k] > 0.0 ? steps_[k] : (gradient[k] < 0.0 ? -steps_[k] : 0.0);
       }
-      previous_gradient = gradient;
+      previous_gradient_ = gradient;
     }
-    pose = pose.stepped(delta);
-    if (params.clamp_to_limits) clampToLimits(model, &pose);
+    pose_ = pose_.stepped(delta);
+    if (params_.clamp_to_limits) clampToLimits(energy_->model(), &pose_);
   }
+}
 
+OptimizationResult PoseAscent::finish() {
+  OptimizationResult best = best_;
   // The last step has not been scored yet.
-  const double value = energy.evaluate(pose);
-  ++evaluations;
+  const double value = energy_->evaluate(pose_);
+  ++best.evaluations;
   if (std::isfinite(value) && value > best.energy) {
     best.energy = value;
-    best.pose = pose;
+    best.pose = pose_;
   }
   if (!std::isfinite(best.energy)) best.energy = 0.0;
-  best.evaluations = evaluations;
   return best;
+}
+
+OptimizationResult optimizePose(const PoseEnergy& energy, const Pose& start,
+                                const OptimizerParams& params) {
+  PoseAscent ascent(energy, start, params);
+  ascent.iterate(params.iterations);
+  return ascent.finish();
 }
 
 Eigen::Vector3d refineForearmDirection(const PoseEnergy& energy, const Pose& pose,

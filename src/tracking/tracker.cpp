@@ -7,6 +7,7 @@
 #include <deque>
 #include <exception>
 #include <mutex>
+#include <numeric>
 #include <optional>
 #include <utility>
 
@@ -655,7 +656,28 @@ std::vector<OptimizationResult> HandTracker::startFromHypotheses(
     candidates.push_back(twin);
   }
   stage_params.iterations = params.start_iterations;
-  refine_all(stage_params);
+  const int race = params.redetect_race_iterations;
+  if (current && race > 0 && race < stage_params.iterations) {
+    // A search with a pose: the last stage races (TrackerParams::redetect_race_iterations).
+    std::vector<PoseAscent> ascents;
+    ascents.reserve(candidates.size());
+    for (const OptimizationResult& candidate : candidates) {
+      ascents.emplace_back(energy, candidate.pose, stage_params);
+    }
+    const int count = static_cast<int>(ascents.size());
+    parallelFor(count, params.search_threads, [&](int i) { ascents[i].iterate(race); });
+    std::vector<int> order(ascents.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::stable_sort(order.begin(), order.end(), [&ascents](int a, int b) {
+      return ascents[a].bestEnergy() > ascents[b].bestEnergy();
+    });
+    order.resize(std::min<size_t>(order.size(), std::max(1, params.redetect_race_kept)));
+    parallelFor(static_cast<int>(order.size()), params.search_threads,
+                [&](int k) { ascents[order[k]].iterate(stage_params.iterations - race); });
+    for (int i = 0; i < count; ++i) candidates[i] = ascents[i].finish();
+  } else {
+    refine_all(stage_params);
+  }
   rankCandidates(params, observations, &candidates);
   return candidates;
 }
@@ -862,20 +884,38 @@ OptimizationResult HandTracker::trackFromPrediction(const PoseEnergy& energy,
                                                     const std::optional<Pose>& previous,
                                                     const Pose& current) const {
   const Pose start = predictedPose(previous, current);
-  OptimizationResult result = optimizePose(energy, start, params_.optimizer);
-  boundRotation(energy, current, start, &result);
-  if (!previous || !params_.counter_turn_start) return result;
+  const int iterations = params_.optimizer.iterations;
+  PoseAscent ascent(energy, start, params_.optimizer);
   // The same turn the other way, from the predicted hand centre.
-  const Eigen::Matrix3d turn = current.rotation * previous->rotation.transpose();
-  if (!(rotationAngle(turn, Eigen::Matrix3d::Identity()) > params_.counter_turn_min_angle)) {
-    return result;
+  std::optional<Pose> counter;
+  if (previous && params_.counter_turn_start) {
+    const Eigen::Matrix3d turn = current.rotation * previous->rotation.transpose();
+    if (rotationAngle(turn, Eigen::Matrix3d::Identity()) > params_.counter_turn_min_angle) {
+      counter = start;
+      counter->rotation = turn.transpose() * current.rotation;
+      counter->translation = rootAt(handCentre(start), counter->rotation);
+    }
   }
-  Pose counter = start;
-  counter.rotation = turn.transpose() * current.rotation;
-  counter.translation = rootAt(handCentre(start), counter.rotation);
-  OptimizationResult other = optimizePose(energy, counter, params_.optimizer);
-  boundRotation(energy, current, counter, &other);
-  return other.energy > result.energy ? other : result;
+  const int race = static_cast<int>(std::lround(params_.counter_turn_race_share * iterations));
+  if (!counter || race <= 0 || race >= iterations) {
+    ascent.iterate(iterations);
+    OptimizationResult result = ascent.finish();
+    boundRotation(energy, current, start, &result);
+    if (!counter) return result;
+    OptimizationResult other = optimizePose(energy, *counter, params_.optimizer);
+    boundRotation(energy, current, *counter, &other);
+    return other.energy > result.energy ? other : result;
+  }
+  // The race: both starts for a few iterations, then only the better one goes on.
+  PoseAscent counter_ascent(energy, *counter, params_.optimizer);
+  ascent.iterate(race);
+  counter_ascent.iterate(race);
+  const bool counter_leads = counter_ascent.bestEnergy() > ascent.bestEnergy();
+  PoseAscent& leader = counter_leads ? counter_ascent : ascent;
+  leader.iterate(iterations - race);
+  OptimizationResult result = leader.finish();
+  boundRotation(energy, current, counter_leads ? *counter : start, &result);
+  return result;
 }
 
 FrameResult HandTracker::step(const std::vector<CameraObservation>& observations, double stamp) {

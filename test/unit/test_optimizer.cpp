@@ -92,6 +92,37 @@ TEST(Optimizer, KeepsParametersInsideLimitsAndCountsEvaluations) {
   EXPECT_EQ(result.evaluations, params.iterations + 1);
 }
 
+// An ascent stopped and resumed (PoseAscent, which the counter-turn race uses) goes exactly where
+// one run of as many iterations goes, for both step controls.
+TEST(Optimizer, ResumedAscentEqualsOneRun) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  const Pose truth = typicalPose(model);
+  PoseEnergy energy(model, EnergyParams());
+  energy.setFrame(modelObservations(model, truth, cameras));
+  std::mt19937 rng(5);
+  const Pose start = perturbed(model, truth, rng);
+  for (const StepControl control : {StepControl::kRprop, StepControl::kFixed}) {
+    OptimizerParams params;
+    params.step_control = control;
+    const OptimizationResult whole = optimizePose(energy, start, params);
+    PoseAscent ascent(energy, start, params);
+    EXPECT_EQ(ascent.iterations(), 0);
+    EXPECT_TRUE(std::isinf(ascent.bestEnergy()));
+    ascent.iterate(7);
+    EXPECT_EQ(ascent.iterations(), 7);
+    const double after_seven = ascent.bestEnergy();
+    EXPECT_GT(after_seven, energy.evaluate(start) - 1e-12);
+    ascent.iterate(params.iterations - 7);
+    EXPECT_GE(ascent.bestEnergy(), after_seven);
+    const OptimizationResult resumed = ascent.finish();
+    EXPECT_EQ(resumed.energy, whole.energy) << toString(control);
+    EXPECT_EQ(resumed.evaluations, whole.evaluations) << toString(control);
+    EXPECT_EQ(resumed.pose.toVector(), whole.pose.toVector()) << toString(control);
+    EXPECT_GT(whole.energy, energy.evaluate(start)) << toString(control);
+  }
+}
+
 TEST(Optimizer, ParsesStepControl) {
   EXPECT_EQ(parseStepControl("fixed"), StepControl::kFixed);
   EXPECT_EQ(parseStepControl("rprop"), StepControl::kRprop);

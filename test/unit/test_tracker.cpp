@@ -103,6 +103,56 @@ TEST(Tracker, TracksMotionAndRestartsWhenLost) {
   EXPECT_LT(meanFingertipError(jumped.fingertips, fingertips(model, truth)), 0.025);
 }
 
+namespace {
+
+// The fingertip errors of the restarts after the hand jumps away from a tracked pose (a search
+// with a pose, so that its last stage races by default) to three other places and orientations.
+std::vector<double> restartErrorsAfterJumps(const TrackerParams& params) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  const Pose rest = typicalPose(model);
+  const std::vector<std::pair<Eigen::Vector3d, double>> jumps = {
+      {Eigen::Vector3d(-0.1, 0.2, 0.05), 0.0},
+      {Eigen::Vector3d(0.2, -0.1, 0.0), 0.3},
+      {Eigen::Vector3d(-0.2, -0.1, 0.05), -0.3}};
+  std::vector<double> errors;
+  for (const auto& [offset, yaw] : jumps) {
+    HandTracker tracker(model, params);
+    for (int frame = 0; frame < 3; ++frame) {
+      EXPECT_TRUE(
+          tracker.update(modelObservations(model, rest, cameras, 3.0), frame * 0.04).has_pose);
+    }
+    Pose truth = rest;
+    truth.rotation = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * rest.rotation;
+    truth.translation += offset;
+    const FrameResult jumped = tracker.update(modelObservations(model, truth, cameras, 3.0), 1.0);
+    EXPECT_TRUE(jumped.restarted);
+    errors.push_back(
+        jumped.has_pose ? meanFingertipError(jumped.fingertips, fingertips(model, truth)) : 1.0);
+  }
+  return errors;
+}
+
+}  // namespace
+
+// The raced last stage of a search with a pose (TrackerParams::redetect_race_iterations: all
+// candidates a few iterations, the best two the rest) restarts the track where the whole stage
+// does.
+TEST(Tracker, TheRacedSearchRestartsAsTheWholeOneDoes) {
+  TrackerParams params;
+  ASSERT_GT(params.redetect_race_iterations, 0);
+  ASSERT_LT(params.redetect_race_iterations, params.start_iterations);
+  const std::vector<double> raced = restartErrorsAfterJumps(params);
+  params.redetect_race_iterations = 0;
+  const std::vector<double> whole = restartErrorsAfterJumps(params);
+  ASSERT_EQ(raced.size(), whole.size());
+  for (size_t i = 0; i < raced.size(); ++i) {
+    EXPECT_LT(raced[i], 0.025) << "jump " << i << ": raced " << raced[i] * 1000 << " mm";
+    EXPECT_LT(raced[i], whole[i] + 0.002)
+        << "jump " << i << ": raced " << raced[i] * 1000 << " mm, whole " << whole[i] * 1000;
+  }
+}
+
 // ---- Issue 9: no reversed or rolled-over hands, honest poses ----
 
 namespace {
@@ -410,6 +460,7 @@ double errorAfterARollTurnsBack(const TrackerParams& params) {
 TEST(TrackerOrientation, CounterTurnStartFollowsARollThatTurnsBack) {
   TrackerParams params;
   ASSERT_TRUE(params.counter_turn_start);
+  params.counter_turn_race_share = 0.0;  // two whole ascents; the race: the test below
   params.energy.saturation_softness = 0.0;
   params.optimizer.iterations = 10;
   const double with = errorAfterARollTurnsBack(params);
@@ -427,11 +478,43 @@ TEST(TrackerOrientation, CounterTurnStartFollowsARollThatTurnsBack) {
                                            << " rad with, " << without_more << " without";
 
   TrackerParams defaults;
+  defaults.counter_turn_race_share = 0.0;
   const double with_default = errorAfterARollTurnsBack(defaults);
   defaults.counter_turn_start = false;
   const double without_default = errorAfterARollTurnsBack(defaults);
   EXPECT_LT(with_default, 0.6 * without_default)
       << "default energy: " << with_default << " rad with, " << without_default << " without";
+}
+
+// The counter-turn race (TrackerParams::counter_turn_race_share): both starts get a share of the
+// iterations, then only the better one goes on. It follows the roll back about as well as two
+// whole ascents do, with the hard cap (10 and 20 iterations) and with the default energy.
+TEST(TrackerOrientation, CounterTurnRaceFollowsARollThatTurnsBack) {
+  struct Case {
+    double softness;
+    int iterations;
+  };
+  for (const Case& c : {Case{0.0, 10}, Case{0.0, OptimizerParams().iterations},
+                        Case{EnergyParams().saturation_softness, OptimizerParams().iterations}}) {
+    TrackerParams params;
+    params.energy.saturation_softness = c.softness;
+    params.optimizer.iterations = c.iterations;
+    ASSERT_GT(params.counter_turn_race_share, 0.0);
+    ASSERT_LT(params.counter_turn_race_share, 1.0);
+    const double raced = errorAfterARollTurnsBack(params);
+    params.counter_turn_race_share = 0.0;
+    const double whole = errorAfterARollTurnsBack(params);
+    params.counter_turn_start = false;
+    const double without = errorAfterARollTurnsBack(params);
+    // Measured (raced / whole / without, rad): hard cap 10 iterations 0.051 / 0.040 / 0.34,
+    // 20 iterations 0.136 / 0.136 / 0.467; default energy 0.068 / 0.068 / 0.220.
+    const std::string what = "softness " + std::to_string(c.softness) + ", " +
+                             std::to_string(c.iterations) + " iterations";
+    EXPECT_LE(raced, whole + 0.015)
+        << what << ": raced " << raced << " rad, two whole ascents " << whole;
+    EXPECT_LT(raced, 0.5 * without)
+        << what << ": raced " << raced << " rad, without the counter-turn start " << without;
+  }
 }
 
 // Live graphs run the start search on a worker thread: the frame that launches it returns at once

@@ -38,6 +38,30 @@ struct OptimizationResult {
   int evaluations = 0;
 };
 
+// The ascent of optimizePose, resumable: iterate() runs further iterations, finish() scores the
+// last step and gives the best pose met. `energy` must outlive it. Two ascents can so be raced
+// (TrackerParams::counter_turn_race_iterations): a few iterations each, then only the better one
+// goes on.
+class PoseAscent {
+ public:
+  PoseAscent(const PoseEnergy& energy, const Pose& start, const OptimizerParams& params);
+  // Up to `iterations` more iterations (none once an evaluation was not finite).
+  void iterate(int iterations);
+  int iterations() const { return iterations_; }
+  // The best energy scored so far (-infinity before the first iteration).
+  double bestEnergy() const { return best_.energy; }
+  OptimizationResult finish();
+
+ private:
+  const PoseEnergy* energy_;
+  OptimizerParams params_;
+  OptimizationResult best_;
+  Pose pose_;
+  PoseVector steps_, max_steps_, min_steps_, previous_gradient_, best_gradient_;
+  int iterations_ = 0;
+  bool stopped_ = false;
+};
+
 // Maximises the energy from `start` with the configured iterations.
 OptimizationResult optimizePose(const PoseEnergy& energy, const Pose& start,
                                 const OptimizerParams& params);

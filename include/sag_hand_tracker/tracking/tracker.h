@@ -54,6 +54,14 @@ struct TrackerParams {
   // its fitted model started reversed (energy 0.35; the right pose, 0.62, ranked fifth or lower
   // after the coarse stage) and stayed so for 65 frames (README "Session 13").
   int start_kept = 8;
+  // In a search with a pose (re-detection, restart after a loss) the last stage races: every
+  // candidate gets `redetect_race_iterations` of its `start_iterations`, then only the best
+  // `redetect_race_kept` (by energy) get the rest; the others end as they are, ranked below
+  // them. On the benchmark's 77 default-model runs 5 and 2 changed one track (14.33 mm pooled
+  // either way) and optimisation per frame fell ~8 % (README "Session 17"); 10 and 1 changed ten
+  // (14.48 mm). 0 (or >= start_iterations): every candidate gets all of them.
+  int redetect_race_iterations = 5;
+  int redetect_race_kept = 2;
   // The track counts as lost when the normalised similarity drops below `lost_similarity`, or
   // below `lost_ratio` times its running average over the recent tracked frames.
   double lost_similarity = 0.15;
@@ -103,6 +111,13 @@ struct TrackerParams {
   // sequences, default hand: 17.7 -> 15.6 mm (README, session 6).
   bool counter_turn_start = true;
   double counter_turn_min_angle = 0.0175;
+  // The two starts race: each is optimised for this share of the optimiser's iterations, then
+  // only the one with the higher energy goes on for the rest (0 or 1: both get all iterations).
+  // Raced at half the iterations, the benchmark's 77 default-model runs went from 14.4 mm pooled
+  // and 0.09 % rolled over to 14.3 mm and none, and optimisation per frame from 3.69 to 3.20 ms
+  // (frames/s 215 -> 241, medians of an interleaved run); a quarter gave 14.5 mm, 0.4 gave
+  // 14.6 mm and 0.28 % rolled (README "Session 17"). calibrate_hand tracks without it.
+  double counter_turn_race_share = 0.5;
   // Forearm cue: a camera whose segmentation found at least `min_arm_cells` sleeve cells
   // (ImageSoG::arm_cells) votes on which end of the hand is the wrist. Start hypotheses and
   // re-detections that point the wrist away from the arm (mean vote below `-arm_vote_threshold`)
