@@ -931,14 +931,17 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
   energy.setForearmDirection(forearm);
 
   std::optional<OptimizationResult> optimized;
+  // The terms of the tracked pose; reported as they are while it is the pose of this frame.
+  EnergyTerms tracked_terms;
+  bool tracked_pose_reported = false;
   bool started = false;
   bool flipped = false;
   if (current_ && !lost_) {
     optimized = trackFromPrediction(energy, previous_, *current_);
     forearm = fitForearm(energy, &*optimized, forearm);
     energy.setForearmDirection(forearm);
-    EnergyTerms terms;
-    energy.evaluate(optimized->pose, nullptr, &terms);
+    energy.evaluate(optimized->pose, nullptr, &tracked_terms);
+    tracked_pose_reported = true;
 
     // The carried flip hypothesis: tracked like the main one; it takes over after
     // `flip_confirm_frames` frames with an energy clearly above the track's (judgeAlternative).
@@ -961,6 +964,7 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
         alternative_.reset();
       } else if (verdict == AlternativeVerdict::kConfirm) {
         optimized = challenger;
+        tracked_pose_reported = false;
         forearm = alternative_forearm_;
         flipped = true;
         alternative_.reset();
@@ -978,7 +982,7 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
     const bool implausible =
         !plausible(optimized->pose, observations) ||
         (params_.arm_reversed_frames > 0 && arm_reversed_streak_ >= params_.arm_reversed_frames);
-    const bool lost = !flipped && (looksLost(terms.similarity) || implausible);
+    const bool lost = !flipped && (looksLost(tracked_terms.similarity) || implausible);
     if (lost || redetect) {
       // Try the start routine on this frame (asynchronously: hand the set to a worker, which
       // does this on its copy of the tracker). When the track is lost its best result replaces
@@ -1002,6 +1006,7 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
       } else if (lost) {
         if (!restart.empty() && (implausible || restart.front().energy > optimized->energy)) {
           optimized = restart.front();
+          tracked_pose_reported = false;
           forearm = restart_forearms.front();
           started = true;
           alternative_.reset();
@@ -1012,6 +1017,7 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
             chooseRedetection(*optimized, restart, params_, alternative_.has_value());
         if (choice.adopt >= 0) {
           optimized = restart[choice.adopt];
+          tracked_pose_reported = false;
           forearm = restart_forearms[choice.adopt];
           started = true;
           alternative_.reset();
@@ -1044,7 +1050,12 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
   }
 
   energy.setForearmDirection(forearm);
-  energy.evaluate(optimized->pose, nullptr, &result.energy);
+  // The tracked pose, with the same forearm, has been scored already.
+  if (tracked_pose_reported) {
+    result.energy = std::move(tracked_terms);
+  } else {
+    energy.evaluate(optimized->pose, nullptr, &result.energy);
+  }
   result.has_pose = true;
   updateForearmPresence(energy, optimized->pose, forearm, result.energy.total);
   result.pose = optimized->pose;

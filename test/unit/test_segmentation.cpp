@@ -3,8 +3,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <opencv2/imgproc.hpp>
+#include <random>
 #include <string>
 #include <tuple>
 #include <utility>
@@ -13,6 +15,8 @@
 #include "sag_hand_tracker/energy/colour.h"
 #include "sag_hand_tracker/segmentation/quadtree_segmentation.h"
 #include "test_support/segmentation_test_images.h"
+// detail::ColourIntegral
+#include "../../src/segmentation/segmentation_internal.h"
 
 using namespace sag_hand_tracker;
 
@@ -854,4 +858,60 @@ TEST(Skin, DarkUnsaturatedRuleSeparatesSleeveFromSkin) {
   EXPECT_FALSE(isDarkNonSkin(Eigen::Vector3d(92, 51, 23), params));  // dark brown skin
   EXPECT_FALSE(isDarkNonSkin(Eigen::Vector3d(128, 95, 77), params));
   EXPECT_FALSE(isDarkNonSkin(Eigen::Vector3d(40, 60, 200), params));  // saturated blue
+}
+
+// The subsampled integral image (segmentation_internal.h) gives the exact sums of R, G, B and of
+// their squares over every rectangle on its grid, for any image size and grid step.
+TEST(ColourIntegral, GivesTheExactSumsOverEveryGridRectangle) {
+  std::mt19937 random(7);
+  std::uniform_int_distribution<int> byte(0, 255);
+  struct Size {
+    int width, height, step;
+  };
+  for (const Size& size : {Size{96, 64, 4}, Size{37, 23, 4}, Size{50, 29, 8}, Size{19, 17, 2},
+                           Size{13, 11, 1}, Size{70, 40, 16}, Size{3, 5, 4}}) {
+    cv::Mat rgb(size.height, size.width, CV_8UC3);
+    for (auto it = rgb.begin<cv::Vec3b>(); it != rgb.end<cv::Vec3b>(); ++it) {
+      *it = cv::Vec3b(byte(random), byte(random), byte(random));
+    }
+    detail::ColourIntegral integral;
+    integral.compute(rgb, size.step);
+    // Every grid line: multiples of the step, and the border.
+    auto lines = [&](int extent) {
+      std::vector<int> at;
+      for (int v = 0; v < extent; v += size.step) at.push_back(v);
+      at.push_back(extent);
+      return at;
+    };
+    const std::vector<int> xs = lines(size.width), ys = lines(size.height);
+    int checked = 0;
+    for (size_t a = 0; a < xs.size(); a += 3) {
+      for (size_t b = a + 1; b < xs.size(); b += 2) {
+        for (size_t c = 0; c < ys.size(); c += 3) {
+          for (size_t d = c + 1; d < ys.size(); d += 2) {
+            std::uint64_t expected[6] = {0, 0, 0, 0, 0, 0};
+            for (int y = ys[c]; y < ys[d]; ++y) {
+              for (int x = xs[a]; x < xs[b]; ++x) {
+                const cv::Vec3b& p = rgb.at<cv::Vec3b>(y, x);
+                for (int k = 0; k < 3; ++k) {
+                  expected[k] += p[k];
+                  expected[3 + k] += p[k] * p[k];
+                }
+              }
+            }
+            std::uint32_t sums[6];
+            integral.region(xs[a], ys[c], xs[b], ys[d], sums);
+            for (int k = 0; k < 6; ++k) {
+              ASSERT_EQ(sums[k], expected[k])
+                  << "lane " << k << " of [" << xs[a] << ", " << xs[b] << ") x [" << ys[c] << ", "
+                  << ys[d] << ") in a " << size.width << "x" << size.height << " image, step "
+                  << size.step;
+            }
+            ++checked;
+          }
+        }
+      }
+    }
+    EXPECT_GT(checked, 0);
+  }
 }
