@@ -931,17 +931,16 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
   energy.setForearmDirection(forearm);
 
   std::optional<OptimizationResult> optimized;
-  // The terms of the tracked pose; reported as they are while it is the pose of this frame.
+  // The terms of the tracked pose; the frame reports them unless a start or a flip replaced it.
   EnergyTerms tracked_terms;
-  bool tracked_pose_reported = false;
   bool started = false;
   bool flipped = false;
-  if (current_ && !lost_) {
+  const bool tracking = current_ && !lost_;
+  if (tracking) {
     optimized = trackFromPrediction(energy, previous_, *current_);
     forearm = fitForearm(energy, &*optimized, forearm);
     energy.setForearmDirection(forearm);
     energy.evaluate(optimized->pose, nullptr, &tracked_terms);
-    tracked_pose_reported = true;
 
     // The carried flip hypothesis: tracked like the main one; it takes over after
     // `flip_confirm_frames` frames with an energy clearly above the track's (judgeAlternative).
@@ -964,7 +963,6 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
         alternative_.reset();
       } else if (verdict == AlternativeVerdict::kConfirm) {
         optimized = challenger;
-        tracked_pose_reported = false;
         forearm = alternative_forearm_;
         flipped = true;
         alternative_.reset();
@@ -1006,7 +1004,6 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
       } else if (lost) {
         if (!restart.empty() && (implausible || restart.front().energy > optimized->energy)) {
           optimized = restart.front();
-          tracked_pose_reported = false;
           forearm = restart_forearms.front();
           started = true;
           alternative_.reset();
@@ -1017,7 +1014,6 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
             chooseRedetection(*optimized, restart, params_, alternative_.has_value());
         if (choice.adopt >= 0) {
           optimized = restart[choice.adopt];
-          tracked_pose_reported = false;
           forearm = restart_forearms[choice.adopt];
           started = true;
           alternative_.reset();
@@ -1051,7 +1047,7 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
 
   energy.setForearmDirection(forearm);
   // The tracked pose, with the same forearm, has been scored already.
-  if (tracked_pose_reported) {
+  if (tracking && !started && !flipped) {
     result.energy = std::move(tracked_terms);
   } else {
     energy.evaluate(optimized->pose, nullptr, &result.energy);
