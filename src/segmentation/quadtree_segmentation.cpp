@@ -103,6 +103,8 @@ struct Workspace {
   std::vector<unsigned char> mask;
   std::vector<unsigned char> mask_tmp;
   std::vector<int> mask_integral;
+  std::vector<unsigned char> border;  // refine_border_pixels: the border cells of `mask`
+  std::vector<int> border_integral;
   int arm_cells = 0;  // sleeve cells of the last prepare() (see ImageSoG::arm_cells)
   Eigen::Vector2d arm_sum = Eigen::Vector2d::Zero();
 };
@@ -119,21 +121,37 @@ struct CellMask {
   int cells_x = 0;
   int cells_y = 0;
   int cell_size = 1;
+  // With refine_border_pixels: the border cells (and their integral image), and the foreground
+  // at pixel level with the image, from which the leaves inside border cells are made.
+  const unsigned char* border = nullptr;
+  const int* border_integral = nullptr;
+  const cv::Mat* pixels = nullptr;  // CV_8UC1, 255 on the foreground
+  const cv::Mat* rgb = nullptr;
 
   // Foreground cells and all cells touched by the node at (x, y) of side s (clipped to the image).
   void count(int x, int y, int s, int& foreground, int& total) const {
+    foreground = sum(cells, integral, x, y, s, &total);
+  }
+  // Border cells touched by the node.
+  int borders(int x, int y, int s) const {
+    int total = 0;
+    return border == nullptr ? 0 : sum(border, border_integral, x, y, s, &total);
+  }
+
+ private:
+  int sum(const unsigned char* values, const int* values_integral, int x, int y, int s,
+          int* total) const {
     if (s <= cell_size) {  // nodes and cells are aligned powers of two: inside one cell
-      foreground = cells[(y / cell_size) * cells_x + x / cell_size];
-      total = 1;
-      return;
+      *total = 1;
+      return values[(y / cell_size) * cells_x + x / cell_size];
     }
     const int cx0 = x / cell_size, cy0 = y / cell_size;
     const int cx1 = std::min(cx0 + s / cell_size, cells_x);
     const int cy1 = std::min(cy0 + s / cell_size, cells_y);
     const int stride = cells_x + 1;
-    foreground = integral[cy1 * stride + cx1] - integral[cy0 * stride + cx1] -
-                 integral[cy1 * stride + cx0] + integral[cy0 * stride + cx0];
-    total = (cx1 - cx0) * (cy1 - cy0);
+    *total = (cx1 - cx0) * (cy1 - cy0);
+    return values_integral[cy1 * stride + cx1] - values_integral[cy0 * stride + cx1] -
+           values_integral[cy1 * stride + cx0] + values_integral[cy0 * stride + cx0];
   }
 };
 
@@ -174,6 +192,15 @@ class Quadtree {
         }
       }
     }
+    if (!split && mask_ != nullptr && mask_->borders(x, y, s) > 0) {
+      // On the silhouette's border: down to the smallest leaves, each made of its foreground
+      // pixels only.
+      if (!can_split) {
+        emitForegroundPixels(x, y, x1, y1);
+        return;
+      }
+      split = true;
+    }
     std::uint32_t sums[6];
     integral_.region(x, y, x1, y1, sums);
     const int n = (x1 - x) * (y1 - y);
@@ -199,10 +226,38 @@ class Quadtree {
     emit(x, y, x1 - x, y1 - y, mean);
   }
 
+  // A leaf of the foreground pixels in [x0, x1) x [y0, y1): at their centroid, with their area
+  // (sigma = sigma_per_leaf_size * sqrt(count), as a square leaf of that area) and mean colour.
+  void emitForegroundPixels(int x0, int y0, int x1, int y1) {
+    int count = 0;
+    double sx = 0.0, sy = 0.0, colour[3] = {0.0, 0.0, 0.0};
+    for (int y = y0; y < y1; ++y) {
+      const unsigned char* keep = mask_->pixels->ptr<unsigned char>(y);
+      const unsigned char* px = mask_->rgb->ptr<unsigned char>(y);
+      for (int x = x0; x < x1; ++x) {
+        if (!keep[x]) continue;
+        ++count;
+        sx += x;
+        sy += y;
+        for (int k = 0; k < 3; ++k) colour[k] += px[3 * x + k];
+      }
+    }
+    if (count == 0) return;
+    for (double& c : colour) c /= count;
+    emit(x0, y0, x1 - x0, y1 - y0, colour, Eigen::Vector2d(sx / count, sy / count),
+         params_.sigma_per_leaf_size * std::sqrt(static_cast<double>(count)));
+  }
+
   void emit(int x, int y, int w, int h, const double mean[3]) {
+    emit(x, y, w, h, mean, Eigen::Vector2d(x + 0.5 * (w - 1), y + 0.5 * (h - 1)),
+         params_.sigma_per_leaf_size * (w == h ? w : std::sqrt(static_cast<double>(w) * h)));
+  }
+
+  void emit(int x, int y, int w, int h, const double mean[3], const Eigen::Vector2d& centre,
+            double sigma) {
     ImageGaussian g;
-    g.mean = Eigen::Vector2d(x + 0.5 * (w - 1), y + 0.5 * (h - 1));
-    g.sigma = params_.sigma_per_leaf_size * (w == h ? w : std::sqrt(static_cast<double>(w) * h));
+    g.mean = centre;
+    g.sigma = sigma;
     g.hsv = rgbToHsv(mean[0], mean[1], mean[2]);
     sog_.gaussians.push_back(g);
     if (leaves_ != nullptr) {
@@ -480,17 +535,23 @@ bool prepare(const cv::Mat& rgb, const SegmentationParams& params, SegmentationM
   return true;
 }
 
-// The mask's integral image and the view of it that the quad-tree reads.
-void finishMask(Workspace& ws, int cells_x, int cells_y, int cell_size, CellMask& mask) {
+// The integral image of per-cell 0/1 values, (cells_y + 1) x (cells_x + 1).
+void cellIntegral(const std::vector<unsigned char>& values, int cells_x, int cells_y,
+                  std::vector<int>& integral) {
   const int stride = cells_x + 1;
-  ws.mask_integral.assign(static_cast<std::size_t>(stride) * (cells_y + 1), 0);
+  integral.assign(static_cast<std::size_t>(stride) * (cells_y + 1), 0);
   for (int cy = 0; cy < cells_y; ++cy) {
     int row = 0;
     for (int cx = 0; cx < cells_x; ++cx) {
-      row += ws.mask[cy * cells_x + cx];
-      ws.mask_integral[(cy + 1) * stride + cx + 1] = ws.mask_integral[cy * stride + cx + 1] + row;
+      row += values[cy * cells_x + cx];
+      integral[(cy + 1) * stride + cx + 1] = integral[cy * stride + cx + 1] + row;
     }
   }
+}
+
+// The mask's integral image and the view of it that the quad-tree reads.
+void finishMask(Workspace& ws, int cells_x, int cells_y, int cell_size, CellMask& mask) {
+  cellIntegral(ws.mask, cells_x, cells_y, ws.mask_integral);
   mask.cells = ws.mask.data();
   mask.integral = ws.mask_integral.data();
   mask.cells_x = cells_x;
@@ -504,20 +565,6 @@ void addArmEvidence(const Workspace& ws, bool masked, ImageSoG* sog) {
   sog->arm_cells = ws.arm_cells;
   sog->arm_centroid = ws.arm_sum / ws.arm_cells;
 }
-
-}  // namespace
-
-ImageSoG ImageSegmenter::segment(const cv::Mat& rgb, std::vector<QuadtreeLeaf>* leaves) const {
-  Workspace& ws = workspace();
-  CellMask mask;
-  ws.arm_cells = 0;
-  const bool masked = prepare(rgb, params_, effectiveMode(), plate_, "segment", ws, mask);
-  ImageSoG sog = runQuadtree(ws.integral, params_.quadtree, masked ? &mask : nullptr, leaves);
-  addArmEvidence(ws, masked, &sog);
-  return sog;
-}
-
-namespace {
 
 // The cell mask at image size: 255 where a cell is foreground.
 cv::Mat maskImage(const unsigned char* cells, int cells_x, int cell_size, int width, int height) {
@@ -535,13 +582,75 @@ cv::Mat maskImage(const unsigned char* cells, int cells_x, int cell_size, int wi
   return out;
 }
 
+// refine_border_pixels: the foreground at pixel level, i.e. the cells less the pixels that fail the
+// skin gate in the cells with a background 4-neighbour; the cells that lost a pixel are marked in
+// mask.border (a border cell of skin pixels only stays a whole cell, and its leaf may stay large).
+cv::Mat refineBorderPixels(const cv::Mat& rgb, const SkinParams& skin, Workspace& ws,
+                           CellMask& mask) {
+  const int cells_x = mask.cells_x, cells_y = mask.cells_y, c = mask.cell_size;
+  ws.border.assign(ws.mask.size(), 0);
+  cv::Mat pixels = maskImage(ws.mask.data(), cells_x, c, rgb.cols, rgb.rows);
+  for (int cy = 0; cy < cells_y; ++cy) {
+    for (int cx = 0; cx < cells_x; ++cx) {
+      const int i = cy * cells_x + cx;
+      if (!ws.mask[i]) continue;
+      const bool border = (cx > 0 && !ws.mask[i - 1]) || (cx + 1 < cells_x && !ws.mask[i + 1]) ||
+                          (cy > 0 && !ws.mask[i - cells_x]) ||
+                          (cy + 1 < cells_y && !ws.mask[i + cells_x]);
+      if (!border) continue;
+      for (int y = cy * c; y < std::min((cy + 1) * c, rgb.rows); ++y) {
+        const unsigned char* px = rgb.ptr<unsigned char>(y);
+        unsigned char* keep = pixels.ptr<unsigned char>(y);
+        for (int x = cx * c; x < std::min((cx + 1) * c, rgb.cols); ++x) {
+          if (!isSkinColour(Eigen::Vector3d(px[3 * x], px[3 * x + 1], px[3 * x + 2]), skin)) {
+            keep[x] = 0;
+            ws.border[i] = 1;
+          }
+        }
+      }
+    }
+  }
+  cellIntegral(ws.border, cells_x, cells_y, ws.border_integral);
+  mask.border = ws.border.data();
+  mask.border_integral = ws.border_integral.data();
+  return pixels;
+}
+
+// Applies refine_border_pixels where it applies (the skin gate alone, a mask): returns the
+// foreground at pixel level and points the quad-tree's mask at it, or returns an empty matrix.
+cv::Mat refineBorderPixelsIfSkinOnly(const cv::Mat& rgb, const SegmentationParams& params,
+                                     SegmentationMode mode, bool masked, Workspace& ws,
+                                     CellMask& mask) {
+  if (!masked || mode != SegmentationMode::kSkin || !params.refine_border_pixels) return cv::Mat();
+  return refineBorderPixels(rgb, params.skin, ws, mask);
+}
+
 }  // namespace
+
+ImageSoG ImageSegmenter::segment(const cv::Mat& rgb, std::vector<QuadtreeLeaf>* leaves) const {
+  Workspace& ws = workspace();
+  CellMask mask;
+  ws.arm_cells = 0;
+  const SegmentationMode mode = effectiveMode();
+  const bool masked = prepare(rgb, params_, mode, plate_, "segment", ws, mask);
+  const cv::Mat pixels = refineBorderPixelsIfSkinOnly(rgb, params_, mode, masked, ws, mask);
+  if (!pixels.empty()) {
+    mask.pixels = &pixels;
+    mask.rgb = &rgb;
+  }
+  ImageSoG sog = runQuadtree(ws.integral, params_.quadtree, masked ? &mask : nullptr, leaves);
+  addArmEvidence(ws, masked, &sog);
+  return sog;
+}
 
 cv::Mat ImageSegmenter::foregroundMask(const cv::Mat& rgb) const {
   Workspace& ws = workspace();
   CellMask mask;
-  const bool masked = prepare(rgb, params_, effectiveMode(), plate_, "foregroundMask", ws, mask);
+  const SegmentationMode mode = effectiveMode();
+  const bool masked = prepare(rgb, params_, mode, plate_, "foregroundMask", ws, mask);
   if (!masked) return cv::Mat(rgb.rows, rgb.cols, CV_8UC1, cv::Scalar(255));
+  cv::Mat pixels = refineBorderPixelsIfSkinOnly(rgb, params_, mode, masked, ws, mask);
+  if (!pixels.empty()) return pixels;
   return maskImage(mask.cells, mask.cells_x, mask.cell_size, rgb.cols, rgb.rows);
 }
 
@@ -602,6 +711,7 @@ void ImageSegmenter::resetRoomState() {
 }
 
 cv::Mat ImageSegmenter::lastForegroundMask() const {
+  if (!room_.pixel_mask.empty()) return room_.pixel_mask.clone();
   if (room_.mask.empty()) return cv::Mat();
   return maskImage(room_.mask.data(), room_.cells_x, room_.cell_size, room_.width, room_.height);
 }
@@ -661,6 +771,11 @@ ImageSoG ImageSegmenter::segmentFrame(const cv::Mat& rgb, std::vector<QuadtreeLe
   room_.cell_size = params_.cell_size;
   room_.width = rgb.cols;
   room_.height = rgb.rows;
+  room_.pixel_mask = refineBorderPixelsIfSkinOnly(rgb, params_, mode, masked, ws, mask);
+  if (!room_.pixel_mask.empty()) {
+    mask.pixels = &room_.pixel_mask;
+    mask.rgb = &rgb;
+  }
   ImageSoG sog = runQuadtree(ws.integral, params_.quadtree, masked ? &mask : nullptr, leaves);
   addArmEvidence(ws, masked, &sog);
   return sog;

@@ -20,9 +20,10 @@ const cv::Mat& benchmarkFrame() {
   return frame;
 }
 
-ImageSegmenter makeSegmenter(SegmentationMode mode) {
+ImageSegmenter makeSegmenter(SegmentationMode mode, bool refine_border_pixels) {
   SegmentationParams p;
   p.mode = mode;
+  p.refine_border_pixels = refine_border_pixels;
   ImageSegmenter segmenter(p);
   if (mode == SegmentationMode::kPlate || mode == SegmentationMode::kPlateAndSkin) {
     for (unsigned seed = 0; seed < 10; ++seed) {
@@ -32,8 +33,8 @@ ImageSegmenter makeSegmenter(SegmentationMode mode) {
   return segmenter;
 }
 
-void run(benchmark::State& state, SegmentationMode mode) {
-  const ImageSegmenter segmenter = makeSegmenter(mode);
+void run(benchmark::State& state, SegmentationMode mode, bool refine_border_pixels = true) {
+  const ImageSegmenter segmenter = makeSegmenter(mode, refine_border_pixels);
   const cv::Mat& frame = benchmarkFrame();
   std::size_t gaussians = 0;
   for (auto _ : state) {
@@ -60,6 +61,12 @@ BENCHMARK(SegmentWithPlateAndSkinGate)->Unit(benchmark::kMicrosecond);
 
 void SegmentWithSkinGateOnly(benchmark::State& state) { run(state, SegmentationMode::kSkin); }
 BENCHMARK(SegmentWithSkinGateOnly)->Unit(benchmark::kMicrosecond);
+
+// The same with whole border cells (refine_border_pixels off): what the pixel test costs.
+void SegmentWithSkinGateOnlyWholeCells(benchmark::State& state) {
+  run(state, SegmentationMode::kSkin, false);
+}
+BENCHMARK(SegmentWithSkinGateOnlyWholeCells)->Unit(benchmark::kMicrosecond);
 
 // Learning: the cost of one addBackgroundFrame.
 void SegmentAddBackgroundFrame(benchmark::State& state) {

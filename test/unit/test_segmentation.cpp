@@ -850,6 +850,67 @@ TEST(Skin, ModeKeepsOnlySkinRegions) {
   EXPECT_EQ(cv::countNonZero(segmenter.foregroundMask(img) != skin), 0);
 }
 
+// refine_border_pixels: with the skin gate the cells on the silhouette's border are decided
+// pixel by pixel, so the foreground and the SoG hold the disc's pixels, not whole cells of it.
+TEST(Skin, BorderCellsAreDecidedPixelByPixel) {
+  const cv::Scalar skin(214, 158, 128), grey(128, 128, 128);
+  cv::Mat img(120, 160, CV_8UC3, grey);
+  const cv::Point centre(77, 61);  // the edge crosses the 4-pixel cells at every angle
+  cv::circle(img, centre, 29, skin, cv::FILLED);
+  cv::Mat truth;
+  cv::inRange(img, skin, skin, truth);
+  struct Run {
+    cv::Mat mask;
+    ImageSoG sog;
+  };
+  auto run = [&](SegmentationMode mode, bool refine) {
+    SegmentationParams p;
+    p.mode = mode;
+    p.refine_border_pixels = refine;
+    ImageSegmenter segmenter(p);
+    for (int i = 0; i < p.background.frames; ++i)
+      segmenter.addBackgroundFrame(cv::Mat(img.size(), CV_8UC3, grey));
+    Run r;
+    r.sog = segmenter.segmentFrame(img);
+    r.mask = segmenter.lastForegroundMask();
+    return r;
+  };
+  auto precision = [&](const cv::Mat& m) {
+    return static_cast<double>(cv::countNonZero(m & truth)) / cv::countNonZero(m);
+  };
+  auto recall = [&](const cv::Mat& m) {
+    return static_cast<double>(cv::countNonZero(m & truth)) / cv::countNonZero(truth);
+  };
+  const Run cells = run(SegmentationMode::kSkin, false);
+  const Run pixels = run(SegmentationMode::kSkin, true);
+  EXPECT_LT(precision(cells.mask), 0.97);  // whole border cells bring grey pixels
+  EXPECT_GT(precision(pixels.mask), 0.995);
+  EXPECT_GE(recall(pixels.mask), recall(cells.mask) - 1e-9);  // only grey pixels are dropped
+  EXPECT_GT(recall(pixels.mask), 0.95);
+  // The SoG stands for exactly the kept pixels: each leaf's mass 2 pi sigma^2 is its pixel count
+  // (sigma_per_leaf_size = 1 / sqrt(2 pi)), and their centroid is the disc's centre.
+  double area = 0.0;
+  Eigen::Vector2d moment = Eigen::Vector2d::Zero();
+  for (const ImageGaussian& g : pixels.sog.gaussians) {
+    const double mass = 2.0 * M_PI * g.sigma * g.sigma;
+    area += mass;
+    moment += mass * g.mean;
+  }
+  EXPECT_NEAR(area, cv::countNonZero(pixels.mask), 1e-6 * area);
+  EXPECT_LT((moment / area - Eigen::Vector2d(centre.x, centre.y)).norm(), 0.25);
+  EXPECT_GT(pixels.sog.gaussians.size(), cells.sog.gaussians.size());  // border leaves are cells
+
+  // With the plate the cells stay as they are.
+  const Run plate_cells = run(SegmentationMode::kPlate, false);
+  const Run plate_pixels = run(SegmentationMode::kPlate, true);
+  ASSERT_EQ(plate_pixels.sog.gaussians.size(), plate_cells.sog.gaussians.size());
+  for (size_t i = 0; i < plate_cells.sog.gaussians.size(); ++i) {
+    EXPECT_EQ(plate_pixels.sog.gaussians[i].mean, plate_cells.sog.gaussians[i].mean);
+    EXPECT_EQ(plate_pixels.sog.gaussians[i].sigma, plate_cells.sog.gaussians[i].sigma);
+  }
+  EXPECT_EQ(cv::countNonZero(plate_pixels.mask != plate_cells.mask), 0);
+}
+
 TEST(Skin, DarkUnsaturatedRuleSeparatesSleeveFromSkin) {
   const BackgroundParams params;
   EXPECT_TRUE(isDarkNonSkin(Eigen::Vector3d(22, 22, 26), params));   // black sleeve

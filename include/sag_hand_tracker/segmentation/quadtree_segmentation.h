@@ -121,6 +121,12 @@ struct SegmentationParams {
   int cell_size = 4;
   // A foreground cell none of whose 8 neighbours is foreground is dropped (noise, specular spots).
   bool remove_isolated_cells = true;
+  // With the skin gate alone (no plate), the foreground cells on the silhouette's border (a
+  // 4-neighbour is background) are decided again pixel by pixel with the gate: each becomes one
+  // image Gaussian at its skin pixels' centroid, of their area and colour, and the foreground mask
+  // keeps only those pixels. A whole border cell otherwise adds its background pixels to the hand
+  // (doc/segmentation.md, "Session 19").
+  bool refine_border_pixels = true;
   QuadtreeParams quadtree;
   BackgroundParams background;
   SkinParams skin;
@@ -153,6 +159,9 @@ struct RoomCueState {
   std::vector<float> hand_colour, background_colour;
   // Cue 7: per cell, the frames in a row it stayed still outside the model's silhouette.
   std::vector<unsigned short> still_outside;
+  // The last foreground at pixel level when its border cells were refined (refine_border_pixels),
+  // else empty (the cells are the foreground).
+  cv::Mat pixel_mask;
 };
 
 // One hand candidate of a frame without a region of interest (RoomCueParams, cue 3): a connected
