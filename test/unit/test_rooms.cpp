@@ -47,13 +47,16 @@ Pose studioPose() {
 
 // The studio's hand at `pose` in every dexter5 camera, masked to the hand by the label image
 // (everything else black), as skin-gated image SoGs: a real-like image with perfect segmentation.
-std::vector<CameraObservation> maskedStudioObservations(const Pose& pose) {
+// `refine_border_pixels` as in SegmentationParams (default: the border decided pixel by pixel).
+std::vector<CameraObservation> maskedStudioObservations(const Pose& pose,
+                                                        bool refine_border_pixels = true) {
   static const StudioRenderer renderer(dexter5());
   const PosedHand posed = forwardKinematics(model("sag"), pose);
   const auto parts = buildHandSurface(model("sag"), posed.bone_frames, HandSurfaceParams());
   const auto images = renderer.render({parts}, 7);
   SegmentationParams params;
   params.mode = SegmentationMode::kSkin;
+  params.refine_border_pixels = refine_border_pixels;
   const ImageSegmenter segmenter(params);
   std::vector<CameraObservation> observations;
   for (size_t c = 0; c < images.size(); ++c) {
@@ -147,23 +150,31 @@ double fingertipDriftFromTruth(const EnergyParams& params,
 // open. Occlusion (EnergyParams::occlusion_depth_scale) with the model's visible area in the
 // normalisation (model_area_weight) makes a straight finger over the background cost what a
 // hidden one does not: fits from the truth on fists of `fingercount` drift less than half as far
-// (measured 22.1 -> 10.7 mm), and on open hands they stay close (measured 4.5-5.1 mm).
+// (measured 22.1 -> 10.7 mm on the whole-cell image SoG this was measured on in session 11), and
+// on open hands they stay close (measured 4.5-5.1 mm). With the silhouette's border decided pixel
+// by pixel (session 19's default) the gain is smaller, 18.4 -> 12.3 mm (README, session 19): there
+// the test asks only that occlusion still helps.
 TEST(EnergyCannotCheat, WithOcclusionAndTheModelAreaFistsStayClosed) {
   EnergyParams paper;
   EnergyParams occluding;
   occluding.occlusion_depth_scale = 0.005;
   occluding.model_area_weight = 1.0;
   const Motion fists = loadMotion(resolveMotionPath("fingercount", kConfigDir), model("sag"), 1);
-  double paper_drift = 0.0, occluding_drift = 0.0;
-  for (const double time : {1.5, 6.48, 8.46, 9.5}) {
-    const Pose truth = fists.poseAt(time);
-    const std::vector<CameraObservation> observations = maskedStudioObservations(truth);
-    paper_drift += 0.25 * fingertipDriftFromTruth(paper, observations, truth);
-    occluding_drift += 0.25 * fingertipDriftFromTruth(occluding, observations, truth);
+  for (const bool refine_border_pixels : {false, true}) {
+    double paper_drift = 0.0, occluding_drift = 0.0;
+    for (const double time : {1.5, 6.48, 8.46, 9.5}) {
+      const Pose truth = fists.poseAt(time);
+      const std::vector<CameraObservation> observations =
+          maskedStudioObservations(truth, refine_border_pixels);
+      paper_drift += 0.25 * fingertipDriftFromTruth(paper, observations, truth);
+      occluding_drift += 0.25 * fingertipDriftFromTruth(occluding, observations, truth);
+    }
+    std::printf(
+        "fists (%s): fingertips drift %.1f mm (paper's energy), %.1f mm (occlusion, area)\n",
+        refine_border_pixels ? "border pixel by pixel" : "whole cells", paper_drift,
+        occluding_drift);
+    EXPECT_LT(occluding_drift, (refine_border_pixels ? 1.0 : 0.6) * paper_drift);
   }
-  std::printf("fists: fingertips drift %.1f mm (paper's energy), %.1f mm (occlusion, area)\n",
-              paper_drift, occluding_drift);
-  EXPECT_LT(occluding_drift, 0.6 * paper_drift);
   const Motion open = loadMotion(resolveMotionPath("adbadd", kConfigDir), model("sag"), 1);
   for (const double time : {1.0, 2.0}) {
     const Pose truth = open.poseAt(time);
