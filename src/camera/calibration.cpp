@@ -9,8 +9,8 @@
 #include <set>
 #include <sstream>
 
-#include "sag_hand_tracker/util/types.h"
 #include "sag_hand_tracker/util/input_limits.h"
+#include "sag_hand_tracker/util/types.h"
 #include "sag_hand_tracker/util/yaml_reader.h"
 
 namespace sag_hand_tracker {
@@ -85,8 +85,6 @@ Eigen::Quaterniond readQuaternion(const YamlValue& value) {
 }
 
 const char* const kNameRule = " (a letter, then letters, digits or '_')";
-// A rig is a room, not a continent (and huge values overflow the inverse transform).
-constexpr double kMaxRigExtentMetres = 1000.0;
 
 }  // namespace
 
@@ -128,6 +126,11 @@ Camera readCameraCalibration(const YamlDocument& document) {
   if (camera.K(1, 0) != 0.0 || camera.K(2, 0) != 0.0 || camera.K(2, 1) != 0.0 ||
       std::abs(camera.K(2, 2) - 1.0) > 1e-9) {
     matrix.fail("is not an intrinsic matrix (its last row must be 0 0 1)");
+  }
+  try {
+    checkPrincipalPointAndSkew(camera, "the camera");
+  } catch (const InputError& error) {
+    matrix.fail(error.what());
   }
 
   const YamlValue model_node = root.get("distortion_model");

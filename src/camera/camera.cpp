@@ -45,6 +45,29 @@ void checkDistortionCount(std::size_t count, const std::string& who) {
                    "(rational_polynomial), 12 or 14");
 }
 
+void checkPrincipalPointAndSkew(const Camera& camera, const std::string& who) {
+  // A principal point far off the image (cx -5000, 1e300) or a skew larger than the focal length
+  // (normally 0) is a broken calibration, not a lens: it projects the hand elsewhere.
+  const double cx = camera.K(0, 2), cy = camera.K(1, 2), skew = camera.K(0, 1);
+  const double w = camera.width, h = camera.height;
+  if (!std::isfinite(cx) || !std::isfinite(cy) || cx < -w || cx > 2.0 * w || cy < -h ||
+      cy > 2.0 * h) {
+    char text[160];
+    std::snprintf(text, sizeof(text),
+                  ": principal point (cx %.6g, cy %.6g) outside [-%d, %d] x [-%d, %d] for a %dx%d "
+                  "image",
+                  cx, cy, camera.width, 2 * camera.width, camera.height, 2 * camera.height,
+                  camera.width, camera.height);
+    throw InputError(who + text);
+  }
+  if (!std::isfinite(skew) || !(std::abs(skew) <= camera.K(0, 0))) {
+    char text[128];
+    std::snprintf(text, sizeof(text), ": skew K(0,1) = %.6g exceeds the focal length fx = %.6g",
+                  skew, camera.K(0, 0));
+    throw InputError(who + text);
+  }
+}
+
 void validateCamera(const Camera& camera) {
   const std::string which = "camera '" + camera.name + "'";
   if (!camera.K.allFinite()) throw InputError(which + ": intrinsics are not finite");
@@ -65,6 +88,7 @@ void validateCamera(const Camera& camera) {
                      ", fy=" + std::to_string(camera.K(1, 1)) + ")");
   }
   checkImageSize(camera.width, camera.height, which);
+  checkPrincipalPointAndSkew(camera, which);
   checkDistortionCount(camera.distortion.size(), which);
   for (double coefficient : camera.distortion) {
     if (!std::isfinite(coefficient)) throw InputError(which + ": distortion is not finite");

@@ -94,6 +94,10 @@ class ModelParser {
         node.get("parent").fail("only the first bone (the palm) may be the root");
       }
       bone.offset = node["offset"].vector3();
+      if (!(bone.offset.norm() <= kMaxLengthMetres)) {
+        node["offset"].fail("is more than " + std::to_string(kMaxLengthMetres) +
+                            " m from its parent's origin");
+      }
       bone.rest_rotation = rpyDegrees(node.vector3Or("rest_rpy_deg", Eigen::Vector3d::Zero()));
       bone.length = node.has("length") ? node["length"].number(0.0, kMaxLengthMetres) : 0.0;
       if (node.has("dofs")) {

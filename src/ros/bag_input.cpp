@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -27,6 +28,7 @@
 #include "sag_hand_tracker/ros/conversions.h"
 #include "sag_hand_tracker/ros/message_bounds.h"
 #include "sag_hand_tracker/tracking/camera_set_synchronizer.h"
+#include "sag_hand_tracker/util/input_limits.h"
 #include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
@@ -52,6 +54,12 @@ std::string stripSlash(const std::string& frame) {
 std::string formatStamp(std::int64_t stamp_ns) {
   char buffer[48];
   std::snprintf(buffer, sizeof(buffer), "%.6f", static_cast<double>(stamp_ns) * 1e-9);
+  return buffer;
+}
+
+std::string formatNumber(double value) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof(buffer), "%g", value);
   return buffer;
 }
 
@@ -480,6 +488,11 @@ void BagReader::Impl::open() {
   std::error_code error;
   if (!std::filesystem::exists(path, error)) fail("bag file does not exist");
   if (std::filesystem::is_directory(path, error)) fail("is a directory, not a bag file");
+  // Opening a FIFO blocks until a writer comes (and ignores SIGTERM meanwhile); a device or
+  // socket is no bag either.
+  if (!std::filesystem::is_regular_file(path, error)) {
+    fail("is not a regular file (a FIFO, device or socket?), not a bag file");
+  }
   const std::string incomplete = describeIncompleteBag(path);
   if (!incomplete.empty()) fail(incomplete);
   try {
@@ -525,7 +538,7 @@ void BagReader::Impl::open() {
 std::vector<int> BagReader::Impl::discoverCameras() {
   static const std::regex image_topic("^/?cam([0-9]+)/image_raw$");
   rosbag::View all(bag);
-  std::set<int> found;
+  std::map<std::string, std::string> numbers;  // image topic -> its camera number as written
   std::set<std::string> other_topics;
   for (const rosbag::ConnectionInfo* connection : all.getConnections()) {
     std::smatch match;
@@ -533,15 +546,36 @@ std::vector<int> BagReader::Impl::discoverCameras() {
       if (connection->datatype != kImageType) {
         fail(connection->topic + " has type " + connection->datatype + ", expected " + kImageType);
       }
-      found.insert(std::stoi(match[1].str()));
+      numbers[connection->topic] = match[1].str();
     } else {
       other_topics.insert(connection->topic);
     }
   }
-  if (found.empty()) {
+  if (numbers.empty()) {
     std::string topics;
     for (const std::string& topic : other_topics) topics += (topics.empty() ? "" : ", ") + topic;
     fail("no image topics (/cam<i>/image_raw) in the bag; it has: " + topics);
+  }
+  if (numbers.size() > static_cast<std::size_t>(kMaxCameras)) {
+    fail("the bag has " + std::to_string(numbers.size()) +
+         " camera image topics, more than the limit of " + std::to_string(kMaxCameras) +
+         " cameras");
+  }
+  std::set<int> found;
+  for (const auto& [topic, digits] : numbers) {
+    // Camera numbers name topics and frames: at most kMaxCameras - 1 (std::stoi threw on
+    // /cam99999999999/). The topic must be the one its number names: /cam01/... or cam0/...
+    // would be looked up as /cam1/..., /cam0/..., which the bag does not have.
+    if (digits.size() > 9 || std::stoi(digits) >= kMaxCameras) {
+      fail(topic + ": camera number " + digits + " is out of range (at most " +
+           std::to_string(kMaxCameras - 1) + ")");
+    }
+    const int id = std::stoi(digits);
+    if (topic != imageTopic(id)) {
+      fail(topic + " is not a supported camera image topic: expected " + imageTopic(id) +
+           " (with a leading slash and no leading zeros)");
+    }
+    found.insert(id);
   }
   return std::vector<int>(found.begin(), found.end());
 }
@@ -561,6 +595,7 @@ void BagReader::Impl::readCameraInfo() {
     }
   }
   std::vector<bool> have(ids.size(), false);
+  std::vector<sensor_msgs::CameraInfo::ConstPtr> first_info(ids.size());
   [[maybe_unused]] std::size_t missing = ids.size();
   for (const rosbag::MessageInstance& message : infos) {
     const int camera = info_to_camera.at(message.getTopic());
@@ -576,6 +611,25 @@ void BagReader::Impl::readCameraInfo() {
              std::to_string(first.height) + " to " + std::to_string(info->width) + "x" +
              std::to_string(info->height) + " (one calibration per camera is supported)");
       }
+      // Only the first camera_info becomes the camera: a later one with another (or a
+      // non-finite) K, D or distortion model would otherwise be ignored silently.
+      const sensor_msgs::CameraInfo& was = *first_info[camera];
+      const bool finite =
+          std::all_of(info->K.begin(), info->K.end(), [](double v) { return std::isfinite(v); }) &&
+          std::all_of(info->D.begin(), info->D.end(), [](double v) { return std::isfinite(v); });
+      std::string what;
+      if (!finite) {
+        what = "is not finite (K or D)";
+      } else if (info->K != was.K) {
+        what = "changes (camera matrix K)";
+      } else if (info->D != was.D || info->distortion_model != was.distortion_model) {
+        what = "changes (distortion)";
+      }
+      if (!what.empty()) {
+        const std::string stamp = formatStamp(info->header.stamp.toNSec());
+        fail(message.getTopic() + ": the calibration of camera " + cameraName(ids[camera]) + " " +
+             what + " at t=" + stamp + "; one calibration per camera is supported");
+      }
       continue;
     }
     try {
@@ -585,6 +639,7 @@ void BagReader::Impl::readCameraInfo() {
     }
     const std::string frame = stripSlash(info->header.frame_id);
     optical_frames[camera] = frame.empty() ? opticalFrame(cameraName(ids[camera])) : frame;
+    first_info[camera] = info;
     have[camera] = true;
     --missing;
   }
@@ -655,6 +710,26 @@ void BagReader::Impl::readExtrinsics() {
     }
   }
   root_frame = tops[0];
+  // The rig file's limits (calibration.cpp) hold for a bag's extrinsics too: huge translations
+  // overflow the inverse transform, cameras at one point see nothing in stereo. (kMaxCameras is
+  // applied to the image topics, in discoverCameras.)
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    const Eigen::Vector3d centre = top_to_camera[i].translation();
+    if (!(centre.cwiseAbs().maxCoeff() <= kMaxRigExtentMetres)) {
+      char text[160];
+      std::snprintf(text, sizeof(text), "(%.6g, %.6g, %.6g)", centre.x(), centre.y(), centre.z());
+      fail(std::string(kTfStaticTopic) + ": camera " + cameraName(ids[i]) + " is at " + text +
+           " m in '" + root_frame + "'; translations must lie within +-" +
+           formatNumber(kMaxRigExtentMetres) + " m");
+    }
+    for (std::size_t j = 0; j < i; ++j) {
+      if ((top_to_camera[j].translation() - centre).norm() < kMinCameraSeparation) {
+        fail(std::string(kTfStaticTopic) + ": camera " + cameraName(ids[i]) +
+             " is at the same point as camera " + cameraName(ids[j]) + " (closer than " +
+             formatNumber(kMinCameraSeparation) + " m)");
+      }
+    }
+  }
   for (std::size_t i = 0; i < ids.size(); ++i) {
     cameras[i].world_to_camera = top_to_camera[i].inverse();
   }

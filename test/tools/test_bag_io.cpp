@@ -9,9 +9,12 @@
 #include <tf2_msgs/TFMessage.h>
 #include "test_support/temp_files.h"
 
+#include <sys/stat.h>
+
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <limits>
 #include <random>
@@ -25,6 +28,7 @@
 #include "sag_hand_tracker/ros/conversions.h"
 #include "sag_hand_tracker/ros/message_bounds.h"
 #include "sag_hand_tracker/ros/sog_conversions.h"
+#include "sag_hand_tracker/util/input_limits.h"
 #include "sag_hand_tracker/util/types.h"
 
 using namespace sag_hand_tracker;
@@ -594,6 +598,136 @@ TEST_F(BagFiles, BagErrorCameraInfoChangesSizeMidBag) {
   EXPECT_EQ(readError(bag), bag +
                                 ": /cam2/camera_info at 100.040000: the image size changes mid-bag "
                                 "from 32x24 to 64x48 (one calibration per camera is supported)");
+}
+
+// A later camera_info with another K, D or distortion model (or a non-finite one) was ignored: the
+// first one is the camera, so a change is refused with the topic and the stamp.
+TEST_F(BagFiles, BagErrorCameraInfoChangesCalibrationMidBag) {
+  const auto later = [this](const std::string& name,
+                            const std::function<void(sensor_msgs::CameraInfo*)>& change) {
+    return writeEditedBag(name, [&](int frame, int id, sensor_msgs::Image*,
+                                    sensor_msgs::CameraInfo* info, bool*, bool*) {
+      if (frame == 1 && id == 1) change(info);
+    });
+  };
+  std::string bag = later("k.bag", [](sensor_msgs::CameraInfo* info) { info->K[2] += 1.0; });
+  EXPECT_EQ(readError(bag), bag +
+                                ": /cam1/camera_info: the calibration of camera cam1 changes "
+                                "(camera matrix K) at t=100.040000; one calibration per camera is "
+                                "supported");
+  bag = later("nan.bag", [](sensor_msgs::CameraInfo* info) {
+    info->K[0] = std::numeric_limits<double>::quiet_NaN();
+  });
+  EXPECT_EQ(readError(bag),
+            bag +
+                ": /cam1/camera_info: the calibration of camera cam1 is not finite "
+                "(K or D) at t=100.040000; one calibration per camera is supported");
+  bag = later("d.bag", [](sensor_msgs::CameraInfo* info) { info->D[0] = 1e6; });
+  EXPECT_EQ(readError(bag), bag +
+                                ": /cam1/camera_info: the calibration of camera cam1 changes "
+                                "(distortion) at t=100.040000; one calibration per camera is "
+                                "supported");
+  // The same calibration again, as drivers publish it with every image, is fine.
+  EXPECT_EQ(readAllSets(writeGoodBag("good.bag")).size(), 4u);
+}
+
+// A principal point far off the image or a huge skew in camera_info is refused (they were not).
+TEST_F(BagFiles, BagErrorPrincipalPointAndSkewInCameraInfo) {
+  const auto edited = [this](const std::string& name, int index, double value) {
+    return writeEditedBag(
+        name, [&](int, int id, sensor_msgs::Image*, sensor_msgs::CameraInfo* info, bool*, bool*) {
+          if (id == 1) info->K[index] = value;
+        });
+  };
+  std::string bag = edited("cx.bag", 2, -5000.0);
+  std::string message = readError(bag);
+  EXPECT_EQ(message.rfind(bag + ": camera 'cam1': principal point (cx -5000, cy 12) outside", 0),
+            0u)
+      << message;
+  EXPECT_NE(message.find("(/cam1/camera_info)"), std::string::npos) << message;
+  bag = edited("cy.bag", 5, 1e300);
+  message = readError(bag);
+  EXPECT_NE(message.find("principal point (cx 16, cy 1e+300)"), std::string::npos) << message;
+  bag = edited("skew.bag", 1, 1e6);
+  message = readError(bag);
+  EXPECT_NE(message.find("camera 'cam1': skew K(0,1) = 1e+06 exceeds the focal length fx = 41"),
+            std::string::npos)
+      << message;
+}
+
+// std::stoi threw on /cam99999999999/ ("internal error: stoi"); /cam01/ and cam0/ (no slash) were
+// looked up as /cam1/ and /cam0/, which the bag does not have.
+TEST_F(BagFiles, BagErrorImageTopicsNotNamingACameraAreRefusedByName) {
+  const auto bagWithTopic = [this](const std::string& name, const std::string& topic) {
+    BagWriter writer(path(name));
+    writer.writeStaticTransforms("world", cameras_, frameTime(0));
+    writer.writeCameraImage(cameras_[0], makeImage(0, 0), frameTime(0));
+    writer.write(topic, frameTime(0), toImageMsg(makeImage(1, 0), std_msgs::Header()));
+    return path(name);
+  };
+  std::string bag = bagWithTopic("overflow.bag", "/cam99999999999/image_raw");
+  EXPECT_EQ(readError(bag), bag +
+                                ": /cam99999999999/image_raw: camera number 99999999999 is out of "
+                                "range (at most 63)");
+  bag = bagWithTopic("64.bag", "/cam64/image_raw");
+  EXPECT_EQ(readError(bag),
+            bag + ": /cam64/image_raw: camera number 64 is out of range (at most 63)");
+  bag = bagWithTopic("zero.bag", "/cam01/image_raw");
+  EXPECT_EQ(readError(bag),
+            bag +
+                ": /cam01/image_raw is not a supported camera image topic: expected "
+                "/cam1/image_raw (with a leading slash and no leading zeros)");
+  bag = bagWithTopic("slash.bag", "cam2/image_raw");
+  EXPECT_EQ(readError(bag), bag +
+                                ": cam2/image_raw is not a supported camera image topic: expected "
+                                "/cam2/image_raw (with a leading slash and no leading zeros)");
+}
+
+// Opening a FIFO blocked in open() (ignoring SIGTERM); it is refused before anything opens it.
+TEST_F(BagFiles, BagErrorAFifoIsNotARegularFile) {
+  const std::string fifo = path("fifo.bag");
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  EXPECT_EQ(readError(fifo), fifo +
+                                 ": is not a regular file (a FIFO, device or socket?), not a bag "
+                                 "file");
+}
+
+// The rig file's limits hold for the extrinsics of a bag's /tf_static too.
+TEST_F(BagFiles, BagErrorExtrinsicsOutsideTheRigLimits) {
+  const auto bagWithCameras = [this](const std::string& name, const std::vector<Camera>& cameras) {
+    const std::vector<Camera> saved = cameras_;
+    cameras_ = cameras;
+    const std::string bag = writeEditedBag(
+        name, [](int, int, sensor_msgs::Image*, sensor_msgs::CameraInfo*, bool*, bool*) {});
+    cameras_ = saved;
+    return bag;
+  };
+  std::vector<Camera> same = cameras_;
+  same[2].world_to_camera = same[0].world_to_camera;
+  std::string bag = bagWithCameras("same.bag", same);
+  EXPECT_EQ(readError(bag), bag +
+                                ": /tf_static: camera cam2 is at the same point as camera cam0 "
+                                "(closer than 0.001 m)");
+  std::vector<Camera> far = cameras_;
+  Eigen::Isometry3d root_to_optical = far[1].world_to_camera.inverse();
+  root_to_optical.translation().x() = 1e300;
+  far[1].world_to_camera = root_to_optical.inverse();
+  bag = bagWithCameras("far.bag", far);
+  const std::string message = readError(bag);
+  EXPECT_EQ(message.rfind(bag + ": /tf_static: camera cam1 is at (1e+300, ", 0), 0u) << message;
+  EXPECT_NE(message.find("m in 'world'; translations must lie within +-1000 m"), std::string::npos)
+      << message;
+
+  {
+    BagWriter writer(path("many.bag"));
+    for (int id = 0; id <= kMaxCameras; ++id) {
+      writer.write("/cam" + std::to_string(id) + "/image_raw", frameTime(0),
+                   toImageMsg(makeImage(0, 0), std_msgs::Header()));
+    }
+  }
+  EXPECT_EQ(
+      readError(path("many.bag")),
+      path("many.bag") + ": the bag has 65 camera image topics, more than the limit of 64 cameras");
 }
 
 TEST_F(BagFiles, BagErrorTruncatedBagSaysSo) {

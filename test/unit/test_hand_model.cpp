@@ -6,6 +6,7 @@
 
 #include "sag_hand_tracker/model/kinematics.h"
 #include "test_support/synthetic_scene.h"
+#include "test_support/temp_files.h"
 
 using namespace sag_hand_tracker;
 using namespace sag_test;
@@ -166,6 +167,34 @@ TEST(Camera, ValidationNamesTheProblem) {
   camera = fiveCameraRig()[1];
   camera.world_to_camera.linear() *= 2.0;
   EXPECT_THROW(validateCamera(camera), InputError);
+}
+
+// The principal point lies within [-w, 2w] x [-h, 2h] and |skew| <= fx (hostile camera_info and
+// calibration files: cx -5000, cx 1e300, skew 1e6 were accepted).
+TEST(Camera, PrincipalPointAndSkewAreRangeChecked) {
+  const Camera good = fiveCameraRig()[1];
+  Camera camera = good;
+  camera.K(0, 2) = -5000.0;
+  std::string message = sag_test::inputErrorOf([&] { validateCamera(camera); });
+  EXPECT_NE(message.find("camera '" + good.name + "': principal point (cx -5000,"),
+            std::string::npos)
+      << message;
+  camera = good;
+  camera.K(0, 2) = 1e300;
+  EXPECT_THROW(validateCamera(camera), InputError);
+  camera = good;
+  camera.K(1, 2) = 2.0 * camera.height + 1.0;
+  EXPECT_THROW(validateCamera(camera), InputError);
+  camera = good;
+  camera.K(1, 2) = -camera.height;  // the edge of the range is still a camera
+  EXPECT_NO_THROW(validateCamera(camera));
+  camera = good;
+  camera.K(0, 1) = 1e6;
+  message = sag_test::inputErrorOf([&] { validateCamera(camera); });
+  EXPECT_NE(message.find("skew K(0,1) = 1e+06 exceeds the focal length"), std::string::npos)
+      << message;
+  camera.K(0, 1) = 0.5;  // a small skew is a lens
+  EXPECT_NO_THROW(validateCamera(camera));
 }
 
 TEST(Camera, UndistortionMovesImageGaussians) {

@@ -68,6 +68,15 @@ TEST(InputValidation, ModelBoneLengthMustBeFiniteAndNotNegative) {
   EXPECT_TRUE(contains(message, "key 'bones[1].length': -0.045 is outside [0, 1]")) << message;
 }
 
+TEST(InputValidation, ModelBoneOffsetIsLimitedToAMetre) {
+  std::string message =
+      modelError("offset: \\[0.022, 0.022, -0.008\\]", "offset: [5, 0.022, -0.008]");
+  EXPECT_TRUE(contains(message, "hand model hand.yaml:")) << message;
+  EXPECT_TRUE(contains(message, "key 'bones[1].offset': is more than 1")) << message;
+  message = modelError("offset: \\[0.022, 0.022, -0.008\\]", "offset: [1e308, 1e308, 0]");
+  EXPECT_TRUE(contains(message, "key 'bones[1].offset': is more than 1")) << message;
+}
+
 TEST(InputValidation, ModelBoneWithoutOffsetIsRefused) {
   const std::string message = modelError("    offset: \\[0.022, 0.022, -0.008\\]\n", "");
   EXPECT_TRUE(contains(message, "key 'bones[1].offset': missing")) << message;
@@ -130,6 +139,19 @@ TEST(InputValidation, CalibrationHugeFocalLengthIsRefused) {
       calibrationError("data: \\[300, 0, 160, 0, 300,", "data: [1e30, 0, 160, 0, 300,");
   EXPECT_TRUE(contains(message, "calibration file cam.yaml:3: key 'camera_matrix'")) << message;
   EXPECT_TRUE(contains(message, "focal length outside [1, 1e+06] pixels")) << message;
+}
+
+TEST(InputValidation, CalibrationPrincipalPointAndSkewAreRangeChecked) {
+  std::string message = calibrationError("0, 0, 160, 0, 300, 120,", "0, 0, -5000, 0, 300, 120,");
+  EXPECT_TRUE(contains(message, "calibration file cam.yaml:3: key 'camera_matrix'")) << message;
+  EXPECT_TRUE(contains(message, "principal point (cx -5000, cy 120) outside [-320, 640]"))
+      << message;
+  message = calibrationError("0, 0, 160, 0, 300, 120,", "0, 0, 160, 0, 300, 1e300,");
+  EXPECT_TRUE(contains(message, "principal point (cx 160, cy 1e+300)")) << message;
+  message = calibrationError("\\[300, 0, 160,", "[300, 1e6, 160,");
+  EXPECT_TRUE(contains(message, "key 'camera_matrix'")) << message;
+  EXPECT_TRUE(contains(message, "skew K(0,1) = 1e+06 exceeds the focal length fx = 300"))
+      << message;
 }
 
 TEST(InputValidation, CalibrationHugeImageIsRefused) {

@@ -32,6 +32,10 @@ struct Camera {
 // non-finite values, bad or too large image size, a distortion count OpenCV does not take,
 // extrinsics not a rigid transform). The limits are in input_limits.h.
 void validateCamera(const Camera& camera);
+// Throws InputError "<who>: principal point ..." unless cx, cy are finite and within
+// [-width, 2 width] x [-height, 2 height], or "<who>: skew ..." when |K(0,1)| exceeds fx. Part of
+// validateCamera; calibration files call it for their camera_matrix too.
+void checkPrincipalPointAndSkew(const Camera& camera, const std::string& who);
 // Throws InputError "<who>: N distortion coefficients; expected ..." unless `count` is one OpenCV
 // takes (0, 4, 5, 8, 12, 14).
 void checkDistortionCount(std::size_t count, const std::string& who);

@@ -27,6 +27,9 @@ constexpr double kMaxFocalLengthPixels = 1e6;
 constexpr double kMinFocalLengthPixels = 1.0;
 // Cameras of a rig or a bag.
 constexpr int kMaxCameras = 64;
+// Camera translations (rig files, a bag's /tf_static): a rig is a room, not a continent (and huge
+// values overflow the inverse transform).
+constexpr double kMaxRigExtentMetres = 1000.0;  // metres, each coordinate
 // Two camera centres closer than this are one point (a rig with all cameras at the origin).
 constexpr double kMinCameraSeparation = 1e-3;  // metres
 // Keyframes of a motion, random ones included (a motion `interval` of 1e-9 would draw 1e10).
