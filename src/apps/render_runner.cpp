@@ -254,7 +254,8 @@ RenderBagOptions parseRenderBagArguments(const std::vector<std::string>& args) {
   return options;
 }
 
-RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* progress) {
+RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* progress,
+                                 const std::atomic<bool>* stop) {
   const std::string config = packageConfigDir(options.config_dir);
   const std::string model_path = resolveModelPath(options.model, config);
   const std::string rig_path = studio::resolveRigPath(options.rig, config);
@@ -328,6 +329,7 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
   double render_seconds = 0.0;
   const auto loop_start = std::chrono::steady_clock::now();
   for (int k = 0; k < frames; ++k) {
+    if (stop != nullptr && stop->load()) throw Interrupted();
     const ros::Time stamp = frameStamp(options.start_stamp, k, options.fps);
     const StudioFrame frame = sequence.frame(k);
     const auto render_start = std::chrono::steady_clock::now();

@@ -55,7 +55,8 @@ Tracks the hand in a bag of calibrated cameras (/cam<i>/image_raw rgb8|bgr8, /ca
 frame with a pose: stamp, the 5 fingertips (x,y,z in metres in the root frame), the 26 pose
 parameters, the energy and the status (started, tracked, or lost: a pose the tracker rejected).
 Nothing tracked is an error (exit status 1) and writes no CSV; --out is never an input and a
-failed run leaves whatever was at --out untouched.
+failed run leaves whatever was at --out untouched. Interrupted (Ctrl-C, SIGTERM; exit status 130),
+it writes the rows so far only where no file was at --out.
 
 Options:
   --bag FILE               input bag (required)
@@ -171,10 +172,20 @@ std::string formatSummary(const TrackBagSummary& summary) {
     out << "  output:    " << summary.tracked_frames + summary.lost_frames << " rows ("
         << summary.tracked_frames << " tracked or started, " << summary.lost_frames << " lost) in "
         << summary.csv << "\n";
+  } else if (summary.interrupted && summary.out_existed) {
+    out << "  output:    none (interrupted; the existing " << summary.csv
+        << " was left as it was)\n";
+  } else if (summary.interrupted) {
+    out << "  output:    none (interrupted before a row was written)\n";
   } else {
     out << "  output:    none (no frame was tracked; " << summary.csv << " not written)\n";
   }
   return out.str();
+}
+
+bool commitsTrackCsv(const TrackBagSummary& summary, std::size_t rows) {
+  if (summary.interrupted) return rows > 0 && !summary.out_existed;
+  return summary.tracked_frames > 0;
 }
 
 std::string csvStatus(TrackStatus status) {
@@ -304,13 +315,16 @@ TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
 
   // The CSV is written next to --out and renamed over it only when frames were tracked: a run
   // that fails half way, or tracks nothing, leaves no CSV and whatever was at --out untouched.
+  std::error_code ignored;
+  const bool out_existed = std::filesystem::exists(options.out, ignored);
   AtomicOutputFile out(options.out);
   TrackingCsvWriter csv(out.tempPath(), model.parameterNames(), /*status_column=*/true);
   TrackBagSummary summary = runTrackBag(
       reader, [&pipeline](const FrameSet& set) { return pipeline.process(set); }, csv, progress,
       stop);
   summary.csv = options.out;
-  summary.csv_written = summary.tracked_frames > 0 || (summary.interrupted && csv.rows() > 0);
+  summary.out_existed = out_existed;
+  summary.csv_written = commitsTrackCsv(summary, csv.rows());
   if (summary.csv_written) out.commit();
   return summary;
 }

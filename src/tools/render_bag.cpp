@@ -6,8 +6,11 @@
 //   rosrun sag_hand_tracker render_bag --sequence <name|motion.yaml> --rig <name|dir|rig.yaml>
 //       --out OUT.bag [--fps 25|60] [--frames N] [--seed S] [--gt-csv FILE] [more, see --help]
 //
-// Exit status: 0 done; 1 bad input (one-line message on stderr); 2 bad command line.
+// Exit status: 0 done; 1 bad input (one-line message on stderr); 2 bad command line; 130
+// interrupted (Ctrl-C, SIGTERM: nothing written, the temporary files removed).
 // The work is renderStudioBag (sag_ros), which the benchmark calls as well.
+#include <atomic>
+#include <csignal>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -15,6 +18,15 @@
 #include "sag_hand_tracker/apps/progress.h"
 #include "sag_hand_tracker/apps/render_runner.h"
 #include "sag_hand_tracker/util/types.h"
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+
+// Stops between two frames, so that the outputs' temporary files are removed on the way out.
+void onSignal(int) { g_stop = true; }
+
+}  // namespace
 
 int main(int argc, char** argv) {
   using namespace sag_hand_tracker;
@@ -30,10 +42,16 @@ int main(int argc, char** argv) {
     return 0;
   }
   try {
+    std::signal(SIGINT, onSignal);
+    std::signal(SIGTERM, onSignal);
     ProgressBar progress(std::cerr, stderrIsTerminal());
-    const RenderBagSummary summary = renderStudioBag(options, options.quiet ? nullptr : &progress);
+    const RenderBagSummary summary =
+        renderStudioBag(options, options.quiet ? nullptr : &progress, &g_stop);
     std::cerr << formatRenderBagSummary(summary);
     return 0;
+  } catch (const Interrupted& interrupted) {
+    std::cerr << "\nrender_bag: " << interrupted.what() << "\n";
+    return 130;
   } catch (const std::exception& error) {
     std::cerr << "render_bag: error: " << error.what() << "\n";
   }

@@ -5,7 +5,8 @@
 //       [--iterations N] [--cameras 0,2,4] [--background-frames N] [--hand left|right]
 //
 // Exit status: 0 done; 1 bad input (one-line message on stderr) or no frame tracked (then no
-// CSV); 2 bad command line; 130 interrupted (the rows so far are in the CSV).
+// CSV); 2 bad command line; 130 interrupted (the rows so far are in the CSV, unless a file was at
+// --out before: that one is left as it was).
 #include <atomic>
 #include <csignal>
 #include <iostream>
@@ -40,6 +41,12 @@ int run(const TrackBagOptions& options) {
                    "camera's set, first: "
                 << summary.first_near_stamp_mismatch
                 << "); a set is made of the stamps within --stamp-tolerance of each other";
+    } else if (summary.backward_stamps > summary.frames) {
+      // Not "the hand was not found": most images were dropped before any tracking.
+      std::cerr << summary.backward_stamps
+                << " images were dropped because their stamps go backwards (first: "
+                << summary.first_backward_stamp << "), against " << summary.frames
+                << " sets kept; the bag's images must come in the order of their stamps";
     } else {
       std::cerr << "the hand was not found in the " << summary.frames - summary.background_frames
                 << " frames after the " << summary.background_frames << " background frames";

@@ -274,3 +274,21 @@ TEST_F(RenderBagTool, AFailureHalfWayLeavesNoOutputAndTheOldFilesUntouched) {
   EXPECT_LE(std::distance(fs::directory_iterator(dir_), fs::directory_iterator()),
             files_before + 2);
 }
+
+// Ctrl-C or SIGTERM stops render_bag between two frames: exit status 130, its temporary files
+// removed, an older file at --out left as it was.
+TEST_F(RenderBagTool, AnInterruptedRunLeavesNoTemporaryFilesAndTheOldFilesUntouched) {
+  write("i.bag", "an older bag\n");
+  // 5000 frames take minutes; SIGTERM comes after 4 s, in the rendering loop.
+  const ToolRun run =
+      runTool(std::string("timeout --preserve-status -s TERM 4 '") + SAG_BIN_DIR +
+              "/render_bag' --config-dir '" + kConfig + "' --sequence pinch --frames 5000 --out '" +
+              path("i.bag") + "' --quiet");
+  EXPECT_EQ(run.status, 130) << run.err;
+  EXPECT_NE(run.err.find("interrupted; nothing was written"), std::string::npos) << run.err;
+  EXPECT_EQ(readAll(path("i.bag")), "an older bag\n");
+  EXPECT_FALSE(fs::exists(path("i.gt.csv")));
+  for (const auto& entry : fs::directory_iterator(dir_)) {
+    EXPECT_EQ(entry.path().filename().string().find("tmp"), std::string::npos) << entry.path();
+  }
+}

@@ -95,10 +95,26 @@ ProcessedFrame standIn(const FrameSet& set) {
 }  // namespace
 
 TEST(TrackBagArguments, TrackBagParsesEveryOption) {
-  const TrackBagOptions options = parseTrackBagArguments(
-      {"--bag", "in.bag", "--out", "out.csv", "--model", "sog", "--iterations", "25", "--cameras",
-       "0,2,4", "--background-frames", "0", "--hand", "left", "--step-control", "fixed",
-       "--root-frame", "table", "--room-cues", "--quiet"});
+  const TrackBagOptions options = parseTrackBagArguments({"--bag",
+                                                          "in.bag",
+                                                          "--out",
+                                                          "out.csv",
+                                                          "--model",
+                                                          "sog",
+                                                          "--iterations",
+                                                          "25",
+                                                          "--cameras",
+                                                          "0,2,4",
+                                                          "--background-frames",
+                                                          "0",
+                                                          "--hand",
+                                                          "left",
+                                                          "--step-control",
+                                                          "fixed",
+                                                          "--root-frame",
+                                                          "table",
+                                                          "--room-cues",
+                                                          "--quiet"});
   EXPECT_EQ(options.bag, "in.bag");
   EXPECT_EQ(options.out, "out.csv");
   EXPECT_EQ(options.model, "sog");
@@ -242,6 +258,29 @@ TEST_F(TrackBagRun, TrackBagStopsWhenInterrupted) {
   EXPECT_EQ(summary.frames, 3);
   EXPECT_EQ(readTrackingCsv(path("out.csv")).rows.size(), 1u);
   EXPECT_NE(formatSummary(summary).find("(interrupted)"), std::string::npos);
+}
+
+// The partial rows of an interrupted run never replace an earlier output.
+TEST(TrackBagOutput, AnInterruptedRunReplacesNoEarlierOutput) {
+  TrackBagSummary finished;
+  finished.tracked_frames = 5;
+  EXPECT_TRUE(commitsTrackCsv(finished, 5));
+  finished.out_existed = true;
+  EXPECT_TRUE(commitsTrackCsv(finished, 5));  // a finished run replaces it, as documented
+  finished.tracked_frames = 0;
+  EXPECT_FALSE(commitsTrackCsv(finished, 0));
+
+  TrackBagSummary interrupted;
+  interrupted.interrupted = true;
+  interrupted.tracked_frames = 3;
+  EXPECT_TRUE(commitsTrackCsv(interrupted, 3));  // nothing was there: the rows so far
+  EXPECT_FALSE(commitsTrackCsv(interrupted, 0));
+  interrupted.out_existed = true;
+  interrupted.csv = "old.csv";
+  EXPECT_FALSE(commitsTrackCsv(interrupted, 3));
+  EXPECT_NE(formatSummary(interrupted).find("the existing old.csv was left as it was"),
+            std::string::npos)
+      << formatSummary(interrupted);
 }
 
 TEST_F(TrackBagRun, TrackBagPassesTrackingErrorsOn) {

@@ -6,7 +6,9 @@
 #pragma once
 
 #include <array>
+#include <atomic>
 #include <cstdint>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -70,8 +72,16 @@ struct RenderBagSummary {
   double setup_seconds = 0.0;   // the studio renderer's set-up
 };
 
-// Renders the sequence. `progress` may be null (no progress). Throws InputError for bad input.
-RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* progress);
+// Renders the sequence. `progress` may be null (no progress). Throws InputError for bad input,
+// and Interrupted when `stop` (may be null) becomes true between two frames; either way the
+// outputs' temporary files are removed and what was at their paths is left as it was.
+RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* progress,
+                                 const std::atomic<bool>* stop = nullptr);
+
+// renderStudioBag was stopped (render_bag: Ctrl-C or SIGTERM).
+struct Interrupted : std::runtime_error {
+  Interrupted() : std::runtime_error("interrupted; nothing was written") {}
+};
 
 // The tool's closing report (several lines).
 std::string formatRenderBagSummary(const RenderBagSummary& summary);

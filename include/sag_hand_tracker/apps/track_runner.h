@@ -73,6 +73,7 @@ struct TrackBagSummary {
   double pipeline_seconds = 0.0;      // the whole tracking call over the sets after the background
   bool interrupted = false;
   bool csv_written = false;  // trackBag: the CSV was renamed into place
+  bool out_existed = false;  // trackBag: a file was at --out before the run
   int backward_stamps = 0;   // see BagReaderStatistics
   std::string first_backward_stamp;
   int near_stamp_mismatches = 0;  // see BagReaderStatistics
@@ -87,6 +88,11 @@ struct TrackBagSummary {
 
 // One-paragraph summary for the end of a run.
 std::string formatSummary(const TrackBagSummary& summary);
+
+// Whether trackBag renames its CSV into place: a finished run when it tracked a frame; an
+// interrupted one when it wrote rows and nothing was at --out before (the partial rows of an
+// interrupted run never replace an earlier output).
+bool commitsTrackCsv(const TrackBagSummary& summary, std::size_t rows);
 
 // The per-set tracking call.
 using TrackFrameFunction = std::function<ProcessedFrame(const FrameSet&)>;
@@ -114,8 +120,9 @@ PipelineParams trackBagPipelineParams(const TrackBagOptions& options);
 // builds the TrackingPipeline and runs runTrackBag into the CSV options.out. `progress` and
 // `stop` may be null. --out equal to an input is refused before anything is opened; the CSV is
 // written to a temporary file and renamed to options.out only when a frame was tracked
-// (summary.csv_written), so a failure (rethrown) or a run without a tracked frame leaves
-// whatever was at options.out untouched. The caller decides what no tracked frame means.
+// (summary.csv_written, commitsTrackCsv), so a failure (rethrown), a run without a tracked frame
+// or an interrupted run leaves whatever was at options.out untouched. The caller decides what no
+// tracked frame means.
 TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
                          const std::atomic<bool>* stop = nullptr);
 
