@@ -18,6 +18,12 @@ namespace {
 
 constexpr double kDegToRad = M_PI / 180.0;
 
+std::string shortNumber(double value) {
+  std::ostringstream text;
+  text << value;
+  return text.str();
+}
+
 Eigen::Matrix3d rpyDegrees(const Eigen::Vector3d& rpy) {
   return (Eigen::AngleAxisd(rpy[2] * kDegToRad, Eigen::Vector3d::UnitZ()) *
           Eigen::AngleAxisd(rpy[1] * kDegToRad, Eigen::Vector3d::UnitY()) *
@@ -59,9 +65,17 @@ class ModelParser {
         colours.fail("must be 'model' or 'fitted', not '" + colours.text() + "'");
       }
     }
-    parseBones(root["bones"], &model);
+    const YamlValue bones = root["bones"];
+    parseBones(bones, &model);
+    if (model.joints.size() != static_cast<std::size_t>(kNumJointDof)) {
+      bones.fail("wrong number of DOF: the model has " + std::to_string(6 + model.joints.size()) +
+                 ", the tracker needs " + std::to_string(kNumDof) + " (6 root + " +
+                 std::to_string(kNumJointDof) + " joint angles)");
+    }
     parseGaussians(root["gaussians"], &model);
     parseFingertips(root["fingertips"], &model);
+    // The parser bounds every value validateHandModel checks; should one still fail, the error
+    // names the file: "hand model <file>: <problem>".
     try {
       validateHandModel(model);
     } catch (const InputError& e) {
@@ -166,6 +180,12 @@ class ModelParser {
       const Eigen::Vector3d sigma = sigma_node.vector3();
       if (!(sigma.minCoeff() > 0.0)) {
         sigma_node.fail("standard deviations must be positive (covariance not positive definite)");
+      }
+      // A tiny sigma squares to a covariance validateHandModel finds singular (1e-300: zero).
+      if (!(sigma.minCoeff() >= kMinModelSigmaMetres)) {
+        sigma_node.fail("standard deviation " + shortNumber(sigma.minCoeff()) +
+                        " m is below the limit of " + shortNumber(kMinModelSigmaMetres) +
+                        " m (0.1 mm): the covariance would be singular");
       }
       if (!(sigma.maxCoeff() <= kMaxLengthMetres)) {
         sigma_node.fail("standard deviations must be at most " + std::to_string(kMaxLengthMetres) +

@@ -111,6 +111,7 @@ struct BagReader::Impl {
   std::vector<Camera> cameras;
   std::vector<int> ids;
   std::vector<std::string> optical_frames;
+  std::vector<std::string> info_frame_ids;  // the first camera_info's header.frame_id, as written
   std::map<std::string, int> topic_to_camera;
 
   std::unique_ptr<rosbag::View> view;
@@ -518,6 +519,7 @@ void BagReader::Impl::open() {
   }
   cameras.resize(ids.size());
   optical_frames.resize(ids.size());
+  info_frame_ids.resize(ids.size());
   for (std::size_t i = 0; i < ids.size(); ++i) {
     topic_to_camera[imageTopic(ids[i])] = static_cast<int>(i);
   }
@@ -639,6 +641,7 @@ void BagReader::Impl::readCameraInfo() {
     }
     const std::string frame = stripSlash(info->header.frame_id);
     optical_frames[camera] = frame.empty() ? opticalFrame(cameraName(ids[camera])) : frame;
+    info_frame_ids[camera] = info->header.frame_id;
     first_info[camera] = info;
     have[camera] = true;
     --missing;
@@ -647,6 +650,20 @@ void BagReader::Impl::readCameraInfo() {
     if (!have[i]) {
       fail("camera " + cameraName(ids[i]) + " has no camera_info (no messages on " +
            cameraInfoTopic(ids[i]) + ")");
+    }
+  }
+  // The optical frame picks a camera's extrinsics from /tf_static: two cameras naming one frame
+  // would get one pose (the second camera's silently the first's).
+  const auto describe = [this](std::size_t i) {
+    return cameraInfoTopic(ids[i]) + " (frame_id '" + info_frame_ids[i] + "'" +
+           (info_frame_ids[i].empty() ? ", so '" + optical_frames[i] + "'" : std::string()) + ")";
+  };
+  for (std::size_t i = 1; i < ids.size(); ++i) {
+    for (std::size_t j = 0; j < i; ++j) {
+      if (optical_frames[i] == optical_frames[j]) {
+        fail(describe(j) + " and " + describe(i) + " name the same optical frame '" +
+             optical_frames[i] + "': each camera needs a frame of its own in " + kTfStaticTopic);
+      }
     }
   }
 }
@@ -738,6 +755,15 @@ void BagReader::Impl::readExtrinsics() {
 cv::Mat BagReader::Impl::decode(const sensor_msgs::Image& image, int camera,
                                 const std::string& topic) const {
   const std::string where = topic + " at " + formatStamp(image.header.stamp.toNSec()) + ": ";
+  // camera_info's frame_id chose the camera's frame in /tf_static; images of another frame would
+  // be tracked with the extrinsics of the wrong one. (An empty frame_id names nothing.)
+  const std::string& info_frame_id = info_frame_ids[camera];
+  if (!image.header.frame_id.empty() && !info_frame_id.empty() &&
+      stripSlash(image.header.frame_id) != stripSlash(info_frame_id)) {
+    fail(where + "frame_id '" + image.header.frame_id + "' differs from " +
+         cameraInfoTopic(ids[camera]) + "'s frame_id '" + info_frame_id +
+         "' (the frame whose /tf_static pose is the camera's)");
+  }
   const Camera& calibration = cameras[camera];
   if (isSupportedEncoding(image.encoding) &&
       (static_cast<int>(image.width) != calibration.width ||

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "sag_hand_tracker/util/types.h"
+#include "sag_hand_tracker/util/yaml_reader.h"
 
 namespace sag_hand_tracker {
 namespace studio {
@@ -152,13 +153,8 @@ bool looksLikeFile(const std::string& text) {
 
 std::vector<StudioHand> parseHandShapes(const std::string& yaml_text, const std::string& source) {
   const ShapeParser parser(source);
-  YAML::Node root;
-  try {
-    root = YAML::Load(yaml_text);
-  } catch (const YAML::Exception& e) {
-    throw InputError("hand shapes " + source + ":" + std::to_string(e.mark.line + 1) +
-                     ": not valid YAML: " + e.msg);
-  }
+  // The core's YAML parse (yaml_reader.h): size, nesting and duplicate keys are checked there.
+  const YAML::Node root = parseYamlText(yaml_text, source, "hand shapes");
   if (!root.IsMap()) parser.fail(root, "the document must be a map with a 'shapes' list");
   parser.checkKeys(root, {"shapes"}, "the document");
   const YAML::Node list = root["shapes"];

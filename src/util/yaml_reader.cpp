@@ -1,5 +1,7 @@
 #include "sag_hand_tracker/util/yaml_reader.h"
 
+#include <yaml-cpp/eventhandler.h>
+
 #include <cctype>
 #include <cmath>
 #include <filesystem>
@@ -8,6 +10,8 @@
 #include <optional>
 #include <set>
 #include <sstream>
+#include <unordered_map>
+#include <vector>
 
 #include "sag_hand_tracker/util/types.h"
 
@@ -27,6 +31,97 @@ std::string shortNumber(double value) {
   text << value;
   return text.str();
 }
+
+// "<kind> <source>:<line>: key '<key>': <problem>" (line and key left out when unknown).
+std::string yamlMessage(const std::string& kind, const std::string& source, int line,
+                        const std::string& key, const std::string& problem) {
+  std::ostringstream message;
+  message << kind << " " << source;
+  if (line > 0) message << ":" << line;
+  message << ": ";
+  if (!key.empty()) message << "key '" << key << "': ";
+  message << problem;
+  return message.str();
+}
+
+// Follows the parser's events before a document is built from them, for what the built document
+// no longer shows or costs too much to reach: the nesting depth (refused as soon as it passes the
+// limit, while yaml-cpp's recursion is that deep) and keys repeated in a map.
+class StructureCheck : public YAML::EventHandler {
+ public:
+  StructureCheck(const std::string& source, const std::string& kind)
+      : source_(source), kind_(kind) {}
+
+  void OnDocumentStart(const YAML::Mark&) override {}
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark& mark, YAML::anchor_t) override { node(mark, nullptr); }
+  void OnAlias(const YAML::Mark& mark, YAML::anchor_t) override { node(mark, nullptr); }
+  void OnScalar(const YAML::Mark& mark, const std::string&, YAML::anchor_t,
+                const std::string& value) override {
+    node(mark, &value);
+  }
+  void OnSequenceStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t,
+                       YAML::EmitterStyle::value) override {
+    open(mark, false);
+  }
+  void OnSequenceEnd() override { stack_.pop_back(); }
+  void OnMapStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t,
+                  YAML::EmitterStyle::value) override {
+    open(mark, true);
+  }
+  void OnMapEnd() override { stack_.pop_back(); }
+
+ private:
+  struct Collection {
+    bool map = false;
+    std::string path;                           // its key path, as YamlValue names it
+    std::size_t nodes = 0;                      // nodes in it so far (a map's: key, value, ...)
+    std::string key;                            // a map's: the key of the value that comes next
+    std::unordered_map<std::string, int> keys;  // a map's keys so far and their lines
+  };
+
+  static int lineOf(const YAML::Mark& mark) { return mark.is_null() ? 0 : mark.line + 1; }
+
+  [[noreturn]] void fail(int line, const std::string& key, const std::string& problem) const {
+    throw InputError(yamlMessage(kind_, source_, line, key, problem));
+  }
+
+  // Any node; `scalar` is a scalar's text, else null. Returns the node's key path.
+  std::string node(const YAML::Mark& mark, const std::string* scalar) {
+    if (stack_.empty()) return "";
+    Collection& parent = stack_.back();
+    const std::size_t index = parent.nodes++;
+    if (!parent.map) return parent.path + "[" + std::to_string(index) + "]";
+    if (index % 2 == 1) return parent.path.empty() ? parent.key : parent.path + "." + parent.key;
+    // A key: a plain one must be new to its map; a list or map as a key is no name (the readers
+    // refuse it where they read the map).
+    parent.key = scalar ? *scalar : "?";
+    if (scalar) {
+      const int line = lineOf(mark);
+      const auto [first, fresh] = parent.keys.emplace(*scalar, line);
+      if (!fresh) {
+        fail(line, parent.path,
+             "duplicate key '" + *scalar + "' (first at line " + std::to_string(first->second) +
+                 ")");
+      }
+    }
+    return parent.path;
+  }
+
+  void open(const YAML::Mark& mark, bool map) {
+    std::string path = node(mark, nullptr);
+    if (stack_.size() >= static_cast<std::size_t>(kMaxYamlNestingDepth)) {
+      fail(lineOf(mark), path,
+           "maps and lists nested deeper than the limit of " +
+               std::to_string(kMaxYamlNestingDepth) + " levels");
+    }
+    stack_.push_back(Collection{map, std::move(path), 0, "", {}});
+  }
+
+  const std::string& source_;
+  const std::string& kind_;
+  std::vector<Collection> stack_;
+};
 
 // What has() asks of a member, on the member itself (no second look-up).
 bool isPresent(const YAML::Node& node) { return node.IsDefined() && !node.IsNull(); }
@@ -64,18 +159,30 @@ std::string readYamlFileText(const std::string& path, const std::string& kind,
   return text.str();
 }
 
-YamlDocument::YamlDocument(const std::string& text, std::string source, std::string kind)
-    : source_(std::move(source)), kind_(std::move(kind)) {
+YAML::Node parseYamlText(const std::string& text, const std::string& source,
+                         const std::string& kind) {
   if (text.size() > kMaxYamlFileBytes) {
-    fail(0, "",
-         std::to_string(text.size()) + " bytes, larger than the limit of " +
-             std::to_string(kMaxYamlFileBytes) + " bytes");
+    throw InputError(yamlMessage(kind, source, 0, "",
+                                 std::to_string(text.size()) + " bytes, larger than the limit of " +
+                                     std::to_string(kMaxYamlFileBytes) + " bytes"));
   }
   try {
-    root_ = YAML::Load(text);
+    // The events first (depth, duplicate keys), then the document from a second parse of the
+    // checked text: yaml-cpp builds documents only in YAML::Load.
+    std::istringstream stream(text);
+    YAML::Parser parser(stream);
+    StructureCheck check(source, kind);
+    parser.HandleNextDocument(check);
+    return YAML::Load(text);
   } catch (const YAML::Exception& error) {
-    fail(error.mark.is_null() ? 0 : error.mark.line + 1, "", "malformed YAML: " + error.msg);
+    throw InputError(yamlMessage(kind, source, error.mark.is_null() ? 0 : error.mark.line + 1, "",
+                                 "malformed YAML: " + error.msg));
   }
+}
+
+YamlDocument::YamlDocument(const std::string& text, std::string source, std::string kind)
+    : source_(std::move(source)), kind_(std::move(kind)) {
+  root_ = parseYamlText(text, source_, kind_);
 }
 
 YamlDocument YamlDocument::fromFile(const std::string& path, const std::string& kind,
@@ -90,13 +197,7 @@ YamlValue YamlDocument::root() const {
 }
 
 void YamlDocument::fail(int line, const std::string& key, const std::string& problem) const {
-  std::ostringstream message;
-  message << kind_ << " " << source_;
-  if (line > 0) message << ":" << line;
-  message << ": ";
-  if (!key.empty()) message << "key '" << key << "': ";
-  message << problem;
-  throw InputError(message.str());
+  throw InputError(yamlMessage(kind_, source_, line, key, problem));
 }
 
 YamlValue::YamlValue(const YamlDocument* document, YAML::Node node, std::string key, int line)

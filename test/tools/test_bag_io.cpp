@@ -655,6 +655,66 @@ TEST_F(BagFiles, BagErrorPrincipalPointAndSkewInCameraInfo) {
       << message;
 }
 
+// camera_info's frame_id picks the camera's frame in /tf_static. Two cameras naming one frame got
+// one pose, and images of another frame than their camera_info's were tracked with the
+// extrinsics of that one; both are refused with the topics and the frames. (Our render_bag
+// writes one frame_id, <camera>_optical_frame, on both topics.)
+TEST_F(BagFiles, BagErrorCameraInfoFrameIdsMustNameOneFramePerCamera) {
+  const auto withFrames =
+      [this](const std::string& name,
+             const std::function<void(int frame, int id, std::string* image, std::string* info)>&
+                 change) {
+        return writeEditedBag(name, [&](int frame, int id, sensor_msgs::Image* image,
+                                        sensor_msgs::CameraInfo* info, bool*, bool*) {
+          change(frame, id, &image->header.frame_id, &info->header.frame_id);
+        });
+      };
+  std::string bag =
+      withFrames("shared.bag", [](int, int id, std::string* image, std::string* info) {
+        if (id == 2) *image = *info = "cam0_optical_frame";
+      });
+  EXPECT_EQ(readError(bag), bag +
+                                ": /cam0/camera_info (frame_id 'cam0_optical_frame') and "
+                                "/cam2/camera_info (frame_id 'cam0_optical_frame') name the same "
+                                "optical frame 'cam0_optical_frame': each camera needs a frame of "
+                                "its own in /tf_static");
+  // An empty frame_id means <camera>_optical_frame; a leading slash is the same frame.
+  bag = withFrames("shared_default.bag", [](int, int id, std::string* image, std::string* info) {
+    if (id == 0) *image = *info = "/cam1_optical_frame";
+    if (id == 1) *image = *info = "";
+  });
+  EXPECT_EQ(readError(bag),
+            bag +
+                ": /cam0/camera_info (frame_id '/cam1_optical_frame') and "
+                "/cam1/camera_info (frame_id '', so 'cam1_optical_frame') name the "
+                "same optical frame 'cam1_optical_frame': each camera needs a frame "
+                "of its own in /tf_static");
+  // Images of another frame: refused at the first image, or where one appears mid-bag.
+  bag = withFrames("image_frame.bag", [](int, int id, std::string* image, std::string*) {
+    if (id == 1) *image = "cam1_rgb_frame";
+  });
+  EXPECT_EQ(readError(bag), bag +
+                                ": /cam1/image_raw at 100.000000: frame_id 'cam1_rgb_frame' "
+                                "differs from /cam1/camera_info's frame_id 'cam1_optical_frame' "
+                                "(the frame whose /tf_static pose is the camera's)");
+  bag = withFrames("later_frame.bag", [](int frame, int id, std::string* image, std::string*) {
+    if (frame == 1 && id == 2) *image = "cam0_optical_frame";
+  });
+  EXPECT_EQ(readError(bag), bag +
+                                ": /cam2/image_raw at 100.040000: frame_id 'cam0_optical_frame' "
+                                "differs from /cam2/camera_info's frame_id 'cam2_optical_frame' "
+                                "(the frame whose /tf_static pose is the camera's)");
+  // An empty frame_id on either side names nothing; a leading slash is the same frame.
+  bag = withFrames("lenient.bag", [](int, int id, std::string* image, std::string* info) {
+    if (id == 0) *image = "";
+    if (id == 1) *info = "";
+    if (id == 2) *image = "/cam2_optical_frame";
+  });
+  EXPECT_EQ(readAllSets(bag).size(), 2u);
+  // What render_bag writes passes.
+  EXPECT_EQ(readAllSets(writeGoodBag("good.bag")).size(), 4u);
+}
+
 // std::stoi threw on /cam99999999999/ ("internal error: stoi"); /cam01/ and cam0/ (no slash) were
 // looked up as /cam1/ and /cam0/, which the bag does not have.
 TEST_F(BagFiles, BagErrorImageTopicsNotNamingACameraAreRefusedByName) {

@@ -10,6 +10,7 @@
 
 #include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/model/hand_model.h"
+#include "sag_hand_tracker/studio/hand_shapes.h"
 #include "sag_hand_tracker/studio/motion.h"
 #include "sag_hand_tracker/util/input_limits.h"
 #include "sag_hand_tracker/util/yaml_reader.h"
@@ -116,7 +117,134 @@ TEST(InputValidation, ModelGaussianCountIsLimitedBeforeParsingThem) {
       << message;
 }
 
+// A Gaussian sigma of 1e-300 passed the parser and made validateHandModel find the covariance
+// singular, with neither key nor line; the parser bounds it (kMinModelSigmaMetres) itself.
+TEST(InputValidation, ModelTinySigmaIsRefusedWithItsKeyAndLine) {
+  std::string message =
+      modelError("sigma: \\[0.030, 0.030, 0.014\\]", "sigma: [0.030, 1e-300, 0.014]");
+  EXPECT_TRUE(contains(message,
+                       "hand model hand.yaml:129: key 'gaussians[0].sigma': standard deviation "
+                       "1e-300 m is below the limit of 0.0001 m (0.1 mm)"))
+      << message;
+  message = modelError("sigma: \\[0.030, 0.030, 0.014\\]", "sigma: [0.030, 0.030, 9e-5]");
+  EXPECT_TRUE(contains(message, "key 'gaussians[0].sigma': standard deviation 9e-05 m is below"))
+      << message;
+  // At the limit it loads.
+  const std::string text =
+      std::regex_replace(builtinModelText(), std::regex("sigma: \\[0.030, 0.030, 0.014\\]"),
+                         "sigma: [0.030, 0.030, 1e-4]");
+  EXPECT_NO_THROW(parseHandModel(text, "hand.yaml"));
+}
+
+// The DOF count was left to validateHandModel (the file, no key or line); the parser names it.
+TEST(InputValidation, ModelWrongDofCountNamesTheBonesKey) {
+  const std::string message = modelError("      - \\{name: thumb_cmc_abd[^\n]*\n", "");
+  EXPECT_TRUE(contains(message,
+                       "hand model hand.yaml:11: key 'bones': wrong number of DOF: the model has "
+                       "25, the tracker needs 26"))
+      << message;
+}
+
+// A key twice in one map was accepted silently (yaml-cpp keeps both entries, its look-ups take
+// the first): the one YAML parse refuses it for every kind of input, at the second occurrence,
+// with the first's line and the map's key path.
+TEST(InputValidation, DuplicateYamlKeysAreRefusedInEveryInput) {
+  std::string message = modelError("    length: 0.045\n", "    length: 0.045\n    length: 0.05\n");
+  EXPECT_TRUE(contains(message,
+                       "hand model hand.yaml:21: key 'bones[1]': duplicate key 'length' (first at "
+                       "line 20)"))
+      << message;
+  message = modelError("axis: y, min_deg: -20", "axis: y, \"axis\": z, min_deg: -20");
+  EXPECT_TRUE(contains(message,
+                       "hand model hand.yaml:22: key 'bones[1].dofs[0]': duplicate key 'axis' "
+                       "(first at line 22)"))
+      << message;
+  message = modelError("projection: perspective\n", "projection: perspective\nname: other\n");
+  EXPECT_TRUE(contains(message, "hand model hand.yaml:10: duplicate key 'name' (first at line 7)"))
+      << message;
+
+  message = calibrationError("image_height: 240\n", "image_height: 240\nimage_width: 640\n");
+  EXPECT_EQ(message, "calibration file cam.yaml:3: duplicate key 'image_width' (first at line 1)");
+  message = rigError(R"(root_frame: world
+cameras:
+  - {name: cam0, calibration: c.yaml, translation: [0, 0, 0], rotation: [0, 0, 0, 1],
+     translation: [1, 0, 0]}
+)");
+  EXPECT_EQ(message,
+            "rig file rig.yaml:4: key 'cameras[0]': duplicate key 'translation' (first at line 3)");
+  const HandModel model = loadHandModel(sag_test::modelPath("sag"));
+  message = sag_test::inputErrorOf([&] {
+    studio::parseMotion(
+        "keyframes:\n  - {time: 0, position: [0, 0, 0.15]}\nduration: 3\n"
+        "duration: 4\n",
+        "m.yaml", model, 1);
+  });
+  EXPECT_EQ(message, "motion m.yaml:4: duplicate key 'duration' (first at line 3)");
+  message = sag_test::inputErrorOf([] {
+    studio::parseHandShapes("shapes:\n  - name: big\n    scale: 1.1\n    scale: 1.2\n",
+                            "shapes.yaml");
+  });
+  EXPECT_EQ(message,
+            "hand shapes shapes.yaml:4: key 'shapes[0]': duplicate key 'scale' (first at line 3)");
+  // The same key in different maps is no duplicate.
+  EXPECT_NO_THROW(parseYamlText("a: {x: 1}\nb: {x: 2}\nc: [{x: 1}, {x: 2}]\n", "t.yaml", "test"));
+}
+
+// 10000 '[' gave "malformed YAML: bad file" (yaml-cpp's own depth guard); nesting deeper than
+// kMaxYamlNestingDepth is named, with the line and the key path, and refused as soon as it is
+// reached, so 100000 levels cost no deep recursion either.
+TEST(InputValidation, DeeplyNestedYamlIsRefusedAsTooDeep) {
+  const std::string limit = "': maps and lists nested deeper than the limit of 64 levels$";
+  // Closed lists: the 64th is the 65th level (the document's map is the first).
+  const std::regex too_deep("^hand model deep.yaml:2: key 'bones(\\[0\\]){63}" + limit);
+  // Unclosed ones, as the probe sent them: yaml-cpp reads each '[' after the first as a list and
+  // the key of a map within it, two levels.
+  const std::regex too_deep_unclosed("^hand model deep.yaml:2: key 'bones(\\[0\\]){32}" + limit);
+  for (const int levels : {64, 10000, 100000}) {
+    std::string message = sag_test::inputErrorOf([&] {
+      parseHandModel(
+          "name: x\nbones: " + std::string(levels, '[') + std::string(levels, ']') + "\n",
+          "deep.yaml");
+    });
+    EXPECT_TRUE(std::regex_match(message, too_deep)) << levels << ": " << message;
+    message = sag_test::inputErrorOf(
+        [&] { parseHandModel("name: x\nbones: " + std::string(levels, '[') + "\n", "deep.yaml"); });
+    EXPECT_TRUE(std::regex_match(message, too_deep_unclosed)) << levels << ": " << message;
+  }
+  // Block lists and flow maps count alike, in every reader.
+  std::string block = "a:\n  ";
+  for (int level = 0; level < 100; ++level) block += "- ";
+  std::string message =
+      sag_test::inputErrorOf([&] { parseCameraCalibration(block + "x\n", "cam.yaml"); });
+  EXPECT_TRUE(contains(message, "calibration file cam.yaml:2: key 'a[0][0]")) << message;
+  EXPECT_TRUE(contains(message, "nested deeper than the limit of 64 levels")) << message;
+  std::string maps;
+  for (int level = 0; level < 200; ++level) maps += "{k: ";
+  message = rigError("root_frame: world\ncameras: " + maps + "1" + std::string(200, '}') + "\n");
+  EXPECT_TRUE(contains(message, "rig file rig.yaml:2: key 'cameras.k.k.k")) << message;
+  EXPECT_TRUE(contains(message, "nested deeper than the limit of 64 levels")) << message;
+  // 64 levels (the document's map and 63 lists) are within the limit.
+  message = sag_test::inputErrorOf([] {
+    parseHandModel("name: x\nbones: " + std::string(63, '[') + std::string(63, ']') + "\n",
+                   "deep.yaml");
+  });
+  EXPECT_FALSE(contains(message, "nested deeper")) << message;
+}
+
 class InputFiles : public sag_test::TempDirTest {};
+
+// The file loader names the file (and the line and key) for a value the parser bounds.
+TEST_F(InputFiles, ATinySigmaInAModelFileNamesTheFileLineAndKey) {
+  const std::string path = this->path("tiny_sigma.yaml");
+  {
+    std::ofstream out(path);
+    out << std::regex_replace(builtinModelText(), std::regex("sigma: \\[0.030, 0.030, 0.014\\]"),
+                              "sigma: [0.030, 0.030, 1e-300]");
+  }
+  const std::string message = sag_test::inputErrorOf([&] { loadHandModel(path); });
+  EXPECT_EQ(message.rfind("hand model " + path + ":129: key 'gaussians[0].sigma': ", 0), 0u)
+      << message;
+}
 
 TEST_F(InputFiles, ADirectoryAsModelIsNamed) {
   const std::string message = sag_test::inputErrorOf([&] { loadHandModel(dir_.string()); });

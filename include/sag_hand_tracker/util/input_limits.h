@@ -9,11 +9,18 @@
 
 namespace sag_hand_tracker {
 
-// Any YAML input (model, rig, camera calibration, motion). Ours are a few kB.
+// Any YAML input (model, rig, camera calibration, motion, hand shapes). Ours are a few kB.
 constexpr std::size_t kMaxYamlFileBytes = 1u << 20;  // 1 MiB
+// Maps and lists nested in each other in any YAML input (ours are at most 5 deep). Checked while
+// the text is parsed, before yaml-cpp recurses any deeper (10000 '[' gave a bare "bad file").
+constexpr int kMaxYamlNestingDepth = 64;
 // Gaussians of a hand model: the energy costs model x image Gaussians per camera and frame
 // (SAG 17, SoG 30).
 constexpr int kMaxModelGaussians = 1000;
+// Standard deviations of a hand model's Gaussians (sigma): 0.1 mm. A smaller one is no finger
+// surface, and its square underflows or is lost against the other axes (1e-300 made the covariance
+// singular). Ours, fitted ones included, are at least 3.6 mm.
+constexpr double kMinModelSigmaMetres = 1e-4;
 // Bones of a hand model (ours 16).
 constexpr int kMaxModelBones = 100;
 // An image side and the pixels of one image (camera_info, calibration files, image messages).

@@ -22,11 +22,19 @@ namespace sag_hand_tracker {
 
 class YamlValue;
 
+// Parses the (first) document of `text`: the one place every YAML input of the core is parsed.
+// Throws InputError "<kind> <source>:<line>: key '<map>': ..." when the text exceeds
+// kMaxYamlFileBytes, is malformed YAML, nests maps and lists deeper than kMaxYamlNestingDepth
+// (checked while parsing, so 100000 '[' cost no deep recursion) or repeats a key of a map
+// ("duplicate key 'length' (first at line 55)": yaml-cpp would keep both and its look-ups use
+// the first).
+YAML::Node parseYamlText(const std::string& text, const std::string& source,
+                         const std::string& kind);
+
 // A parsed YAML document and what it is ("hand model", "motion", ...) and where it came from.
 class YamlDocument {
  public:
-  // Parses `text`. Throws InputError "<kind> <source>:<line>: malformed YAML: ..." or, when the
-  // text exceeds kMaxYamlFileBytes, "... larger than the limit".
+  // Parses `text` (parseYamlText: size, malformed YAML, nesting and duplicate keys are errors).
   YamlDocument(const std::string& text, std::string source, std::string kind);
   // Reads and parses a file; a missing file, a directory, a file larger than `max_bytes` or an
   // unreadable one is an InputError naming it (the size is checked before reading).
