@@ -1,10 +1,13 @@
 // calibrateHand: the body of the calibrate_hand tool (see calibrate_hand_runner.h).
 #include "sag_hand_tracker/apps/calibrate_runner.h"
 
+#include <fcntl.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
@@ -38,6 +41,27 @@ void refuseExisting(const std::string& path, const std::string& option) {
                      ": the file exists; calibrate_hand does not overwrite files (remove it or "
                      "choose another name)");
   }
+}
+
+// The temporary file of `path` (temporaryPath(path, extension)) must be creatable: checked by
+// creating and removing it before the recording is tracked and fitted, not when the fitted model
+// is written at the end (a missing or read-only folder, a name too long, "cannot write the file").
+void requireWritable(const std::string& path, const std::string& extension,
+                     const std::string& option) {
+  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
+  std::error_code error;
+  if (!parent.empty() && !std::filesystem::is_directory(parent, error)) {
+    throw InputError(option + " " + path + ": the folder " + parent.string() + " does not exist");
+  }
+  const std::string probe = temporaryPath(path, extension);
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0600);
+  if (fd < 0) {
+    throw InputError(option + " " + path + ": cannot create a file in " +
+                     (parent.empty() ? std::string(".") : parent.string()) + ": " +
+                     std::strerror(errno));
+  }
+  ::close(fd);
+  ::unlink(probe.c_str());
 }
 
 // Removes the temporary files it was given unless released (on every error path).
@@ -130,6 +154,7 @@ Options:
 
 CalibrateHandOptions parseCalibrateHandArguments(const std::vector<std::string>& args) {
   CalibrateHandOptions options;
+  rejectRepeatedOptions(args);
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string& arg = args[i];
     auto value = [&]() -> const std::string& { return nextOptionValue(args, &i); };
@@ -158,7 +183,18 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
                                    const std::atomic<bool>* stop) {
   const auto start_time = std::chrono::steady_clock::now();
   refuseExisting(options.out, "--out");
-  if (!options.contact_sheet.empty()) refuseExisting(options.contact_sheet, "--contact-sheet");
+  requireWritable(options.out, ".yaml", "--out");
+  if (!options.contact_sheet.empty()) {
+    refuseExisting(options.contact_sheet, "--contact-sheet");
+    requireWritable(options.contact_sheet, ".png", "--contact-sheet");
+    // Renamed after the model, the sheet would replace it: the fitted model lost, exit status 0.
+    std::error_code error;
+    if (std::filesystem::weakly_canonical(options.contact_sheet, error) ==
+        std::filesystem::weakly_canonical(options.out, error)) {
+      throw InputError("--contact-sheet " + options.contact_sheet +
+                       " is the --out file; give the contact sheet a name of its own");
+    }
+  }
 
   CalibrateHandSummary summary;
   summary.bag = options.bag;

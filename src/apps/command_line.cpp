@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <set>
 #include <sstream>
 
 namespace sag_hand_tracker {
@@ -12,6 +13,14 @@ const std::string& nextOptionValue(const std::vector<std::string>& args, size_t*
     throw UsageError(args[*i] + " needs a value");
   }
   return args[++*i];
+}
+
+void rejectRepeatedOptions(const std::vector<std::string>& args) {
+  std::set<std::string> seen;
+  for (const std::string& arg : args) {
+    if (arg.rfind("--", 0) != 0) continue;
+    if (!seen.insert(arg).second) throw UsageError(arg + " is given twice");
+  }
 }
 
 int parseIntOption(const std::string& option, const std::string& text, int min_value) {

@@ -1015,6 +1015,7 @@ Options:
 
 BenchmarkOptions parseBenchmarkArguments(const std::vector<std::string>& args) {
   BenchmarkOptions options;
+  rejectRepeatedOptions(args);
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& arg = args[i];
     auto value = [&]() -> const std::string& { return nextOptionValue(args, &i); };
@@ -1198,9 +1199,30 @@ ErrorStats errorStats(const RunErrors& errors) {
   return stats;
 }
 
+// The outputs' folders, checked before the hours of rendering and tracking: a --csv in a missing
+// folder failed only when the tables were written at the end, an --out-dir that is a file with
+// a bare filesystem error.
+static void checkBenchmarkOutputs(const BenchmarkOptions& options) {
+  std::error_code error;
+  const fs::file_status out_dir = fs::status(options.out_dir, error);
+  if (fs::exists(out_dir) && !fs::is_directory(out_dir)) {
+    throw InputError("--out-dir " + options.out_dir + " exists and is not a folder");
+  }
+  if (options.csv.empty()) return;
+  checkOutputPath(options.csv, {}, "--csv");
+  const fs::path parent = fs::path(options.csv).parent_path();
+  const bool in_out_dir = fs::weakly_canonical(parent.empty() ? fs::path(".") : parent, error) ==
+                          fs::weakly_canonical(options.out_dir, error);
+  if (!parent.empty() && !in_out_dir && !fs::is_directory(parent, error)) {
+    throw InputError("--csv " + options.csv + ": the folder " + parent.string() +
+                     " does not exist");
+  }
+}
+
 BenchmarkResults runBenchmark(const BenchmarkOptions& options, std::ostream& log) {
   const auto start = std::chrono::steady_clock::now();
   BenchmarkResults results;
+  checkBenchmarkOutputs(options);
   if (!options.rooms.empty()) {
     results.markdown = runRoomBenchmark(options, log);
     results.seconds = secondsSince(start);

@@ -32,6 +32,12 @@
 namespace sag_hand_tracker {
 namespace {
 
+// --hand-scale, --palm-width, --thickness, --finger-length: the range of a shape file's factors.
+constexpr double kMinSizeFactor = 0.3;
+constexpr double kMaxSizeFactor = 3.0;
+// --start-stamp: the last frame's stamp must still fit ros::Time's 32-bit seconds.
+constexpr double kMaxStartStamp = 4.0e9;
+
 using studio::StudioFrame;
 
 // Frame stamps on an exact nanosecond grid: start + index / fps.
@@ -54,7 +60,9 @@ TrackingCsvRow groundTruthRow(const StudioFrame& frame, const ros::Time& stamp) 
   return row;
 }
 
-void writeContactSheet(const std::string& path, const std::vector<studio::StudioImage>& images,
+// Writes to `path` (the temporary file); errors name `option_path` (--preview's file) in one line.
+void writeContactSheet(const std::string& path, const std::string& option_path,
+                       const std::vector<studio::StudioImage>& images,
                        const std::vector<Camera>& cameras, const StudioFrame& frame,
                        const std::string& caption) {
   const cv::Mat sheet = studio::contactSheet(
@@ -65,9 +73,10 @@ void writeContactSheet(const std::string& path, const std::vector<studio::Studio
   try {
     written = cv::imwrite(path, bgr);
   } catch (const cv::Exception& error) {
-    throw InputError(path + ": cannot write the contact sheet: " + error.what());
+    std::string reason = error.err;  // what() spans lines (file, line, function)
+    throw InputError("--preview " + option_path + ": cannot write the contact sheet: " + reason);
   }
-  if (!written) throw InputError(path + ": cannot write the contact sheet");
+  if (!written) throw InputError("--preview " + option_path + ": cannot write the contact sheet");
 }
 
 }  // namespace
@@ -121,10 +130,9 @@ std::string renderBagUsage() {
 
 RenderBagOptions parseRenderBagArguments(const std::vector<std::string>& args) {
   RenderBagOptions options;
-  auto value = [&](size_t* i) {
-    if (*i + 1 >= args.size()) throw UsageError(args[*i] + " needs a value");
-    return args[++*i];
-  };
+  rejectRepeatedOptions(args);
+  // An option's value never begins with "--" (`--out --quiet` would name the bag "--quiet").
+  auto value = [&](size_t* i) { return nextOptionValue(args, i); };
   auto number = [&](size_t* i) {
     const std::string flag = args[*i];
     const std::string text = value(i);
@@ -137,13 +145,29 @@ RenderBagOptions parseRenderBagArguments(const std::vector<std::string>& args) {
       throw UsageError(flag + " needs a number, not '" + text + "'");
     }
   };
-  auto integer = [&](size_t* i, long long min) {
+  // Bounded before the cast: 1e99 frames, threads or sub-frames wrapped around (--threads 1e99
+  // passed the "at most 16" check, --motion-blur 1e99 failed later as "at least 1").
+  auto integer = [&](size_t* i, long long min, long long max = 1000000) {
     const std::string flag = args[*i];
     const double v = number(i);
     if (v != std::floor(v) || v < static_cast<double>(min)) {
       throw UsageError(flag + " needs an integer >= " + std::to_string(min));
     }
+    if (v > static_cast<double>(max)) {
+      throw UsageError(flag + " must be at most " + std::to_string(max));
+    }
     return static_cast<long long>(v);
+  };
+  // A size factor, within the range of a shape file's (hand_shapes.yaml): 1e99 rendered a hand
+  // whose ground-truth fingertips lay 1e98 m away.
+  auto size_factor = [&](size_t* i) {
+    const std::string flag = args[*i];
+    const double v = number(i);
+    if (!(v > 0.0)) throw UsageError(flag + " must be positive");
+    if (!(v >= kMinSizeFactor && v <= kMaxSizeFactor)) {
+      throw UsageError(flag + " must be within [0.3, 3], got '" + args[*i] + "'");
+    }
+    return v;
   };
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
@@ -166,9 +190,9 @@ RenderBagOptions parseRenderBagArguments(const std::vector<std::string>& args) {
     } else if (a == "--frames") {
       options.frames = static_cast<int>(integer(&i, 1));
     } else if (a == "--seed") {
-      options.seed = static_cast<std::uint64_t>(integer(&i, 0));
+      options.seed = static_cast<std::uint64_t>(integer(&i, 0, 1LL << 53));
     } else if (a == "--motion-blur") {
-      options.motion_blur = static_cast<int>(integer(&i, 1));
+      options.motion_blur = static_cast<int>(integer(&i, 1, 1000));
     } else if (a == "--exposure") {
       options.exposure = number(&i);
       if (options.exposure < 0.0) throw UsageError("--exposure must not be negative");
@@ -176,19 +200,16 @@ RenderBagOptions parseRenderBagArguments(const std::vector<std::string>& args) {
       options.noise = number(&i);
       if (options.noise < 0.0) throw UsageError("--noise must not be negative");
     } else if (a == "--hand-scale") {
-      options.hand_scale = number(&i);
-      if (!(options.hand_scale > 0.0)) throw UsageError("--hand-scale must be positive");
+      options.hand_scale = size_factor(&i);
     } else if (a == "--shape") {
       options.shape = value(&i);
       if (options.shape.empty()) throw UsageError("--shape needs a name or a file");
     } else if (a == "--bare-forearm") {
       options.bare_forearm = true;
     } else if (a == "--palm-width") {
-      options.palm_width = number(&i);
-      if (!(options.palm_width > 0.0)) throw UsageError("--palm-width must be positive");
+      options.palm_width = size_factor(&i);
     } else if (a == "--thickness") {
-      options.thickness = number(&i);
-      if (!(options.thickness > 0.0)) throw UsageError("--thickness must be positive");
+      options.thickness = size_factor(&i);
     } else if (a == "--finger-length") {
       const std::string text = value(&i);
       const std::vector<std::string> items =
@@ -203,18 +224,31 @@ RenderBagOptions parseRenderBagArguments(const std::vector<std::string>& args) {
         if (end != item.c_str() + item.size() || !(factor > 0.0) || !std::isfinite(factor)) {
           throw UsageError("--finger-length needs positive numbers, not '" + item + "'");
         }
+        if (!(factor >= kMinSizeFactor && factor <= kMaxSizeFactor)) {
+          throw UsageError("--finger-length must be within [0.3, 3], got '" + item + "'");
+        }
         options.finger_length[f] = factor;
       }
     } else if (a == "--preview") {
       options.preview = value(&i);
+      // Refused before the rendering, not when the finished sheet cannot be written.
+      if (!cv::haveImageWriter(options.preview)) {
+        throw UsageError("--preview " + options.preview +
+                         ": not an image file name OpenCV can write (use .png or .jpg)");
+      }
     } else if (a == "--preview-frame") {
       options.preview_frame = static_cast<int>(integer(&i, 0));
     } else if (a == "--start-stamp") {
       options.start_stamp = number(&i);
       if (!(options.start_stamp > 0.0)) throw UsageError("--start-stamp must be positive");
+      // ros::Time holds 32-bit seconds: later stamps failed after the rendering began.
+      if (options.start_stamp > kMaxStartStamp) {
+        throw UsageError(
+            "--start-stamp must be at most 4000000000 (2096; a bag stamp's seconds "
+            "are 32 bits)");
+      }
     } else if (a == "--threads") {
-      options.threads = static_cast<int>(integer(&i, 1));
-      if (options.threads > 16) throw UsageError("--threads must be at most 16");
+      options.threads = static_cast<int>(integer(&i, 1, 16));
     } else if (a == "--compression") {
       const std::string mode = value(&i);
       if (mode == "none") {
@@ -365,7 +399,7 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
       csv.write(groundTruthRow(frame, stamp));
     }
     if (k == preview_frame) {
-      writeContactSheet(preview_file->tempPath(), images, rig.cameras, frame,
+      writeContactSheet(preview_file->tempPath(), options.preview, images, rig.cameras, frame,
                         sequence.motion().name + " / " + hand.name + " frame " + std::to_string(k));
     }
     if (progress) {

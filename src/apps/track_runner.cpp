@@ -85,6 +85,7 @@ Options:
 
 TrackBagOptions parseTrackBagArguments(const std::vector<std::string>& args) {
   TrackBagOptions options;
+  rejectRepeatedOptions(args);
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string& arg = args[i];
     auto value = [&]() -> const std::string& { return nextOptionValue(args, &i); };
@@ -154,6 +155,11 @@ std::string formatSummary(const TrackBagSummary& summary) {
     out << "  warning:   " << summary.backward_stamps
         << " images with stamps going backwards (first: " << summary.first_backward_stamp
         << "); images whose set was already tracked are dropped\n";
+  }
+  if (summary.duplicate_stamps > 0) {
+    out << "  warning:   " << summary.duplicate_stamps
+        << " images with the stamp of an earlier image of their camera (first: "
+        << summary.first_duplicate_stamp << "); only the first image of a stamp is tracked\n";
   }
   if (summary.near_stamp_mismatches > 0) {
     out << "  warning:   " << summary.near_stamp_mismatches
@@ -264,6 +270,8 @@ TrackBagSummary runTrackBag(BagReader& reader, const TrackFrameFunction& track,
   summary.dropped_images = static_cast<int>(stats.dropped_images);
   summary.backward_stamps = static_cast<int>(stats.backward_stamps);
   summary.first_backward_stamp = stats.first_backward_stamp;
+  summary.duplicate_stamps = static_cast<int>(stats.duplicate_stamps);
+  summary.first_duplicate_stamp = stats.first_duplicate_stamp;
   summary.near_stamp_mismatches = static_cast<int>(stats.near_stamp_mismatches);
   summary.first_near_stamp_mismatch = stats.first_near_stamp_mismatch;
   summary.tolerated_stamps = static_cast<int>(stats.tolerated_stamps);
@@ -311,7 +319,18 @@ TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
   reader_options.stamp_tolerance = options.stamp_tolerance;
   BagReader reader(options.bag, reader_options);
 
-  TrackingPipeline pipeline(model, reader.cameras(), trackBagPipelineParams(options));
+  const PipelineParams params = trackBagPipelineParams(options);
+  if (static_cast<int>(reader.cameras().size()) < params.tracker.min_cameras_for_start) {
+    // Named here, where the bag is known: which cameras have images (or were chosen).
+    std::string names;
+    for (const Camera& camera : reader.cameras()) names += (names.empty() ? "" : " ") + camera.name;
+    throw InputError(
+        options.bag + ": images of " + std::to_string(reader.cameras().size()) + " camera (" +
+        names + (options.cameras.empty() ? "" : ", chosen by --cameras") +
+        "); the tracker starts from at least " +
+        std::to_string(params.tracker.min_cameras_for_start) + " cameras that see the hand");
+  }
+  TrackingPipeline pipeline(model, reader.cameras(), params);
 
   // The CSV is written next to --out and renamed over it only when frames were tracked: a run
   // that fails half way, or tracks nothing, leaves no CSV and whatever was at --out untouched.

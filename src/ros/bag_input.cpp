@@ -162,6 +162,7 @@ struct BagReader::Impl {
   bool frontIsFinal() const;
   std::map<std::int64_t, PendingSet>::iterator setFor(int camera, std::int64_t stamp);
   void noteNearStamps(const std::string& topic, int camera, std::int64_t stamp);
+  void noteDuplicateStamp(const std::string& topic, std::int64_t stamp);
   bool step(FrameSet* set);
 };
 
@@ -539,11 +540,16 @@ void BagReader::Impl::open() {
 
 std::vector<int> BagReader::Impl::discoverCameras() {
   static const std::regex image_topic("^/?cam([0-9]+)/image_raw$");
+  static const std::regex compressed_topic("^/cam([0-9]{1,9})/image_raw/compressed$");
   rosbag::View all(bag);
   std::map<std::string, std::string> numbers;  // image topic -> its camera number as written
   std::set<std::string> other_topics;
+  std::map<std::string, int> compressed;  // compressed image topic -> its camera number
   for (const rosbag::ConnectionInfo* connection : all.getConnections()) {
     std::smatch match;
+    if (std::regex_match(connection->topic, match, compressed_topic)) {
+      compressed[connection->topic] = std::stoi(match[1].str());
+    }
     if (std::regex_match(connection->topic, match, image_topic)) {
       if (connection->datatype != kImageType) {
         fail(connection->topic + " has type " + connection->datatype + ", expected " + kImageType);
@@ -578,6 +584,19 @@ std::vector<int> BagReader::Impl::discoverCameras() {
            " (with a leading slash and no leading zeros)");
     }
     found.insert(id);
+  }
+  // A camera recorded through image_transport's compressed plugin only would be left out
+  // silently (its camera_info read, its images never): named, unless --cameras leaves it out.
+  for (const auto& [topic, id] : compressed) {
+    const bool wanted =
+        options.cameras.empty() ||
+        std::find(options.cameras.begin(), options.cameras.end(), id) != options.cameras.end();
+    if (wanted && found.count(id) == 0) {
+      fail(topic + ": camera " + cameraName(id) + " has compressed images only; the tracker " +
+           "reads sensor_msgs/Image on " + imageTopic(id) +
+           " (decompress them first, e.g. with image_transport's republish; track_bag --cameras "
+           "can leave the camera out)");
+    }
   }
   return std::vector<int>(found.begin(), found.end());
 }
@@ -790,6 +809,12 @@ void BagReader::Impl::checkFirstImages() {
   }
 }
 
+void BagReader::Impl::noteDuplicateStamp(const std::string& topic, std::int64_t stamp) {
+  if (stats.duplicate_stamps++ == 0) {
+    stats.first_duplicate_stamp = topic + " at " + formatStamp(stamp);
+  }
+}
+
 void BagReader::Impl::noteNearStamps(const std::string& topic, int camera, std::int64_t stamp) {
   // This image starts a set of its own; another camera's set close by that lacks it means the
   // cameras are not stamped together (closer than the tolerance it would have joined it).
@@ -866,6 +891,7 @@ bool BagReader::Impl::step(FrameSet* set) {
     }
     if (yielded_any && stamp <= last_yielded) {
       ++stats.dropped_images;  // too late: its set is gone
+      if (stamp == last_stamp[camera]) noteDuplicateStamp(topic, stamp);
       continue;
     }
     const auto found = setFor(camera, stamp);
@@ -882,6 +908,7 @@ bool BagReader::Impl::step(FrameSet* set) {
                          [](const CameraImage& image, int index) { return image.camera < index; });
     if (position != target.images.end() && position->camera == camera) {
       ++stats.dropped_images;  // a second image of this camera with the same stamp
+      noteDuplicateStamp(topic, stamp);
       continue;
     }
     CameraImage decoded;

@@ -4,6 +4,7 @@
 
 #include <rosbag/bag.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <std_msgs/String.h>
 #include <tf2_msgs/TFMessage.h>
@@ -1169,6 +1170,76 @@ TEST_F(BagFiles, BagReportsStampsThatNearlyMatchAndStampsGoingBackwards) {
   EXPECT_EQ(tolerant.statistics().tolerated_stamps, 3u);
   EXPECT_NEAR(tolerant.statistics().largest_stamp_difference, 5e-6, 1e-9);
   EXPECT_EQ(tolerant.statistics().backward_stamps, 1u);
+}
+
+// An image at a stamp its camera already delivered (recorded twice, or a driver that repeats a
+// stamp) is dropped, and the first one is named: before, only a count of dropped images said so.
+TEST_F(BagFiles, BagNamesImagesThatRepeatTheirCamerasStamp) {
+  const std::string bag = path("repeated.bag");
+  {
+    BagWriter writer(bag);
+    writer.writeStaticTransforms("world", cameras_, frameTime(0));
+    for (int frame = 0; frame < 3; ++frame) {
+      for (int id = 0; id < 3; ++id) {
+        // cam2's frame 2 carries frame 1's stamp: its set is gone by then.
+        const ros::Time stamp = frameTime(id == 2 && frame == 2 ? 1 : frame);
+        writer.writeCameraImage(cameras_[id], makeImage(id, frame), stamp);
+        // cam1's frame 0 is recorded twice: the second joins the same pending set.
+        if (id == 1 && frame == 0) writer.writeCameraImage(cameras_[id], makeImage(id, 7), stamp);
+      }
+    }
+  }
+  BagReader reader(bag);
+  FrameSet set;
+  int sets = 0;
+  while (reader.next(&set)) {
+    ++sets;
+    if (set.stamp_ns == static_cast<std::int64_t>(frameTime(0).toNSec())) {
+      ASSERT_EQ(set.images.size(), 3u);
+      EXPECT_TRUE(sameImage(set.images[1].rgb, makeImage(1, 0))) << "the first image is kept";
+    }
+  }
+  EXPECT_EQ(sets, 3);
+  const BagReaderStatistics& stats = reader.statistics();
+  EXPECT_EQ(stats.duplicate_stamps, 2u);
+  EXPECT_EQ(stats.dropped_images, 2u);
+  EXPECT_EQ(stats.first_duplicate_stamp, "/cam1/image_raw at 100.000000");
+}
+
+// A camera recorded through image_transport's compressed plugin only was left out silently (its
+// camera_info read, its images never): it is named, and --cameras may leave it out.
+TEST_F(BagFiles, BagErrorACameraWithCompressedImagesOnlyIsNamed) {
+  const std::string bag = path("compressed.bag");
+  {
+    BagWriter writer(bag);
+    writer.writeStaticTransforms("world", cameras_, frameTime(0));
+    for (int frame = 0; frame < 2; ++frame) {
+      for (int id = 0; id < 3; ++id) {
+        if (id != 0) {
+          writer.writeCameraImage(cameras_[id], makeImage(id, frame), frameTime(frame));
+          continue;
+        }
+        sensor_msgs::CompressedImage compressed;
+        compressed.header.stamp = frameTime(frame);
+        compressed.header.frame_id = opticalFrame(cameras_[0].name);
+        compressed.format = "rgb8; jpeg compressed bgr8";
+        compressed.data = {0xff, 0xd8, 0xff, 0xd9};
+        writer.write("/cam0/image_raw/compressed", frameTime(frame), compressed);
+        sensor_msgs::CameraInfo info = toCameraInfo(cameras_[0]);
+        info.header = compressed.header;
+        writer.write(cameraInfoTopicOf(cameras_[0]), frameTime(frame), info);
+      }
+    }
+  }
+  EXPECT_EQ(readError(bag),
+            bag +
+                ": /cam0/image_raw/compressed: camera cam0 has compressed images only; the tracker "
+                "reads sensor_msgs/Image on /cam0/image_raw (decompress them first, e.g. with "
+                "image_transport's republish; track_bag --cameras can leave the camera out)");
+  BagReaderOptions without_cam0;
+  without_cam0.cameras = {1, 2};
+  BagReader reader(bag, without_cam0);
+  EXPECT_EQ(reader.cameraIds(), (std::vector<int>{1, 2}));
 }
 
 // Cameras stamped milliseconds apart (cam1 2.5 ms after cam0, cam2 2 ms before it) make one set per

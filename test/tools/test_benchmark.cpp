@@ -67,16 +67,22 @@ double number(const std::map<std::string, std::string>& row, const std::string& 
 class BenchmarkTool : public sag_test::TempDirTest {
  protected:
   BenchmarkOptions options(const std::string& extra = "") const {
-    std::vector<std::string> args{"--sequences", "fingerwave",  "--frames",     "40",
-                                  "--out-dir",   dir_.string(), "--config-dir", kConfig};
+    // The default hand only, unless a test asks for shapes: keeps the tests fast. An option of
+    // `extra` replaces the one here (an option given twice is refused).
+    const std::vector<std::pair<std::string, std::string>> base{{"--sequences", "fingerwave"},
+                                                                {"--frames", "40"},
+                                                                {"--out-dir", dir_.string()},
+                                                                {"--config-dir", kConfig},
+                                                                {"--shapes", "default"}};
+    std::vector<std::string> args;
+    for (const auto& [option, value] : base) {
+      if ((" " + extra + " ").find(" " + option + " ") != std::string::npos) continue;
+      args.push_back(option);
+      args.push_back(value);
+    }
     std::stringstream stream(extra);
     std::string word;
     while (stream >> word) args.push_back(word);
-    // The default hand only, unless a test asks for shapes: keeps the tests fast.
-    if (extra.find("--shapes") == std::string::npos) {
-      args.push_back("--shapes");
-      args.push_back("default");
-    }
     return parseBenchmarkArguments(args);
   }
 };
@@ -122,6 +128,23 @@ TEST(BenchmarkArguments, BenchmarkParsesOptionsAndRejectsBadOnes) {
   EXPECT_THROW(parseBenchmarkArguments({"--models", "sag,sag"}), UsageError);
   EXPECT_THROW(parseBenchmarkArguments({"--iterations"}), UsageError);
   EXPECT_THROW(parseBenchmarkArguments({"--bogus"}), UsageError);
+  // An option given twice: the first value was silently ignored.
+  EXPECT_THROW(parseBenchmarkArguments({"--sequences", "pinch", "--sequences", "random"}),
+               UsageError);
+}
+
+// The outputs' folders are checked before the rendering: a --csv in a missing folder failed only
+// when the tables were written at the end, an --out-dir that is a file with a filesystem error.
+TEST_F(BenchmarkTool, BenchmarkChecksItsOutputFoldersBeforeRendering) {
+  std::ostringstream log;
+  const std::string csv = (dir_ / "missing" / "r.csv").string();
+  EXPECT_EQ(sag_test::inputErrorOf([&] { runBenchmark(options("--csv " + csv), log); }),
+            "--csv " + csv + ": the folder " + (dir_ / "missing").string() + " does not exist");
+  const std::string file = write("results", "not a folder\n");
+  EXPECT_EQ(sag_test::inputErrorOf([&] { runBenchmark(options("--out-dir " + file), log); }),
+            "--out-dir " + file + " exists and is not a folder");
+  EXPECT_EQ(readAll(file), "not a folder\n");
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "bags")) << "nothing rendered";
 }
 
 TEST(BenchmarkErrors, BenchmarkCountsFramesWithoutAPoseAsFailures) {

@@ -135,6 +135,36 @@ TEST_F(CalibrateHandTool, RefusesToReplaceFilesAndChecksTheCommandLine) {
   EXPECT_NE(run.err.find("no hand shape 'no_such_hand'"), std::string::npos) << run.err;
   EXPECT_FALSE(fs::exists(path("new.yaml")));
 
+  // The contact sheet at --out's name was renamed over the fitted model (exit status 0, the
+  // model lost); a missing folder was found only when the fitted model was written. Both are
+  // refused before the recording is read.
+  run = calibrateHand("--bag '" + path("missing.bag") + "' --out '" + path("new.yaml") +
+                      "' --contact-sheet '" + path("new.yaml") + "'");
+  EXPECT_EQ(run.status, 1);
+  EXPECT_EQ(run.err, "calibrate_hand: error: --contact-sheet " + path("new.yaml") +
+                         " is the --out file; give the contact sheet a name of its own\n");
+  run = calibrateHand("--bag '" + path("missing.bag") + "' --out '" + path("no/new.yaml") + "'");
+  EXPECT_EQ(run.status, 1);
+  EXPECT_EQ(run.err, "calibrate_hand: error: --out " + path("no/new.yaml") + ": the folder " +
+                         path("no") + " does not exist\n");
+  run = calibrateHand("--bag '" + path("missing.bag") + "' --out '" + path("new.yaml") +
+                      "' --contact-sheet '" + path("no/sheet.png") + "'");
+  EXPECT_EQ(run.status, 1);
+  EXPECT_NE(run.err.find("--contact-sheet " + path("no/sheet.png") + ": the folder"),
+            std::string::npos)
+      << run.err;
+  EXPECT_FALSE(fs::exists(path("new.yaml")));
+  // A folder the model cannot be written in (here: a name too long for its temporary file; a
+  // read-only folder alike) failed after the fit with "cannot write the file".
+  const std::string long_name = path(std::string(250, 'h') + ".yaml");
+  run = calibrateHand("--bag '" + path("missing.bag") + "' --out '" + long_name + "'");
+  EXPECT_EQ(run.status, 1);
+  EXPECT_EQ(run.err, "calibrate_hand: error: --out " + long_name + ": cannot create a file in " +
+                         dir_.string() + ": File name too long\n");
+  run = calibrateHand("--bag x.bag --out y.yaml --out z.yaml");
+  EXPECT_EQ(run.status, 2);
+  EXPECT_NE(run.err.find("--out is given twice"), std::string::npos) << run.err;
+
   run = calibrateHand("--bag x.bag");
   EXPECT_EQ(run.status, 2);
   EXPECT_NE(run.err.find("--out is required"), std::string::npos) << run.err;

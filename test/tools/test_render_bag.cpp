@@ -20,6 +20,7 @@
 #include <sstream>
 
 #include "sag_hand_tracker/apps/csv.h"
+#include "sag_hand_tracker/apps/render_runner.h"
 #include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/model/hand_model.h"
 #include "sag_hand_tracker/ros/bag_input.h"
@@ -196,6 +197,43 @@ TEST_F(RenderBagTool, BadInputGetsAOneLineErrorAndNonZeroExit) {
   }
 }
 
+// Numbers beyond the limits were cast to int before they were checked (--threads 1e99 passed "at
+// most 16", --frames 1e99 rendered the motion's length), size factors of 1e99 rendered a hand
+// 1e98 m long, --start-stamp 1e99 failed in ros::Time, an option given twice kept the last value,
+// `--out --quiet` named the bag "--quiet", and a --preview without an image writer failed after
+// the rendering: all are usage errors now.
+TEST(RenderBagArguments, OutOfRangeNumbersRepeatedOptionsAndPreviewNamesAreUsageErrors) {
+  auto message = [](std::vector<std::string> extra) -> std::string {
+    std::vector<std::string> args{"--sequence", "pinch", "--out", "x.bag"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    try {
+      parseRenderBagArguments(args);
+    } catch (const UsageError& error) {
+      return error.what();
+    }
+    return "no error";
+  };
+  EXPECT_EQ(message({"--threads", "1e99"}), "--threads must be at most 16");
+  EXPECT_EQ(message({"--threads", "17"}), "--threads must be at most 16");
+  EXPECT_EQ(message({"--frames", "1e99"}), "--frames must be at most 1000000");
+  EXPECT_EQ(message({"--motion-blur", "1e99"}), "--motion-blur must be at most 1000");
+  EXPECT_EQ(message({"--seed", "1e99"}), "--seed must be at most 9007199254740992");
+  EXPECT_EQ(message({"--preview-frame", "1e99"}), "--preview-frame must be at most 1000000");
+  EXPECT_EQ(message({"--hand-scale", "1e99"}), "--hand-scale must be within [0.3, 3], got '1e99'");
+  EXPECT_EQ(message({"--palm-width", "0.1"}), "--palm-width must be within [0.3, 3], got '0.1'");
+  EXPECT_EQ(message({"--thickness", "0"}), "--thickness must be positive");
+  EXPECT_EQ(message({"--finger-length", "1,1,1e99,1,1"}),
+            "--finger-length must be within [0.3, 3], got '1e99'");
+  EXPECT_EQ(message({"--start-stamp", "1e99"}),
+            "--start-stamp must be at most 4000000000 (2096; a bag stamp's seconds are 32 bits)");
+  EXPECT_EQ(message({"--preview", "sheet.xyz"}),
+            "--preview sheet.xyz: not an image file name OpenCV can write (use .png or .jpg)");
+  EXPECT_EQ(message({"--out", "y.bag"}), "--out is given twice");
+  EXPECT_EQ(message({"--gt-csv", "--quiet"}), "--gt-csv needs a value");
+  EXPECT_EQ(message({"--hand-scale", "3", "--palm-width", "0.3", "--preview", "p.png"}),
+            "no error");
+}
+
 TEST_F(RenderBagTool, RendersAStudioRoomWithTheHandsMasks) {
   // The office (portraits, a head, wooden props) and the tracked hand's pixels per camera: the
   // bag of room_graph.test.
@@ -262,14 +300,18 @@ TEST_F(RenderBagTool, RendersAnotherHandWithABareForearm) {
 TEST_F(RenderBagTool, AFailureHalfWayLeavesNoOutputAndTheOldFilesUntouched) {
   write("p.bag", "an older bag\n");
   const auto files_before = std::distance(fs::directory_iterator(dir_), fs::directory_iterator());
-  // The preview (frame 6 of 8) cannot be written: no image format has the extension .xyz.
+  // The preview (frame 6 of 8) cannot be written: the .pgm writer takes grey images only. (An
+  // extension without a writer, .xyz, is refused before the rendering.)
   const ToolRun run = renderBag("--sequence pinch --frames 8 --out '" + path("p.bag") +
-                                "' --preview '" + path("p.xyz") + "' --preview-frame 6 --quiet");
+                                "' --preview '" + path("p.pgm") + "' --preview-frame 6 --quiet");
   EXPECT_EQ(run.status, 1);
-  EXPECT_NE(run.err.find("cannot write the contact sheet"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("render_bag: error: --preview " + path("p.pgm") +
+                         ": cannot write the contact sheet"),
+            std::string::npos)
+      << run.err;
   EXPECT_EQ(readAll(path("p.bag")), "an older bag\n");
   EXPECT_FALSE(fs::exists(path("p.gt.csv")));
-  EXPECT_FALSE(fs::exists(path("p.xyz")));
+  EXPECT_FALSE(fs::exists(path("p.pgm")));
   // Only stdout.txt and stderr.txt of the run are new.
   EXPECT_LE(std::distance(fs::directory_iterator(dir_), fs::directory_iterator()),
             files_before + 2);

@@ -315,6 +315,12 @@ TEST_F(TrackBagTool, TrackBagRejectsBadInputs) {
                     if (i == 2) info->width = 640;
                   }),
               "/cam2/image_raw at 1000.000000: image is 320x240 but its camera_info says 640x240");
+  // Images of one camera only (the others' camera_info without images): named with the bag and
+  // the camera, not "the tracker starts from at least 2 cameras ..., but there are 1".
+  expectError(bag("one_camera.bag", [](int i, sensor_msgs::Image*, sensor_msgs::CameraInfo*,
+                                       bool* write_image, bool*) { *write_image = i == 0; }),
+              "images of 1 camera (cam0); the tracker starts from at least 2 cameras that see the "
+              "hand");
 }
 
 TEST_F(TrackBagTool, TrackBagUsageErrors) {
@@ -323,6 +329,10 @@ TEST_F(TrackBagTool, TrackBagUsageErrors) {
   EXPECT_EQ(run.err, "track_bag: --bag is required\nRun 'track_bag --help' for the options.\n");
   run = trackBag("--bag a.bag --out x.csv --cameras 1,1");
   EXPECT_EQ(run.status, 2);
+  // An option given twice: the first value was silently ignored (two --out, two --bag).
+  run = trackBag("--bag a.bag --out x.csv --out y.csv");
+  EXPECT_EQ(run.status, 2);
+  EXPECT_EQ(run.err, "track_bag: --out is given twice\nRun 'track_bag --help' for the options.\n");
   run = trackBag("--help");
   EXPECT_EQ(run.status, 0);
   EXPECT_NE(run.out.find("Usage: track_bag --bag IN.bag --out OUT.csv"), std::string::npos);

@@ -179,6 +179,10 @@ TEST(TrackBagArguments, TrackBagRejectsBadArguments) {
   EXPECT_EQ(message(with({"--model"})), "--model needs a value");
   EXPECT_EQ(message({"--bag", "--out", "o.csv"}), "--bag needs a value");
   EXPECT_EQ(message(with({"--frobnicate"})), "unknown argument '--frobnicate'");
+  EXPECT_EQ(message(with({"--bag", "other.bag"})), "--bag is given twice");
+  EXPECT_EQ(message(with({"--iterations", "3", "--iterations", "4"})),
+            "--iterations is given twice");
+  EXPECT_EQ(message(with({"--quiet", "--quiet"})), "--quiet is given twice");
   EXPECT_NE(trackBagUsage().find("--background-frames N"), std::string::npos);
 }
 

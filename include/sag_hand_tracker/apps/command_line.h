@@ -20,6 +20,11 @@ class UsageError : public std::runtime_error {
 // "<option> needs a value" when there is none or the next argument is an option itself.
 const std::string& nextOptionValue(const std::vector<std::string>& args, size_t* i);
 
+// UsageError "<option> is given twice" when an option (an argument beginning with "--") appears
+// more than once: the tools would otherwise take the last value and silently ignore the first
+// (two --out, two --bag). Every tool's parser calls it first.
+void rejectRepeatedOptions(const std::vector<std::string>& args);
+
 // `text` as an integer in [min_value, 1000000]; else UsageError
 // "<option> expects an integer >= <min_value>, got '<text>'".
 int parseIntOption(const std::string& option, const std::string& text, int min_value);

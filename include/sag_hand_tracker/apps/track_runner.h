@@ -76,6 +76,8 @@ struct TrackBagSummary {
   bool out_existed = false;  // trackBag: a file was at --out before the run
   int backward_stamps = 0;   // see BagReaderStatistics
   std::string first_backward_stamp;
+  int duplicate_stamps = 0;  // see BagReaderStatistics
+  std::string first_duplicate_stamp;
   int near_stamp_mismatches = 0;  // see BagReaderStatistics
   std::string first_near_stamp_mismatch;
   int tolerated_stamps = 0;  // see BagReaderStatistics

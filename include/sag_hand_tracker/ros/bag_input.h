@@ -54,6 +54,10 @@ struct BagReaderStatistics {
   // dropped when their set is gone); the first one as "topic at stamp after stamp".
   std::uint64_t backward_stamps = 0;
   std::string first_backward_stamp;
+  // Images of a camera at a stamp it already delivered (dropped: one image per camera and set);
+  // the first one as "topic at stamp".
+  std::uint64_t duplicate_stamps = 0;
+  std::string first_duplicate_stamp;
   // Images that started a set of their own while another camera's set without them lay within
   // 20 ms (beyond stamp_tolerance): the cameras are not stamped together, so sets lack cameras.
   // The first one described.
@@ -72,7 +76,8 @@ class BagReader {
   // problem: missing or unreadable bag, empty bag (no frames), no /cam<i>/image_raw topic, an
   // unknown camera in options.cameras, a camera without camera_info, missing extrinsics, a wrong
   // message type, an unsupported (for example mono) encoding, an image whose size differs from
-  // its camera_info, a camera_info whose size changes mid-bag, or a truncated or unclosed bag.
+  // its camera_info, a camera_info whose size changes mid-bag, a selected camera with compressed
+  // images only (/cam<i>/image_raw/compressed), or a truncated or unclosed bag.
   explicit BagReader(const std::string& path, const BagReaderOptions& options = {});
   // The same, reading through the caller's `reused_bag` instead of a rosbag::Bag of its own. It
   // must be closed (the reader made with it before is gone) and outlive the reader, which closes it
