@@ -21,7 +21,7 @@
 //   got no pose on the frame path meanwhile are published late, below), worker_niceness (10: a
 //   re-detecting worker's nice value above the frame path's; 0-19), search_threads (2: threads of
 //   one start or re-detection search, which give the same result as one; 1-16), room_cues
-//   (false; the launch files set it to mode == skin), multi_view (true) and recheck_interval (5)
+//   (false; the launch files set it to mode == skin), multi_view (true) and recheck_interval (1)
 //   (below), plus the dynamic_reconfigure parameters of cfg/Tracker.cfg.
 //
 // Room cues (issue 11; ros/live_room_cues.h, doc/segmentation.md "The live graph"; the segmentation
@@ -203,9 +203,10 @@ class TrackerNodelet : public nodelet::Nodelet {
       multi_view.enabled = pnh.param("multi_view", multi_view.enabled);
       multi_view.recheck_interval = pnh.param("recheck_interval", multi_view.recheck_interval);
       if (multi_view.recheck_interval < 0) {
-        NODELET_ERROR("recheck_interval must be >= 0 (got %d); using 5",
-                      multi_view.recheck_interval);
-        multi_view.recheck_interval = 5;
+        const int fallback = MultiViewParams().recheck_interval;
+        NODELET_ERROR("recheck_interval must be >= 0 (got %d); using %d",
+                      multi_view.recheck_interval, fallback);
+        multi_view.recheck_interval = fallback;
       }
       room_ = LiveRoomCues(multi_view);
     }

@@ -289,12 +289,15 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
 
   // Cue 7 (without a plate, which holds still objects already): a cell that stays still outside
   // the model. Under the model the count starts again, so that a still hand the model has not
-  // yet covered is not lost for good once it is; motion starts it again too.
-  const bool count_still = plate == nullptr && room.still_object_frames > 0 && has_roi &&
-                           learn_skin && model_silhouette.size() == cv::Size(width, height);
-  if (!count_still) {
+  // yet covered is not lost for good once it is; motion starts it again too. A set without the
+  // model (a restart, a re-check's switch) neither counts nor forgets: the ball that was still
+  // beside the other arm is still beside the hand (doc/segmentation.md, "Session 20").
+  const bool cue_on = plate == nullptr && room.still_object_frames > 0;
+  const bool count_still =
+      cue_on && has_roi && learn_skin && model_silhouette.size() == cv::Size(width, height);
+  if (!cue_on) {
     state.still_outside.clear();
-  } else {
+  } else if (count_still) {
     if (state.still_outside.size() != static_cast<size_t>(cells)) {
       state.still_outside.assign(cells, 0);
     }

@@ -261,7 +261,9 @@ TEST(LiveRoomCues, BeforeTheStartOnlyTheBlobsThatAgreeAcrossTheViewsAreKept) {
 TEST(LiveRoomCues, TheTrackAsksForCandidatesAndSwitchesToAHandThatMoreViewsAgreeOn) {
   const PosedHand other_arm = studioHand(Eigen::Vector3d(0.35, -0.1, -0.1));
   const Eigen::Vector3d hand = centre(studioHand());
-  LiveRoomCues cues;  // re-check every 5 sets
+  MultiViewParams every_five;  // the mechanism with sets between the re-checks (default: 1)
+  every_five.recheck_interval = 5;
+  LiveRoomCues cues(every_five);
   EXPECT_FALSE(cues.tracking());
   cues.afterUpdate(&other_arm);
   ASSERT_TRUE(cues.tracking());

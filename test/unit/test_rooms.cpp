@@ -405,6 +405,21 @@ TEST(RoomCues, AStillSkinObjectBesideTheModelIsDroppedOnceItHasStayedStill) {
   segmenter.segmentFrame(image(9));
   EXPECT_EQ(maskAt(segmenter, ball), 255);
 
+  // A set without the model (a restart: candidates only) neither counts nor forgets: counted
+  // frames 1-3, the gap, then 4 and 5; dropped from the fifth counted frame on, not 5 frames
+  // after the gap.
+  {
+    ImageSegmenter gap(params);
+    for (int frame = 1; frame <= 7; ++frame) {
+      gap.setRegionOfInterest(region, frame == 4 ? RegionSource::kCandidates : RegionSource::kTrack,
+                              silhouette);
+      gap.segmentFrame(image(frame));
+      if (frame == 4) continue;
+      EXPECT_EQ(maskAt(gap, hand), 255) << "frame " << frame;
+      EXPECT_EQ(maskAt(gap, ball), frame < 6 ? 255 : 0) << "frame " << frame;
+    }
+  }
+
   // Off (0), with a region of candidates, or without the model's silhouette: the ball stays.
   for (const int variant : {0, 1, 2}) {
     SegmentationParams p = roomSkinParams();

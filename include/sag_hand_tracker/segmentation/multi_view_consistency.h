@@ -34,8 +34,9 @@ struct MultiViewParams {
   // a choice at least `switch_distance` (m) from the tracked hand, with more supporting views and
   // more than twice the moving cells of the candidates at the tracked hand, replaces the track
   // (the start locked on a slower thing: the other arm drifting before the hand came into view).
-  // 0: never.
-  int recheck_interval = 5;
+  // Every set by default: with 5 the hand that comes into view waited up to 5 sets, 470 mm off,
+  // for ~1 ms per set of segmentation (doc/segmentation.md, "Session 20"). 0: never.
+  int recheck_interval = 1;
   double switch_distance = 0.15;
   // A still scene (a stereo pair of photographs replayed, a hand held still from the first frame
   // with nothing else moving): when no pair of moving candidates agrees, up to this many places
