@@ -161,6 +161,12 @@ std::string formatSummary(const TrackBagSummary& summary) {
         << " images with the stamp of an earlier image of their camera (first: "
         << summary.first_duplicate_stamp << "); only the first image of a stamp is tracked\n";
   }
+  if (summary.forward_jumps > 0) {
+    out << "  warning:   " << summary.forward_jumps
+        << " images with stamps more than 10 s after their camera's previous image (first: "
+        << summary.first_forward_jump
+        << "); a clock set forward or a paused recording, tracked as the next frame\n";
+  }
   if (summary.near_stamp_mismatches > 0) {
     out << "  warning:   " << summary.near_stamp_mismatches
         << " images more than --stamp-tolerance but less than 20 ms from another camera's set "
@@ -272,6 +278,8 @@ TrackBagSummary runTrackBag(BagReader& reader, const TrackFrameFunction& track,
   summary.first_backward_stamp = stats.first_backward_stamp;
   summary.duplicate_stamps = static_cast<int>(stats.duplicate_stamps);
   summary.first_duplicate_stamp = stats.first_duplicate_stamp;
+  summary.forward_jumps = static_cast<int>(stats.forward_jumps);
+  summary.first_forward_jump = stats.first_forward_jump;
   summary.near_stamp_mismatches = static_cast<int>(stats.near_stamp_mismatches);
   summary.first_near_stamp_mismatch = stats.first_near_stamp_mismatch;
   summary.tolerated_stamps = static_cast<int>(stats.tolerated_stamps);

@@ -42,6 +42,9 @@ const char* const kTfStaticTopic = "/tf_static";
 // this (but beyond the stamp tolerance) is a stamp mismatch: the cameras are not stamped together.
 // Half the frame period at 25 fps; at higher rates a camera that skips a frame can be counted too.
 constexpr std::int64_t kNearStampNs = 20000000;
+// A camera's stamps that leap forward by more than this (a clock set forward, a paused recording)
+// are reported: the tracker takes the frames as consecutive.
+constexpr std::int64_t kStampJumpNs = 10000000000;
 
 std::string imageTopic(int id) { return "/cam" + std::to_string(id) + "/image_raw"; }
 std::string cameraInfoTopic(int id) { return "/cam" + std::to_string(id) + "/camera_info"; }
@@ -887,6 +890,11 @@ bool BagReader::Impl::step(FrameSet* set) {
     }
     if (stamp < last_stamp[camera] && stats.backward_stamps++ == 0) {
       stats.first_backward_stamp =
+          topic + " at " + formatStamp(stamp) + " after " + formatStamp(last_stamp[camera]);
+    }
+    if (last_stamp[camera] != std::numeric_limits<std::int64_t>::min() &&
+        stamp > last_stamp[camera] + kStampJumpNs && stats.forward_jumps++ == 0) {
+      stats.first_forward_jump =
           topic + " at " + formatStamp(stamp) + " after " + formatStamp(last_stamp[camera]);
     }
     if (yielded_any && stamp <= last_yielded) {

@@ -19,6 +19,7 @@
 #include <iterator>
 #include <limits>
 #include <random>
+#include <regex>
 #include <tuple>
 #include <utility>
 
@@ -1170,6 +1171,40 @@ TEST_F(BagFiles, BagReportsStampsThatNearlyMatchAndStampsGoingBackwards) {
   EXPECT_EQ(tolerant.statistics().tolerated_stamps, 3u);
   EXPECT_NEAR(tolerant.statistics().largest_stamp_difference, 5e-6, 1e-9);
   EXPECT_EQ(tolerant.statistics().backward_stamps, 1u);
+}
+
+// A camera whose stamps leap forward by hours (a clock set forward mid-recording) was tracked on
+// without a word; the first leap is named (backward ones already were).
+TEST_F(BagFiles, BagNamesStampsThatJumpForwardByMoreThan10Seconds) {
+  const std::string bag = path("leap.bag");
+  {
+    BagWriter writer(bag);
+    writer.writeStaticTransforms("world", cameras_, frameTime(0));
+    for (int frame = 0; frame < 4; ++frame) {
+      for (int id = 0; id < 3; ++id) {
+        const ros::Time stamp = frameTime(frame) + ros::Duration(frame >= 2 ? 7200.0 : 0.0);
+        writer.writeCameraImage(cameras_[id], makeImage(id, frame), stamp);
+      }
+    }
+  }
+  BagReader reader(bag);
+  FrameSet set;
+  int sets = 0;
+  while (reader.next(&set)) ++sets;
+  EXPECT_EQ(sets, 4);
+  const BagReaderStatistics& stats = reader.statistics();
+  EXPECT_EQ(stats.forward_jumps, 3u);  // each camera once
+  // The first in the bag's order of the three cameras' images of frame 2.
+  EXPECT_TRUE(
+      std::regex_match(stats.first_forward_jump,
+                       std::regex("/cam[0-2]/image_raw at 7300\\.080000 after 100\\.040000")))
+      << stats.first_forward_jump;
+  EXPECT_EQ(stats.backward_stamps, 0u);
+  // The good bag (frames 40 ms apart, cam1 missing frame 2) has none.
+  BagReader good(writeGoodBag("good.bag"));
+  while (good.next(&set)) {
+  }
+  EXPECT_EQ(good.statistics().forward_jumps, 0u);
 }
 
 // An image at a stamp its camera already delivered (recorded twice, or a driver that repeats a

@@ -264,6 +264,30 @@ TEST_F(TrackBagRun, TrackBagStopsWhenInterrupted) {
   EXPECT_NE(formatSummary(summary).find("(interrupted)"), std::string::npos);
 }
 
+// Repeated stamps and stamps that leap forward are warnings of the summary, naming the first.
+TEST(TrackBagOutput, TheSummaryNamesRepeatedStampsAndForwardLeaps) {
+  TrackBagSummary summary;
+  summary.frames = 4;
+  summary.tracked_frames = 4;
+  summary.duplicate_stamps = 2;
+  summary.first_duplicate_stamp = "/cam1/image_raw at 100.000000";
+  summary.forward_jumps = 3;
+  summary.first_forward_jump = "/cam0/image_raw at 7300.080000 after 100.040000";
+  const std::string report = formatSummary(summary);
+  EXPECT_NE(report.find("  warning:   2 images with the stamp of an earlier image of their camera "
+                        "(first: /cam1/image_raw at 100.000000); only the first image of a stamp "
+                        "is tracked\n"),
+            std::string::npos)
+      << report;
+  EXPECT_NE(report.find("  warning:   3 images with stamps more than 10 s after their camera's "
+                        "previous image (first: /cam0/image_raw at 7300.080000 after "
+                        "100.040000); a clock set forward or a paused recording, tracked as the "
+                        "next frame\n"),
+            std::string::npos)
+      << report;
+  EXPECT_EQ(formatSummary(TrackBagSummary()).find("warning"), std::string::npos);
+}
+
 // The partial rows of an interrupted run never replace an earlier output.
 TEST(TrackBagOutput, AnInterruptedRunReplacesNoEarlierOutput) {
   TrackBagSummary finished;

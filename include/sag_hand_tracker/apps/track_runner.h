@@ -78,6 +78,8 @@ struct TrackBagSummary {
   std::string first_backward_stamp;
   int duplicate_stamps = 0;  // see BagReaderStatistics
   std::string first_duplicate_stamp;
+  int forward_jumps = 0;  // see BagReaderStatistics
+  std::string first_forward_jump;
   int near_stamp_mismatches = 0;  // see BagReaderStatistics
   std::string first_near_stamp_mismatch;
   int tolerated_stamps = 0;  // see BagReaderStatistics

@@ -58,6 +58,11 @@ struct BagReaderStatistics {
   // the first one as "topic at stamp".
   std::uint64_t duplicate_stamps = 0;
   std::string first_duplicate_stamp;
+  // Images whose stamp is more than 10 s after the previous image of the same camera (a clock
+  // set forward, a paused recording: tracked as the next frame); the first one as "topic at stamp
+  // after stamp".
+  std::uint64_t forward_jumps = 0;
+  std::string first_forward_jump;
   // Images that started a set of their own while another camera's set without them lay within
   // 20 ms (beyond stamp_tolerance): the cameras are not stamped together, so sets lack cameras.
   // The first one described.
