@@ -148,6 +148,7 @@ SequenceBag prepareBag(const BenchmarkOptions& options, const std::string& seque
   render.config_dir = options.config_dir;
   render.frames = frames;
   render.quiet = true;
+  render.overwrite = true;  // the benchmark's own folder: --rerender replaces its bags
   // The benchmark's shapes come from the config's list; a shape file would do as well.
   render.shape = hand.name;
   const std::string stamp = renderStamp(render, hand);
@@ -181,6 +182,7 @@ BenchmarkRun trackRun(const BenchmarkOptions& options, const SequenceBag& bag,
   track.cameras = cameras;
   track.config_dir = options.config_dir;
   track.quiet = true;
+  track.overwrite = true;  // the benchmark's own folder: each run replaces its tracks
   const TrackBagSummary summary = trackBag(track, nullptr, nullptr);
 
   const std::string config = packageConfigDir(options.config_dir);

@@ -89,7 +89,7 @@ std::string renderBagUsage() {
          "                     random tigergrasp) or a motion file (config/motions/README.md)\n"
          "  --rig R            built-in rig name, a directory with rig.yaml, or a rig file\n"
          "                     (default dexter5)\n"
-         "  --out OUT.bag      the bag to write (replaced only when the whole run succeeds)\n"
+         "  --out OUT.bag      the bag to write (written only when the whole run succeeds)\n"
          "  --gt-csv FILE      ground-truth CSV (default: OUT.bag with the extension .gt.csv)\n"
          "  --fps F            frame rate, 25 (Dexter 1, default) or 60\n"
          "  --frames N         number of frames (default: the motion's duration * fps)\n"
@@ -123,6 +123,8 @@ std::string renderBagUsage() {
          "                     pixels: palm, fingers, bare wrist), for foreground precision\n"
          "  --config-dir DIR   where the built-in motions, rigs and models are (default: the\n"
          "                     package's config/)\n"
+         "  --overwrite        replace files already at --out, --gt-csv, --preview (default:\n"
+         "                     refused before anything is rendered)\n"
          "  --quiet            no progress bar\n"
          "The first 10 frames show the empty studio (for the background plate); ground truth is\n"
          "written for the frames with the hand.\n";
@@ -269,6 +271,8 @@ RenderBagOptions parseRenderBagArguments(const std::vector<std::string>& args) {
       }
     } else if (a == "--hand-masks") {
       options.hand_masks = true;
+    } else if (a == "--overwrite") {
+      options.overwrite = true;
     } else if (a == "--quiet") {
       options.quiet = true;
     } else if (a == "--help" || a == "-h") {
@@ -301,6 +305,9 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
     checkOutputPath(options.preview,
                     {model_path, rig_path, motion_path, options.out, options.gt_csv}, "--preview");
   }
+  checkOutputIsNew(options.out, options.overwrite);
+  checkOutputIsNew(options.gt_csv, options.overwrite, "--gt-csv");
+  if (!options.preview.empty()) checkOutputIsNew(options.preview, options.overwrite, "--preview");
   const HandModel model = loadHandModel(model_path);
   const CameraRig rig = loadCameraRig(rig_path);
   if (rig.cameras.empty()) throw InputError("the rig has no cameras");

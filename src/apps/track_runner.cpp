@@ -54,9 +54,9 @@ Tracks the hand in a bag of calibrated cameras (/cam<i>/image_raw rgb8|bgr8, /ca
 /tf_static) without a ROS master, as fast as the CPU allows, and writes one CSV row per tracked
 frame with a pose: stamp, the 5 fingertips (x,y,z in metres in the root frame), the 26 pose
 parameters, the energy and the status (started, tracked, or lost: a pose the tracker rejected).
-Nothing tracked is an error (exit status 1) and writes no CSV; --out is never an input and a
-failed run leaves whatever was at --out untouched. Interrupted (Ctrl-C, SIGTERM; exit status 130),
-it writes the rows so far only where no file was at --out.
+Nothing tracked is an error (exit status 1) and writes no CSV; --out is never an input, a file
+already at --out is refused unless --overwrite, and a failed run leaves it untouched. Interrupted
+(Ctrl-C, SIGTERM; exit status 130), it writes the rows so far only where no file was at --out.
 
 Options:
   --bag FILE               input bag (required)
@@ -78,6 +78,8 @@ Options:
   --no-room-cues           the skin gate or the plate alone
   --fixed-colours          keep the model's colours (default: learnt while tracking, palm
                            Gaussians each, fingers together; the live graph's colour_adaptation)
+  --overwrite              replace a file already at --out (default: refused before the bag is
+                           read)
   --quiet                  no progress bar
   --help                   this text
 )";
@@ -110,6 +112,8 @@ TrackBagOptions parseTrackBagArguments(const std::vector<std::string>& args) {
       options.room_cues = false;
     } else if (arg == "--fixed-colours") {
       options.fixed_colours = true;
+    } else if (arg == "--overwrite") {
+      options.overwrite = true;
     } else {
       throw UsageError("unknown argument '" + arg + "'");
     }
@@ -319,6 +323,7 @@ TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
   const std::string model_path = trackBagModelPath(options.model, options.config_dir);
   // Before anything is opened: --out must not be an input (the bag, the model file).
   checkOutputPath(options.out, {options.bag, model_path});
+  checkOutputIsNew(options.out, options.overwrite);
   const HandModel model = loadHandModel(model_path, options.hand);
 
   BagReaderOptions reader_options;

@@ -39,6 +39,14 @@ void checkOutputPath(const std::string& out, const std::vector<std::string>& inp
   }
 }
 
+void checkOutputIsNew(const std::string& out, bool overwrite, const std::string& option) {
+  std::error_code error;
+  if (overwrite || !fs::exists(out, error)) return;
+  throw InputError(option + " " + out +
+                   " exists; it is not replaced (--overwrite replaces it, or choose another "
+                   "name)");
+}
+
 AtomicOutputFile::AtomicOutputFile(const std::string& path) : path_(path), target_(path) {
   std::error_code error;
   if (fs::is_symlink(fs::symlink_status(path, error))) {

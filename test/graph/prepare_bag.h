@@ -42,7 +42,7 @@ inline void prepareBag() {
   const std::string render_args = pnh.param<std::string>("render_args", "");
   const std::string track_args = pnh.param<std::string>("track_args", "");
   ASSERT_EQ(run(binDir() + "/render_bag --quiet --sequence " + sequence + " --frames " + frames +
-                " " + render_args + " --out " + bag),
+                " " + render_args + " --overwrite --out " + bag),
             0);
   if (!csv.empty()) {
     std::filesystem::remove(csv);

@@ -51,7 +51,7 @@ TEST(ReplayFaults, GraphKeepsTrackingThroughFaults) {
     std::filesystem::create_directories(std::filesystem::path(bag).parent_path());
     const std::string command = binDir() + "/render_bag --quiet --sequence " + sequence +
                                 " --frames " + std::to_string(pnh.param("frames", 40)) +
-                                " --out " + bag;
+                                " --overwrite --out " + bag;
     ASSERT_EQ(std::system(command.c_str()), 0) << command;
   }
 
@@ -136,7 +136,8 @@ TEST(ReplayFaults, GraphKeepsTrackingThroughFaults) {
                 joint_states.size(), jumps);
     EXPECT_GE(jumps, min_loops) << "joint_states did not carry on after the bag looped";
     bool logged = false;
-    for (const std::string& w : warnings) logged = logged || w.find("time jumped back") != std::string::npos;
+    for (const std::string& w : warnings)
+      logged = logged || w.find("time jumped back") != std::string::npos;
     EXPECT_TRUE(logged) << "no WARN 'time jumped back' from the tracker";
   }
 
@@ -153,8 +154,10 @@ TEST(ReplayFaults, GraphKeepsTrackingThroughFaults) {
     std::vector<double> before, after;
     for (const auto& [arrival, status] : statuses) {
       if (status.status != "tracking") continue;
-      if (arrival < reconfigured - ros::WallDuration(0.5)) before.push_back(status.seconds_per_frame);
-      if (arrival > reconfigured + ros::WallDuration(0.5)) after.push_back(status.seconds_per_frame);
+      if (arrival < reconfigured - ros::WallDuration(0.5))
+        before.push_back(status.seconds_per_frame);
+      if (arrival > reconfigured + ros::WallDuration(0.5))
+        after.push_back(status.seconds_per_frame);
     }
     std::printf(
         "replay_fault_checker: median seconds per tracking set %.4f before (%zu), %.4f after "

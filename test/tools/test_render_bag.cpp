@@ -302,8 +302,16 @@ TEST_F(RenderBagTool, AFailureHalfWayLeavesNoOutputAndTheOldFilesUntouched) {
   const auto files_before = std::distance(fs::directory_iterator(dir_), fs::directory_iterator());
   // The preview (frame 6 of 8) cannot be written: the .pgm writer takes grey images only. (An
   // extension without a writer, .xyz, is refused before the rendering.)
-  const ToolRun run = renderBag("--sequence pinch --frames 8 --out '" + path("p.bag") +
-                                "' --preview '" + path("p.pgm") + "' --preview-frame 6 --quiet");
+  // Without --overwrite the older bag is refused before anything is rendered.
+  const ToolRun refused =
+      renderBag("--sequence pinch --frames 8 --out '" + path("p.bag") + "' --quiet");
+  EXPECT_EQ(refused.status, 1);
+  EXPECT_EQ(refused.err, "render_bag: error: --out " + path("p.bag") +
+                             " exists; it is not replaced (--overwrite replaces it, or choose "
+                             "another name)\n");
+  const ToolRun run =
+      renderBag("--sequence pinch --frames 8 --out '" + path("p.bag") + "' --preview '" +
+                path("p.pgm") + "' --preview-frame 6 --quiet --overwrite");
   EXPECT_EQ(run.status, 1);
   EXPECT_NE(run.err.find("render_bag: error: --preview " + path("p.pgm") +
                          ": cannot write the contact sheet"),
@@ -325,7 +333,7 @@ TEST_F(RenderBagTool, AnInterruptedRunLeavesNoTemporaryFilesAndTheOldFilesUntouc
   const ToolRun run =
       runTool(std::string("timeout --preserve-status -s TERM 4 '") + SAG_BIN_DIR +
               "/render_bag' --config-dir '" + kConfig + "' --sequence pinch --frames 5000 --out '" +
-              path("i.bag") + "' --quiet");
+              path("i.bag") + "' --quiet --overwrite");
   EXPECT_EQ(run.status, 130) << run.err;
   EXPECT_NE(run.err.find("interrupted; nothing was written"), std::string::npos) << run.err;
   EXPECT_EQ(readAll(path("i.bag")), "an older bag\n");

@@ -150,7 +150,7 @@ TEST_F(TrackBagTool, TrackBagReportsAnEmptyResult) {
   EXPECT_FALSE(fs::exists(path("desk.csv")));
   write("old.csv", "an earlier result\n");
   EXPECT_EQ(trackBag("--bag '" + path("desk.bag") + "' --out '" + path("old.csv") + "' " +
-                     modelArgument() + " --quiet")
+                     modelArgument() + " --quiet --overwrite")
                 .status,
             1);
   EXPECT_EQ(readAll(path("old.csv")), "an earlier result\n");
@@ -247,12 +247,25 @@ TEST_F(TrackBagTool, TrackBagNeverOverwritesAnInputOrLosesAnOldOutput) {
   write("out.csv", "an earlier result\n");
   const auto files_before = std::distance(fs::directory_iterator(dir_), fs::directory_iterator());
   const ToolRun broken = trackBag("--bag '" + path("broken.bag") + "' --out '" + path("out.csv") +
-                                  "' " + modelArgument() + " --quiet");
+                                  "' " + modelArgument() + " --quiet --overwrite");
   EXPECT_EQ(broken.status, 1);
   EXPECT_NE(broken.err.find("unsupported image encoding 'rgba8'"), std::string::npos) << broken.err;
   EXPECT_EQ(readAll(path("out.csv")), "an earlier result\n");
   // stdout.txt and stderr.txt of the run already existed.
   EXPECT_EQ(std::distance(fs::directory_iterator(dir_), fs::directory_iterator()), files_before);
+
+  // A file at --out is not replaced, even by a run that would succeed, unless --overwrite.
+  const ToolRun kept = trackBag("--bag '" + bag + "' --out '" + path("out.csv") + "' " +
+                                modelArgument() + " --quiet");
+  EXPECT_EQ(kept.status, 1);
+  EXPECT_EQ(kept.err, "track_bag: error: --out " + path("out.csv") +
+                          " exists; it is not replaced (--overwrite replaces it, or choose another "
+                          "name)\n");
+  EXPECT_EQ(readAll(path("out.csv")), "an earlier result\n");
+  const ToolRun replaced = trackBag("--bag '" + bag + "' --out '" + path("out.csv") + "' " +
+                                    modelArgument() + " --quiet --overwrite");
+  ASSERT_EQ(replaced.status, 0) << replaced.err;
+  EXPECT_EQ(readTrackingCsv(path("out.csv")).rows.size(), static_cast<std::size_t>(kHandFrames));
 }
 
 TEST_F(TrackBagTool, TrackBagRejectsBadInputs) {

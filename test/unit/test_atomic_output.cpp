@@ -80,6 +80,20 @@ TEST_F(AtomicOutput, AnOutputThatIsAnInputIsRefused) {
   EXPECT_NO_THROW(checkOutputPath(path("new.csv"), {input}));
 }
 
+// A file that existed before the run (or a symlink to one) is replaced only when asked to.
+TEST_F(AtomicOutput, AnExistingFileIsReplacedOnlyWithOverwrite) {
+  const std::string existing = write("old.csv", "precious");
+  fs::create_symlink(existing, path("link.csv"));
+  for (const std::string& out : {existing, path("link.csv")}) {
+    EXPECT_EQ(sag_test::inputErrorOf([&] { checkOutputIsNew(out, false, "--gt-csv"); }),
+              "--gt-csv " + out +
+                  " exists; it is not replaced (--overwrite replaces it, or choose another name)");
+    EXPECT_NO_THROW(checkOutputIsNew(out, true));
+  }
+  EXPECT_NO_THROW(checkOutputIsNew(path("new.csv"), false));
+  EXPECT_EQ(readAll(existing), "precious");
+}
+
 TEST_F(AtomicOutput, AnOutputThatIsNotARegularFileIsRefused) {
   EXPECT_NE(sag_test::inputErrorOf([&] {
               checkOutputPath(dir_.string(), {});

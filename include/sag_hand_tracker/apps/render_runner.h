@@ -45,6 +45,7 @@ struct RenderBagOptions {
   std::string room;         // --room office|kitchen|daylight ("" = the clean studio)
   bool hand_masks = false;  // --hand-masks: /cam<i>/hand_mask, the tracked hand's pixels
   int threads = 2;          // --threads N: views rendered at once (same images for any N)
+  bool overwrite = false;   // --overwrite: replace files at --out, --gt-csv, --preview
   bool quiet = false;
   bool help = false;
 };

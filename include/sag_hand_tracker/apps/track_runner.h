@@ -41,8 +41,9 @@ struct TrackBagOptions {
   bool fixed_colours = false;
   std::string root_frame;  // --root-frame FRAME (empty: the root of the bag's tf tree)
   double stamp_tolerance = BagReaderOptions().stamp_tolerance;  // --stamp-tolerance S
-  bool quiet = false;                                           // --quiet: no progress bar
-  bool help = false;                                            // --help
+  bool overwrite = false;  // --overwrite: replace a file at --out (default: refused)
+  bool quiet = false;      // --quiet: no progress bar
+  bool help = false;       // --help
   // Where the built-in models ("sag", "sog") are; empty: the package's config/ (found through
   // ROS_PACKAGE_PATH). Not a command-line option of track_bag; the benchmark sets it.
   std::string config_dir;

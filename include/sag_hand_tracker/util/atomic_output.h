@@ -15,6 +15,11 @@ namespace sag_hand_tracker {
 void checkOutputPath(const std::string& out, const std::vector<std::string>& inputs,
                      const std::string& option = "--out");
 
+// Throws InputError "<option> <out> exists; ..." when something is at `out` (a symlink to a file
+// counts) and `overwrite` is false: a tool replaces no file that existed before it ran unless
+// asked to (--overwrite). Call it with checkOutputPath, before anything is opened.
+void checkOutputIsNew(const std::string& out, bool overwrite, const std::string& option = "--out");
+
 class AtomicOutputFile {
  public:
   // Creates an empty temporary file next to `path` (same folder, so the final rename is atomic;
