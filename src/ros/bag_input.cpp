@@ -648,6 +648,10 @@ void BagReader::Impl::readCameraInfo() {
         what = "changes (camera matrix K)";
       } else if (info->D != was.D || info->distortion_model != was.distortion_model) {
         what = "changes (distortion)";
+      } else if (stripSlash(info->header.frame_id) != stripSlash(was.header.frame_id)) {
+        // The frame names the camera's /tf_static pose: a new one would move the camera.
+        what =
+            "changes (frame_id '" + was.header.frame_id + "' to '" + info->header.frame_id + "')";
       }
       if (!what.empty()) {
         const std::string stamp = formatStamp(info->header.stamp.toNSec());

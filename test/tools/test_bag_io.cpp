@@ -629,6 +629,12 @@ TEST_F(BagFiles, BagErrorCameraInfoChangesCalibrationMidBag) {
                                 ": /cam1/camera_info: the calibration of camera cam1 changes "
                                 "(distortion) at t=100.040000; one calibration per camera is "
                                 "supported");
+  bag = later("frame.bag",
+              [](sensor_msgs::CameraInfo* info) { info->header.frame_id = "cam2_optical_frame"; });
+  EXPECT_EQ(readError(bag), bag +
+                                ": /cam1/camera_info: the calibration of camera cam1 changes "
+                                "(frame_id 'cam1_optical_frame' to 'cam2_optical_frame') at "
+                                "t=100.040000; one calibration per camera is supported");
   // The same calibration again, as drivers publish it with every image, is fine.
   EXPECT_EQ(readAllSets(writeGoodBag("good.bag")).size(), 4u);
 }
