@@ -21,6 +21,7 @@
 #include "sag_hand_tracker/studio/hand_shapes.h"
 #include "sag_hand_tracker/studio/hand_surface.h"
 #include "sag_hand_tracker/tracking/tracking_pipeline.h"
+#include "sag_hand_tracker/util/atomic_output.h"
 #include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
@@ -34,13 +35,11 @@ std::string temporaryPath(const std::string& path, const std::string& extension)
   return (target.parent_path() / name).string();
 }
 
+// calibrate_hand never replaces a file (no --overwrite).
 void refuseExisting(const std::string& path, const std::string& option) {
-  std::error_code error;
-  if (std::filesystem::exists(path, error)) {
-    throw InputError(option + " " + path +
-                     ": the file exists; calibrate_hand does not overwrite files (remove it or "
-                     "choose another name)");
-  }
+  checkOutputIsNew(path, /*overwrite=*/false, option,
+                   ": the file exists; calibrate_hand does not overwrite files (remove it or "
+                   "choose another name)");
 }
 
 // The temporary file of `path` (temporaryPath(path, extension)) must be creatable: checked by

@@ -18,12 +18,6 @@ namespace {
 
 constexpr double kDegToRad = M_PI / 180.0;
 
-std::string shortNumber(double value) {
-  std::ostringstream text;
-  text << value;
-  return text.str();
-}
-
 Eigen::Matrix3d rpyDegrees(const Eigen::Vector3d& rpy) {
   return (Eigen::AngleAxisd(rpy[2] * kDegToRad, Eigen::Vector3d::UnitZ()) *
           Eigen::AngleAxisd(rpy[1] * kDegToRad, Eigen::Vector3d::UnitY()) *

@@ -114,7 +114,8 @@ struct BagReader::Impl {
   std::vector<Camera> cameras;
   std::vector<int> ids;
   std::vector<std::string> optical_frames;
-  std::vector<std::string> info_frame_ids;  // the first camera_info's header.frame_id, as written
+  // Per camera, its first camera_info (the one that became the camera; later ones must match it).
+  std::vector<sensor_msgs::CameraInfo::ConstPtr> first_infos;
   std::map<std::string, int> topic_to_camera;
 
   std::unique_ptr<rosbag::View> view;
@@ -523,7 +524,7 @@ void BagReader::Impl::open() {
   }
   cameras.resize(ids.size());
   optical_frames.resize(ids.size());
-  info_frame_ids.resize(ids.size());
+  first_infos.resize(ids.size());
   for (std::size_t i = 0; i < ids.size(); ++i) {
     topic_to_camera[imageTopic(ids[i])] = static_cast<int>(i);
   }
@@ -619,7 +620,6 @@ void BagReader::Impl::readCameraInfo() {
     }
   }
   std::vector<bool> have(ids.size(), false);
-  std::vector<sensor_msgs::CameraInfo::ConstPtr> first_info(ids.size());
   [[maybe_unused]] std::size_t missing = ids.size();
   for (const rosbag::MessageInstance& message : infos) {
     const int camera = info_to_camera.at(message.getTopic());
@@ -637,7 +637,7 @@ void BagReader::Impl::readCameraInfo() {
       }
       // Only the first camera_info becomes the camera: a later one with another (or a
       // non-finite) K, D or distortion model would otherwise be ignored silently.
-      const sensor_msgs::CameraInfo& was = *first_info[camera];
+      const sensor_msgs::CameraInfo& was = *first_infos[camera];
       const bool finite =
           std::all_of(info->K.begin(), info->K.end(), [](double v) { return std::isfinite(v); }) &&
           std::all_of(info->D.begin(), info->D.end(), [](double v) { return std::isfinite(v); });
@@ -667,8 +667,7 @@ void BagReader::Impl::readCameraInfo() {
     }
     const std::string frame = stripSlash(info->header.frame_id);
     optical_frames[camera] = frame.empty() ? opticalFrame(cameraName(ids[camera])) : frame;
-    info_frame_ids[camera] = info->header.frame_id;
-    first_info[camera] = info;
+    first_infos[camera] = info;
     have[camera] = true;
     --missing;
   }
@@ -681,8 +680,9 @@ void BagReader::Impl::readCameraInfo() {
   // The optical frame picks a camera's extrinsics from /tf_static: two cameras naming one frame
   // would get one pose (the second camera's silently the first's).
   const auto describe = [this](std::size_t i) {
-    return cameraInfoTopic(ids[i]) + " (frame_id '" + info_frame_ids[i] + "'" +
-           (info_frame_ids[i].empty() ? ", so '" + optical_frames[i] + "'" : std::string()) + ")";
+    const std::string& frame_id = first_infos[i]->header.frame_id;
+    return cameraInfoTopic(ids[i]) + " (frame_id '" + frame_id + "'" +
+           (frame_id.empty() ? ", so '" + optical_frames[i] + "'" : std::string()) + ")";
   };
   for (std::size_t i = 1; i < ids.size(); ++i) {
     for (std::size_t j = 0; j < i; ++j) {
@@ -783,7 +783,7 @@ cv::Mat BagReader::Impl::decode(const sensor_msgs::Image& image, int camera,
   const std::string where = topic + " at " + formatStamp(image.header.stamp.toNSec()) + ": ";
   // camera_info's frame_id chose the camera's frame in /tf_static; images of another frame would
   // be tracked with the extrinsics of the wrong one. (An empty frame_id names nothing.)
-  const std::string& info_frame_id = info_frame_ids[camera];
+  const std::string& info_frame_id = first_infos[camera]->header.frame_id;
   if (!image.header.frame_id.empty() && !info_frame_id.empty() &&
       stripSlash(image.header.frame_id) != stripSlash(info_frame_id)) {
     fail(where + "frame_id '" + image.header.frame_id + "' differs from " +

@@ -39,12 +39,11 @@ void checkOutputPath(const std::string& out, const std::vector<std::string>& inp
   }
 }
 
-void checkOutputIsNew(const std::string& out, bool overwrite, const std::string& option) {
+void checkOutputIsNew(const std::string& out, bool overwrite, const std::string& option,
+                      const std::string& refusal) {
   std::error_code error;
   if (overwrite || !fs::exists(out, error)) return;
-  throw InputError(option + " " + out +
-                   " exists; it is not replaced (--overwrite replaces it, or choose another "
-                   "name)");
+  throw InputError(option + " " + out + refusal);
 }
 
 AtomicOutputFile::AtomicOutputFile(const std::string& path) : path_(path), target_(path) {

@@ -26,11 +26,6 @@ int lineOf(const YAML::Node& node, int fallback) {
   return mark.is_null() || mark.line < 0 ? fallback : mark.line + 1;
 }
 
-std::string shortNumber(double value) {
-  std::ostringstream text;
-  text << value;
-  return text.str();
-}
 
 // "<kind> <source>:<line>: key '<key>': <problem>" (line and key left out when unknown).
 std::string yamlMessage(const std::string& kind, const std::string& source, int line,
@@ -136,6 +131,12 @@ std::optional<YamlValue> presentMember(const YamlValue& map, const std::string& 
 }
 
 }  // namespace
+
+std::string shortNumber(double value) {
+  std::ostringstream text;
+  text << value;
+  return text.str();
+}
 
 std::string readYamlFileText(const std::string& path, const std::string& kind,
                              std::size_t max_bytes) {

@@ -15,10 +15,14 @@ namespace sag_hand_tracker {
 void checkOutputPath(const std::string& out, const std::vector<std::string>& inputs,
                      const std::string& option = "--out");
 
-// Throws InputError "<option> <out> exists; ..." when something is at `out` (a symlink to a file
+// Throws InputError "<option> <out><refusal>" when something is at `out` (a symlink to a file
 // counts) and `overwrite` is false: a tool replaces no file that existed before it ran unless
-// asked to (--overwrite). Call it with checkOutputPath, before anything is opened.
-void checkOutputIsNew(const std::string& out, bool overwrite, const std::string& option = "--out");
+// asked to (--overwrite; calibrate_hand never, with its own `refusal`). Call it with
+// checkOutputPath, before anything is opened.
+void checkOutputIsNew(const std::string& out, bool overwrite, const std::string& option = "--out",
+                      const std::string& refusal =
+                          " exists; it is not replaced (--overwrite "
+                          "replaces it, or choose another name)");
 
 class AtomicOutputFile {
  public:
