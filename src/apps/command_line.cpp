@@ -12,6 +12,9 @@ const std::string& nextOptionValue(const std::vector<std::string>& args, size_t*
   if (*i + 1 >= args.size() || args[*i + 1].rfind("--", 0) == 0) {
     throw UsageError(args[*i] + " needs a value");
   }
+  // An explicitly empty value (`--root-frame ""`, `--model ""`) was taken as "the default" or
+  // failed later as a missing file (exit status 1): it is a bad command line.
+  if (args[*i + 1].empty()) throw UsageError(args[*i] + " needs a value, got an empty one");
   return args[++*i];
 }
 

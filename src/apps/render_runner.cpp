@@ -205,7 +205,6 @@ RenderBagOptions parseRenderBagArguments(const std::vector<std::string>& args) {
       options.hand_scale = size_factor(&i);
     } else if (a == "--shape") {
       options.shape = value(&i);
-      if (options.shape.empty()) throw UsageError("--shape needs a name or a file");
     } else if (a == "--bare-forearm") {
       options.bare_forearm = true;
     } else if (a == "--palm-width") {

@@ -131,6 +131,17 @@ TEST(BenchmarkArguments, BenchmarkParsesOptionsAndRejectsBadOnes) {
   // An option given twice: the first value was silently ignored.
   EXPECT_THROW(parseBenchmarkArguments({"--sequences", "pinch", "--sequences", "random"}),
                UsageError);
+  // An explicitly empty value was taken as the default (--out-dir "": the default folder).
+  for (const std::string option :
+       {"--out-dir", "--csv", "--rig", "--config-dir", "--fit-sequence", "--shapes"}) {
+    SCOPED_TRACE(option);
+    try {
+      parseBenchmarkArguments({option, ""});
+      ADD_FAILURE() << "no error";
+    } catch (const UsageError& error) {
+      EXPECT_EQ(std::string(error.what()), option + " needs a value, got an empty one");
+    }
+  }
 }
 
 // The outputs' folders are checked before the rendering: a --csv in a missing folder failed only

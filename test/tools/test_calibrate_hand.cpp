@@ -171,6 +171,16 @@ TEST_F(CalibrateHandTool, RefusesToReplaceFilesAndChecksTheCommandLine) {
   run = calibrateHand("--bag x.bag --out y.yaml --hand both");
   EXPECT_EQ(run.status, 2);
   EXPECT_NE(run.err.find("--hand expects left or right, got 'both'"), std::string::npos);
+  // An empty value was taken as the default (--model "": the SAG model) or as no file.
+  run = calibrateHand("--bag x.bag --out y.yaml --model ''");
+  EXPECT_EQ(run.status, 2);
+  EXPECT_NE(run.err.find("calibrate_hand: --model needs a value, got an empty one"),
+            std::string::npos)
+      << run.err;
+  run = calibrateHand("--bag x.bag --out y.yaml --contact-sheet ''");
+  EXPECT_EQ(run.status, 2);
+  EXPECT_NE(run.err.find("--contact-sheet needs a value, got an empty one"), std::string::npos)
+      << run.err;
   run = calibrateHand("--help");
   EXPECT_EQ(run.status, 0);
   EXPECT_NE(run.out.find("Usage: calibrate_hand"), std::string::npos);

@@ -175,7 +175,8 @@ TEST_F(RenderBagTool, BadInputGetsAOneLineErrorAndNonZeroExit) {
       {"--sequence pinch --shape nosuch" + out, 1, "no hand shape 'nosuch'"},
       {"--sequence pinch --shape '" + path("bad_shape.yaml") + "'" + out, 1,
        "bad_shape.yaml:2: shape 'big' scale = 15 is outside [0.3, 3]"},
-      {"--sequence pinch --shape ''" + out, 2, "--shape needs a name or a file"},
+      {"--sequence pinch --shape ''" + out, 2, "--shape needs a value, got an empty one"},
+      {"--sequence pinch --gt-csv ''" + out, 2, "--gt-csv needs a value, got an empty one"},
       {"--sequence pinch", 2, "--out is required"},
       {"--out x.bag", 2, "--sequence is required"},
       {"--sequence pinch --fps 0" + out, 2, "--fps must be in (0, 1000]"},
@@ -230,6 +231,11 @@ TEST(RenderBagArguments, OutOfRangeNumbersRepeatedOptionsAndPreviewNamesAreUsage
             "--preview sheet.xyz: not an image file name OpenCV can write (use .png or .jpg)");
   EXPECT_EQ(message({"--out", "y.bag"}), "--out is given twice");
   EXPECT_EQ(message({"--gt-csv", "--quiet"}), "--gt-csv needs a value");
+  // An empty value was taken as the default (no ground-truth CSV, the model's own shape).
+  EXPECT_EQ(message({"--gt-csv", ""}), "--gt-csv needs a value, got an empty one");
+  EXPECT_EQ(message({"--model", ""}), "--model needs a value, got an empty one");
+  EXPECT_EQ(message({"--rig", ""}), "--rig needs a value, got an empty one");
+  EXPECT_EQ(message({"--config-dir", ""}), "--config-dir needs a value, got an empty one");
   EXPECT_EQ(message({"--hand-scale", "3", "--palm-width", "0.3", "--preview", "p.png"}),
             "no error");
 }

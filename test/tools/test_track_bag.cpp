@@ -346,6 +346,18 @@ TEST_F(TrackBagTool, TrackBagUsageErrors) {
   run = trackBag("--bag a.bag --out x.csv --out y.csv");
   EXPECT_EQ(run.status, 2);
   EXPECT_EQ(run.err, "track_bag: --out is given twice\nRun 'track_bag --help' for the options.\n");
+  // An explicitly empty value: --model "" ended with exit status 1 (no file ""), --root-frame ""
+  // and --gt-csv "" were taken as the default.
+  run = trackBag("--bag a.bag --out x.csv --model ''");
+  EXPECT_EQ(run.status, 2);
+  EXPECT_EQ(run.err,
+            "track_bag: --model needs a value, got an empty one\nRun 'track_bag --help' for the "
+            "options.\n");
+  run = trackBag("--bag a.bag --out x.csv --root-frame ''");
+  EXPECT_EQ(run.status, 2);
+  EXPECT_EQ(run.err,
+            "track_bag: --root-frame needs a value, got an empty one\nRun 'track_bag --help' for "
+            "the options.\n");
   run = trackBag("--help");
   EXPECT_EQ(run.status, 0);
   EXPECT_NE(run.out.find("Usage: track_bag --bag IN.bag --out OUT.csv"), std::string::npos);

@@ -178,6 +178,11 @@ TEST(TrackBagArguments, TrackBagRejectsBadArguments) {
             "--background-frames expects an integer >= 0, got '-1'");
   EXPECT_EQ(message(with({"--model"})), "--model needs a value");
   EXPECT_EQ(message({"--bag", "--out", "o.csv"}), "--bag needs a value");
+  // An explicitly empty value was taken as the default (--root-frame "": the bag's root).
+  EXPECT_EQ(message(with({"--root-frame", ""})), "--root-frame needs a value, got an empty one");
+  EXPECT_EQ(message(with({"--model", ""})), "--model needs a value, got an empty one");
+  EXPECT_EQ(message({"--bag", "", "--out", "o.csv"}), "--bag needs a value, got an empty one");
+  EXPECT_EQ(message(with({"--hand", ""})), "--hand needs a value, got an empty one");
   EXPECT_EQ(message(with({"--frobnicate"})), "unknown argument '--frobnicate'");
   EXPECT_EQ(message(with({"--bag", "other.bag"})), "--bag is given twice");
   EXPECT_EQ(message(with({"--iterations", "3", "--iterations", "4"})),

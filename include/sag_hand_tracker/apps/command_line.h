@@ -17,7 +17,8 @@ class UsageError : public std::runtime_error {
 };
 
 // The value of the option args[*i]: args[*i + 1], advancing *i; UsageError
-// "<option> needs a value" when there is none or the next argument is an option itself.
+// "<option> needs a value" when there is none or the next argument is an option itself, and
+// "<option> needs a value, got an empty one" when it is "" (never "use the default").
 const std::string& nextOptionValue(const std::vector<std::string>& args, size_t* i);
 
 // UsageError "<option> is given twice" when an option (an argument beginning with "--") appears
