@@ -330,11 +330,13 @@ Motion readMotion(const YamlDocument& document, const HandModel& model, std::uin
   for (int j = 0; j < kNumJointDof; ++j) {
     current[j] = std::clamp(0.0, model.joints[j].min, model.joints[j].max);
   }
+  int last_time_line = 0;  // of the last keyframe's time, for the duration's error
   for (std::size_t k = 0; k < key_count; ++k) {
     const YamlValue node = keys[k];
     node.allowOnly({"time", "position", "orientation", "shape", "joints"});
     MotionKeyframe key;
     const YamlValue time = node["time"];
+    last_time_line = time.line();
     key.time = time.number(0.0, kMaxMotionSeconds);
     if (k > 0 && key.time < motion.keyframes.back().time + kMinKeyframeSpacing) {
       time.fail("times must increase strictly, by at least 1 ms (" + std::to_string(key.time) +
@@ -369,6 +371,14 @@ Motion readMotion(const YamlDocument& document, const HandModel& model, std::uin
     if (!(motion.duration > 0.0)) duration.fail("must be positive");
     if (motion.duration > kMaxMotionSeconds) {
       duration.fail("exceeds the limit of " + std::to_string(kMaxMotionSeconds) + " s");
+    }
+    // The keyframes after the end were silently never shown (a typo in either number).
+    const double last_time = motion.keyframes.back().time;
+    if (motion.duration < last_time) {
+      duration.fail(shortNumber(motion.duration) + " s ends before the last keyframe's time " +
+                    shortNumber(last_time) + " s (keyframes[" + std::to_string(key_count - 1) +
+                    "], line " + std::to_string(last_time_line) +
+                    "); the duration must be at least the last keyframe's time");
     }
   }
   if (motion.duration <= 0.0) {

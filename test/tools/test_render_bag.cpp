@@ -161,6 +161,8 @@ TEST_F(RenderBagTool, BadInputGetsAOneLineErrorAndNonZeroExit) {
   std::ofstream(path("bad_shape.yaml")) << "shapes:\n  - {name: big, scale: 15}\n";
   std::ofstream(path("bad_motion.yaml"))
       << "keyframes:\n  - {time: 0, position: [0, 0, 0.15], joints: {index_pip_flex: 130}}\n";
+  std::ofstream(path("short_motion.yaml"))
+      << "duration: 1\nkeyframes:\n  - {time: 0, position: [0, 0, 0.15]}\n  - {time: 2}\n";
   const std::vector<Case> cases{
       {"--sequence nosuch" + out, 1, "motion nosuch: does not exist"},
       {"--sequence pinch --out '" + path("same") + "' --gt-csv '" + path("same") + "'", 1,
@@ -169,6 +171,10 @@ TEST_F(RenderBagTool, BadInputGetsAOneLineErrorAndNonZeroExit) {
        "--out " + path("bad_motion.yaml") + " is the input"},
       {"--sequence pinch --rig nosuchrig" + out, 1, "no camera rig 'nosuchrig'"},
       {"--sequence '" + path("bad_motion.yaml") + "'" + out, 1, "outside its limits"},
+      {"--sequence '" + path("short_motion.yaml") + "'" + out, 1,
+       "motion " + path("short_motion.yaml") +
+           ":1: key 'duration': 1 s ends before the last keyframe's time 2 s (keyframes[1], line "
+           "4)"},
       {"--sequence pinch --model '" + path("none.yaml") + "'" + out, 1, "none.yaml"},
       {"--sequence pinch --frames 5 --preview-frame 7 --preview '" + path("x.png") + "'" + out, 1,
        "--preview-frame 7 is past the last frame 4"},

@@ -859,6 +859,10 @@ TEST(StudioMotion, BadFilesAreRejectedNamingTheProblem) {
       {key0 + ", shape: fist}\n", {"unknown shape 'fist'"}},
       {key0 + ", speed: 3}\n", {"key 'keyframes[0].speed': unknown key"}},
       {key0 + "}\nduration: -1\n", {"key 'duration': must be positive"}},
+      // A duration before the last keyframe: the keyframes after it were silently never shown.
+      {key0 + "}\n  - {time: 3, position: [0, 0, 0.1]}\nduration: 2.5\n",
+       {"motion bad.yaml:4: key 'duration': 2.5 s ends before the last keyframe's time 3 s "
+        "(keyframes[1], line 3); the duration must be at least the last keyframe's time"}},
       {key0 + "}\ninterpolation: spline\n", {"key 'interpolation': must be 'cubic' or 'linear'"}},
       {"keyframes:\n  - {time: 0}\n", {"key 'keyframes[0].position': missing"}},
       {key0 + "}\nduration: 2\nrandom: {keyframes: {from: 1, to: 2, interval: 0, joints: 0.5}}\n",
