@@ -172,10 +172,9 @@ class SegmentationNodelet : public nodelet::Nodelet {
     if (image.encoding != enc::RGB8 && image.encoding != enc::BGR8) {
       return "encoding '" + image.encoding + "' not supported (rgb8 or bgr8)";
     }
-    if (image.step < image.width * 3 ||
-        image.data.size() < static_cast<size_t>(image.step) * image.height) {
-      return "image data shorter than step * height";
-    }
+    // Data shorter or longer than step * height, as the bag reader refuses it.
+    const std::string layout = imageLayoutProblem(image);
+    if (!layout.empty()) return layout;
     if (image.width != info.width || image.height != info.height) {
       return "image size " + std::to_string(image.width) + "x" + std::to_string(image.height) +
              " does not match camera_info " + std::to_string(info.width) + "x" +

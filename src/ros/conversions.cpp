@@ -11,8 +11,8 @@
 #include <stdexcept>
 
 #include "sag_hand_tracker/camera/calibration.h"
-#include "sag_hand_tracker/util/types.h"
 #include "sag_hand_tracker/util/input_limits.h"
+#include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
 namespace {
@@ -162,6 +162,22 @@ bool isSupportedEncoding(const std::string& encoding) {
          encoding == sensor_msgs::image_encodings::BGR8;
 }
 
+std::string imageLayoutProblem(const sensor_msgs::Image& image) {
+  const std::size_t row_bytes = static_cast<std::size_t>(image.width) * 3;
+  const std::size_t expected = static_cast<std::size_t>(image.step) * image.height;
+  // Fewer bytes would be read past the end; more were silently ignored (a wrong height or step,
+  // two images in one message): either way the message does not describe its data.
+  if (image.step >= row_bytes && image.data.size() == expected) return "";
+  const std::string problem = "malformed image: " + std::to_string(image.data.size()) +
+                              " bytes for " + std::to_string(image.width) + "x" +
+                              std::to_string(image.height) + " with step " +
+                              std::to_string(image.step);
+  if (image.step < row_bytes) {
+    return problem + ", less than width x 3 = " + std::to_string(row_bytes);
+  }
+  return problem + ", not step x height = " + std::to_string(expected);
+}
+
 cv::Mat toRgbMat(const sensor_msgs::Image& image) {
   namespace enc = sensor_msgs::image_encodings;
   if (!isSupportedEncoding(image.encoding)) {
@@ -171,15 +187,10 @@ cv::Mat toRgbMat(const sensor_msgs::Image& image) {
     }
     throw InputError("unsupported image encoding '" + image.encoding + "' (expected rgb8 or bgr8)");
   }
-  const std::size_t row_bytes = static_cast<std::size_t>(image.width) * 3;
   if (image.width == 0 || image.height == 0) throw InputError("empty image (0 pixels)");
   checkImageSize(image.width, image.height, "image");
-  if (image.step < row_bytes ||
-      image.data.size() < static_cast<std::size_t>(image.step) * image.height) {
-    throw InputError("malformed image: " + std::to_string(image.data.size()) + " bytes for " +
-                     std::to_string(image.width) + "x" + std::to_string(image.height) +
-                     " with step " + std::to_string(image.step));
-  }
+  const std::string layout = imageLayoutProblem(image);
+  if (!layout.empty()) throw InputError(layout);
   // Wraps the message's bytes without copying, then copies (and reorders) into the result.
   const cv::Mat wrapped(static_cast<int>(image.height), static_cast<int>(image.width), CV_8UC3,
                         const_cast<std::uint8_t*>(image.data.data()), image.step);

@@ -549,6 +549,54 @@ TEST_F(BagFiles, BagErrorUnsupportedEncoding) {
                 "(expected rgb8 or bgr8)");
 }
 
+// An image whose data is not exactly step x height bytes: fewer were refused, more were silently
+// accepted (the extra bytes ignored: a wrong height or step). Both are refused alike now, with the
+// topic and the stamp; a step padded beyond width x 3 is fine.
+TEST_F(BagFiles, BagErrorImageDataNotStepTimesHeight) {
+  const auto edited = [this](const std::string& name,
+                             const std::function<void(sensor_msgs::Image*)>& change) {
+    return writeEditedBag(name, [&](int frame, int id, sensor_msgs::Image* image,
+                                    sensor_msgs::CameraInfo*, bool*, bool*) {
+      if (frame == 1 && id == 2) change(image);
+    });
+  };
+  std::string bag =
+      edited("longer.bag", [](sensor_msgs::Image* image) { image->data.resize(2304 + 100, 7); });
+  EXPECT_EQ(readError(bag), bag +
+                                ": /cam2/image_raw at 100.040000: malformed image: 2404 bytes for "
+                                "32x24 with step 96, not step x height = 2304");
+  bag = edited("shorter.bag", [](sensor_msgs::Image* image) { image->data.resize(2000); });
+  EXPECT_EQ(readError(bag), bag +
+                                ": /cam2/image_raw at 100.040000: malformed image: 2000 bytes for "
+                                "32x24 with step 96, not step x height = 2304");
+  bag = edited("step.bag", [](sensor_msgs::Image* image) {
+    image->step = 90;
+    image->data.resize(90 * 24);
+  });
+  EXPECT_EQ(readError(bag), bag +
+                                ": /cam2/image_raw at 100.040000: malformed image: 2160 bytes for "
+                                "32x24 with step 90, less than width x 3 = 96");
+  // Rows padded to 100 bytes: the same pixels as the compact image.
+  bag = edited("padded.bag", [](sensor_msgs::Image* image) {
+    std::vector<std::uint8_t> padded(100 * 24, 0);
+    for (int row = 0; row < 24; ++row) {
+      std::copy_n(&image->data[row * 96], 96, &padded[row * 100]);
+    }
+    image->step = 100;
+    image->data = padded;
+  });
+  const std::vector<FrameSet> sets = readAllSets(bag);
+  ASSERT_EQ(sets.size(), 2u);
+  ASSERT_EQ(sets[1].images.size(), 3u);
+  EXPECT_TRUE(sameImage(sets[1].images[2].rgb, makeImage(2, 1)));
+
+  sensor_msgs::Image image = toImageMsg(makeImage(0, 0), std_msgs::Header());
+  EXPECT_EQ(imageLayoutProblem(image), "");
+  image.data.push_back(0);
+  EXPECT_EQ(imageLayoutProblem(image),
+            "malformed image: 2305 bytes for 32x24 with step 96, not step x height = 2304");
+}
+
 TEST_F(BagFiles, BagErrorImageSizeDisagreesWithCameraInfo) {
   const std::string bag = writeEditedBag(
       "size.bag",

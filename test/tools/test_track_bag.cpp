@@ -323,6 +323,13 @@ TEST_F(TrackBagTool, TrackBagRejectsBadInputs) {
                   }),
               "/cam0/image_raw at 1000.000000: unsupported image encoding 'rgba8' (expected rgb8 "
               "or bgr8)");
+  // Data beyond step x height was silently ignored (too little was refused).
+  expectError(bag("long.bag",
+                  [](int i, sensor_msgs::Image* image, sensor_msgs::CameraInfo*, bool*, bool*) {
+                    if (i == 1) image->data.resize(image->data.size() + 960);
+                  }),
+              "/cam1/image_raw at 1000.000000: malformed image: 231360 bytes for 320x240 with "
+              "step 960, not step x height = 230400");
   expectError(bag("size.bag",
                   [](int i, sensor_msgs::Image*, sensor_msgs::CameraInfo* info, bool*, bool*) {
                     if (i == 2) info->width = 640;

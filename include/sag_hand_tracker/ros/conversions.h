@@ -41,9 +41,15 @@ sensor_msgs::Image toImageMsg(const cv::Mat& rgb, const std_msgs::Header& header
 // Whether the tracker can read an image of this encoding (rgb8 and bgr8).
 bool isSupportedEncoding(const std::string& encoding);
 
+// What is wrong with the layout of a 3-byte-per-pixel image message, or "" when nothing is: its
+// data must be exactly step x height bytes with step >= width x 3, e.g. "malformed image: 230500
+// bytes for 320x240 with step 960, not step x height = 230400". The bag
+// reader (through toRgbMat) and the live segmentation refuse such messages alike.
+std::string imageLayoutProblem(const sensor_msgs::Image& image);
+
 // A CV_8UC3 RGB copy of an rgb8 or bgr8 image message. Throws InputError naming the encoding for
 // anything else (mono images get their own message: the tracker needs colour), and for a message
-// whose data does not hold height x step bytes.
+// whose data is not exactly height x step bytes (imageLayoutProblem).
 cv::Mat toRgbMat(const sensor_msgs::Image& image);
 
 // tf's transform (the pose of the child frame in the parent frame) and back. toIsometry throws
