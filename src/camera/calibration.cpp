@@ -145,9 +145,12 @@ Camera readCameraCalibration(const YamlDocument& document) {
                       std::to_string(count));
     }
   } else if (model == "rational_polynomial") {
-    if (count > 8) {
-      model_node.fail("rational_polynomial takes at most 8 distortion coefficients, got " +
-                      std::to_string(count));
+    // 5 coefficients were taken (padded with zeros) as plumb_bob's.
+    if (count != 8) {
+      model_node.fail(
+          "rational_polynomial has 8 distortion coefficients (k1 k2 p1 p2 k3 k4 k5 "
+          "k6), got " +
+          std::to_string(count) + "; 5 are plumb_bob's");
     }
   } else {
     model_node.fail("unsupported distortion_model '" + model +
@@ -163,7 +166,15 @@ Camera readCameraCalibration(const YamlDocument& document) {
   } catch (const InputError& error) {
     root.get("distortion_coefficients").fail(error.what());
   }
-  if (root.has("rectification_matrix")) readMatrix(root["rectification_matrix"], 3, 3);
+  // Not used (the tracker works on raw images with K and D), but checked as camera_info's are:
+  // their numbers finite (readMatrix), R a rotation (a zero R is a broken calibration).
+  if (root.has("rectification_matrix")) {
+    const YamlValue node = root["rectification_matrix"];
+    const std::vector<double> r = readMatrix(node, 3, 3);
+    const std::string problem = rectificationProblem(
+        Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(r.data()));
+    if (!problem.empty()) node.fail(problem);
+  }
   if (root.has("projection_matrix")) readMatrix(root["projection_matrix"], 3, 4);
   return camera;
 }

@@ -45,6 +45,19 @@ void checkDistortionCount(std::size_t count, const std::string& who) {
                    "(rational_polynomial), 12 or 14");
 }
 
+std::string rectificationProblem(const Eigen::Matrix3d& R) {
+  if (!R.allFinite()) return "is not finite";
+  if (R.isZero(0.0)) return "is all zeros (a single camera's R is the identity)";
+  const double deviation = (R * R.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  const double det = R.determinant();
+  if (deviation <= 1e-3 && std::abs(det - 1.0) <= 1e-3) return "";
+  char text[160];
+  std::snprintf(text, sizeof(text),
+                "is not a rotation (R R^T differs from the identity by up to %.3g, det %.6g)",
+                deviation, det);
+  return text;
+}
+
 void checkPrincipalPointAndSkew(const Camera& camera, const std::string& who) {
   // A principal point far off the image (cx -5000, 1e300) or a skew larger than the focal length
   // (normally 0) is a broken calibration, not a lens: it projects the hand elsewhere.

@@ -636,18 +636,28 @@ void BagReader::Impl::readCameraInfo() {
              std::to_string(info->height) + " (one calibration per camera is supported)");
       }
       // Only the first camera_info becomes the camera: a later one with another (or a
-      // non-finite) K, D or distortion model would otherwise be ignored silently.
+      // non-finite) K, D, distortion model, R or P would otherwise be ignored silently.
       const sensor_msgs::CameraInfo& was = *first_infos[camera];
       const bool finite =
           std::all_of(info->K.begin(), info->K.end(), [](double v) { return std::isfinite(v); }) &&
           std::all_of(info->D.begin(), info->D.end(), [](double v) { return std::isfinite(v); });
+      const bool finite_rectification =
+          std::all_of(info->R.begin(), info->R.end(), [](double v) { return std::isfinite(v); }) &&
+          std::all_of(info->P.begin(), info->P.end(), [](double v) { return std::isfinite(v); });
       std::string what;
       if (!finite) {
         what = "is not finite (K or D)";
+      } else if (!finite_rectification) {
+        what = "is not finite (R or P)";
       } else if (info->K != was.K) {
         what = "changes (camera matrix K)";
       } else if (info->D != was.D || info->distortion_model != was.distortion_model) {
         what = "changes (distortion)";
+      } else if (info->R != was.R) {
+        // The first R was checked (a rotation); a later zero R would be accepted silently.
+        what = "changes (rectification matrix R)";
+      } else if (info->P != was.P) {
+        what = "changes (projection matrix P)";
       } else if (stripSlash(info->header.frame_id) != stripSlash(was.header.frame_id)) {
         // The frame names the camera's /tf_static pose: a new one would move the camera.
         what =
@@ -663,7 +673,8 @@ void BagReader::Impl::readCameraInfo() {
     try {
       cameras[camera] = fromCameraInfo(*info, cameraName(ids[camera]));
     } catch (const InputError& error) {
-      fail(std::string(error.what()) + " (" + message.getTopic() + ")");
+      fail(std::string(error.what()) + " (" + message.getTopic() + " at " +
+           formatStamp(info->header.stamp.toNSec()) + ")");
     }
     const std::string frame = stripSlash(info->header.frame_id);
     optical_frames[camera] = frame.empty() ? opticalFrame(cameraName(ids[camera])) : frame;

@@ -92,6 +92,19 @@ Camera fromCameraInfo(const sensor_msgs::CameraInfo& info, const std::string& ca
   for (double value : info.D) {
     if (!std::isfinite(value)) throw InputError(who + "has non-finite distortion coefficients");
   }
+  // R and P are not used (the tracker works on raw images with K and D), but NaN in them or a zero
+  // R is a broken calibration, refused like a broken K.
+  for (double value : info.P) {
+    if (!std::isfinite(value)) throw InputError(who + "has a non-finite projection matrix P");
+  }
+  for (double value : info.R) {
+    if (!std::isfinite(value)) throw InputError(who + "has a non-finite rectification matrix R");
+  }
+  const std::string rectification = rectificationProblem(
+      Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(info.R.data()));
+  if (!rectification.empty()) {
+    throw InputError(who + "has a rectification matrix R that " + rectification);
+  }
   if (!(info.K[0] > 0.0) || !(info.K[4] > 0.0)) {
     throw InputError(who + "has a zero or negative focal length (fx " + describe(info.K[0]) +
                      ", fy " + describe(info.K[4]) + "): is the camera calibrated?");
@@ -104,14 +117,20 @@ Camera fromCameraInfo(const sensor_msgs::CameraInfo& info, const std::string& ca
                      ", fy " + describe(info.K[4]) + ")");
   }
   // image_geometry divides by zero (SIGFPE) on an empty D (with or without a model), and OpenCV
-  // asserts on counts it does not know: an empty D is no distortion, 4 or 5 (8 rational) are
-  // padded with zeros, anything else is refused here with the camera's name.
+  // asserts on counts it does not know: an empty D is no distortion, 4 or 5 (plumb_bob) are
+  // padded with zeros, anything else is refused here with the camera's name. rational_polynomial
+  // has 8 (k1 k2 p1 p2 k3 k4 k5 k6): 5 of them were padded, i.e. taken as plumb_bob.
   const bool rational = model == sensor_msgs::distortion_models::RATIONAL_POLYNOMIAL;
   const std::size_t count = info.D.size();
-  if (!(count == 0 || count == 4 || count == 5 || (rational && count == 8))) {
+  if (rational && count != 8) {
+    throw InputError(who + "has " + std::to_string(count) +
+                     " distortion coefficients for rational_polynomial (expected 8: k1 k2 p1 p2 "
+                     "k3 k4 k5 k6; 5 are plumb_bob's)");
+  }
+  if (!rational && !(count == 0 || count == 4 || count == 5)) {
     throw InputError(who + "has " + std::to_string(count) + " distortion coefficients for " +
                      (model.empty() ? std::string("no distortion model") : model) +
-                     " (expected 0, 4 or 5" + (rational ? ", or 8" : "") + ")");
+                     " (expected 0, 4 or 5)");
   }
   sensor_msgs::CameraInfo padded = info;
   if (padded.distortion_model.empty()) {

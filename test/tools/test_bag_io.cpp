@@ -621,7 +621,7 @@ TEST_F(BagFiles, BagErrorBadCameraInfo) {
       message.rfind(bag + ": camera 'cam1': camera_info has a zero or negative focal length", 0),
       0u)
       << message;
-  EXPECT_NE(message.find("(/cam1/camera_info)"), std::string::npos) << message;
+  EXPECT_NE(message.find("(/cam1/camera_info at 100.000000)"), std::string::npos) << message;
 }
 
 TEST_F(BagFiles, BagErrorWrongMessageType) {
@@ -700,7 +700,7 @@ TEST_F(BagFiles, BagErrorPrincipalPointAndSkewInCameraInfo) {
   EXPECT_EQ(message.rfind(bag + ": camera 'cam1': principal point (cx -5000, cy 12) outside", 0),
             0u)
       << message;
-  EXPECT_NE(message.find("(/cam1/camera_info)"), std::string::npos) << message;
+  EXPECT_NE(message.find("(/cam1/camera_info at 100.000000)"), std::string::npos) << message;
   bag = edited("cy.bag", 5, 1e300);
   message = readError(bag);
   EXPECT_NE(message.find("principal point (cx 16, cy 1e+300)"), std::string::npos) << message;
@@ -709,6 +709,86 @@ TEST_F(BagFiles, BagErrorPrincipalPointAndSkewInCameraInfo) {
   EXPECT_NE(message.find("camera 'cam1': skew K(0,1) = 1e+06 exceeds the focal length fx = 41"),
             std::string::npos)
       << message;
+}
+
+// NaN or infinity in camera_info's projection matrix P, and a rectification matrix R that is not a
+// rotation (all zeros, scaled, a reflection) were accepted (the tracker uses K and D only): refused
+// with the topic and the stamp, in the first camera_info as in a later one.
+TEST_F(BagFiles, BagErrorRectificationAndProjectionMatricesInCameraInfo) {
+  const auto edited = [this](const std::string& name, int at_frame,
+                             const std::function<void(sensor_msgs::CameraInfo*)>& change) {
+    return writeEditedBag(name, [&](int frame, int id, sensor_msgs::Image*,
+                                    sensor_msgs::CameraInfo* info, bool*, bool*) {
+      if (frame == at_frame && id == 1) change(info);
+    });
+  };
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  std::string bag =
+      edited("p_nan.bag", 0, [&](sensor_msgs::CameraInfo* info) { info->P[5] = nan; });
+  EXPECT_EQ(readError(bag), bag +
+                                ": camera 'cam1': camera_info has a non-finite projection matrix P "
+                                "(/cam1/camera_info at 100.000000)");
+  bag = edited("r_inf.bag", 0, [&](sensor_msgs::CameraInfo* info) { info->R[0] = -inf; });
+  EXPECT_EQ(readError(bag),
+            bag +
+                ": camera 'cam1': camera_info has a non-finite rectification matrix "
+                "R (/cam1/camera_info at 100.000000)");
+  bag = edited("r_zero.bag", 0, [](sensor_msgs::CameraInfo* info) { info->R.fill(0.0); });
+  EXPECT_EQ(readError(bag),
+            bag +
+                ": camera 'cam1': camera_info has a rectification matrix R that is "
+                "all zeros (a single camera's R is the identity) (/cam1/camera_info "
+                "at 100.000000)");
+  bag = edited("r_scaled.bag", 0, [](sensor_msgs::CameraInfo* info) {
+    for (double& value : info->R) value *= 2.0;
+  });
+  EXPECT_EQ(readError(bag),
+            bag +
+                ": camera 'cam1': camera_info has a rectification matrix R that is "
+                "not a rotation (R R^T differs from the identity by up to 3, det 8) "
+                "(/cam1/camera_info at 100.000000)");
+  bag = edited("r_mirror.bag", 0, [](sensor_msgs::CameraInfo* info) { info->R[8] = -1.0; });
+  EXPECT_NE(readError(bag).find("not a rotation (R R^T differs from the identity by up to 0, det "
+                                "-1)"),
+            std::string::npos);
+  // A later camera_info: non-finite, or another R or P than the first one's.
+  bag = edited("later_p.bag", 1, [&](sensor_msgs::CameraInfo* info) { info->P[0] = inf; });
+  EXPECT_EQ(readError(bag),
+            bag +
+                ": /cam1/camera_info: the calibration of camera cam1 is not finite "
+                "(R or P) at t=100.040000; one calibration per camera is supported");
+  bag = edited("later_r.bag", 1, [](sensor_msgs::CameraInfo* info) { info->R.fill(0.0); });
+  EXPECT_EQ(readError(bag), bag +
+                                ": /cam1/camera_info: the calibration of camera cam1 changes "
+                                "(rectification matrix R) at t=100.040000; one calibration per "
+                                "camera is supported");
+  bag = edited("later_p2.bag", 1, [](sensor_msgs::CameraInfo* info) { info->P[0] += 1.0; });
+  EXPECT_EQ(readError(bag), bag +
+                                ": /cam1/camera_info: the calibration of camera cam1 changes "
+                                "(projection matrix P) at t=100.040000; one calibration per camera "
+                                "is supported");
+  // A rotation printed with 6 digits (a calibration file's) is a rotation.
+  const double c = 0.999848, s = 0.017452;  // 1 degree about x
+  bag = writeEditedBag("r_rounded.bag", [&](int, int id, sensor_msgs::Image*,
+                                            sensor_msgs::CameraInfo* info, bool*, bool*) {
+    if (id == 1) info->R = {1, 0, 0, 0, c, -s, 0, s, c};
+  });
+  EXPECT_EQ(readAllSets(bag).size(), 2u);
+}
+
+// A rational_polynomial camera_info with plumb_bob's 5 coefficients was padded with zeros, i.e.
+// taken as plumb_bob: refused with the model and the count it has.
+TEST_F(BagFiles, BagErrorRationalPolynomialWithFiveCoefficients) {
+  const std::string bag = writeEditedBag(
+      "rational5.bag",
+      [](int, int id, sensor_msgs::Image*, sensor_msgs::CameraInfo* info, bool*, bool*) {
+        if (id == 1) info->distortion_model = "rational_polynomial";  // D: plumb_bob's 5
+      });
+  EXPECT_EQ(readError(bag), bag +
+                                ": camera 'cam1': camera_info has 5 distortion coefficients for "
+                                "rational_polynomial (expected 8: k1 k2 p1 p2 k3 k4 k5 k6; 5 are "
+                                "plumb_bob's) (/cam1/camera_info at 100.000000)");
 }
 
 // camera_info's frame_id picks the camera's frame in /tf_static. Two cameras naming one frame got
@@ -1168,7 +1248,7 @@ TEST_F(BagFiles, BagErrorThreeDistortionCoefficientsNameTheCamera) {
       });
   EXPECT_EQ(readError(bag), bag +
                                 ": camera 'cam1': camera_info has 3 distortion coefficients for "
-                                "plumb_bob (expected 0, 4 or 5) (/cam1/camera_info)");
+                                "plumb_bob (expected 0, 4 or 5) (/cam1/camera_info at 100.000000)");
 }
 
 TEST_F(BagFiles, BagErrorHugeCameraInfoSizeIsALimitNotBadAlloc) {
@@ -1385,6 +1465,23 @@ TEST(BagConversions, CameraInfoDistortionCounts) {
   const std::string message = sag_test::inputErrorOf([&] { fromCameraInfo(info); });
   EXPECT_EQ(message.rfind("camera 'cam1': camera_info has 3 distortion coefficients", 0), 0u)
       << message;
+  // rational_polynomial has 8 coefficients, exactly; plumb_bob 0, 4 or 5.
+  info = toCameraInfo(makeCamera(1));
+  info.distortion_model = "rational_polynomial";
+  for (std::size_t count : {0, 4, 5, 12}) {
+    info.D.assign(count, 0.0);
+    EXPECT_EQ(sag_test::inputErrorOf([&] { fromCameraInfo(info); }),
+              "camera 'cam1': camera_info has " + std::to_string(count) +
+                  " distortion coefficients for rational_polynomial (expected 8: k1 k2 p1 p2 k3 "
+                  "k4 k5 k6; 5 are plumb_bob's)");
+  }
+  info.D = {0.01, 0.0, 0.0, 0.0, 0.0, 0.001, 0.0, 0.0};
+  EXPECT_EQ(fromCameraInfo(info).distortion, info.D);
+  info.distortion_model = "plumb_bob";
+  EXPECT_NE(sag_test::inputErrorOf([&] {
+              fromCameraInfo(info);
+            }).find("has 8 distortion coefficients for plumb_bob (expected 0, 4 or 5)"),
+            std::string::npos);
   // Found by fuzz_messages: fx 4.6e-305 was accepted and undistortion gave NaN.
   info = toCameraInfo(makeCamera(1));
   info.K[0] = 4.557446688824057e-305;

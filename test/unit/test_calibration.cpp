@@ -238,6 +238,48 @@ TEST_F(CalibrationFiles, CalibrationErrorBadValues) {
       std::string::npos);
 }
 
+// A rectification matrix that is not a rotation (all zeros, scaled) was read and ignored, and a
+// rational_polynomial file with plumb_bob's 5 coefficients was taken as plumb_bob: both are refused
+// with the file, the line and the key. NaN or infinity in R or P were already refused (every
+// number of the file is finite).
+TEST_F(CalibrationFiles, CalibrationErrorRectificationProjectionAndRationalPolynomial) {
+  const std::string identity = "data: [1, 0, 0, 0, 1, 0, 0, 0, 1]";
+  std::string file =
+      write("r0.yaml", replaced(kValidCalibration, identity, "data: [0, 0, 0, 0, 0, 0, 0, 0, 0]"));
+  EXPECT_EQ(sag_test::inputErrorOf([&] { loadCameraCalibration(file); }),
+            "calibration file " + file +
+                ":14: key 'rectification_matrix': is all zeros (a single camera's R is the "
+                "identity)");
+  file =
+      write("r2.yaml", replaced(kValidCalibration, identity, "data: [2, 0, 0, 0, 2, 0, 0, 0, 2]"));
+  EXPECT_EQ(sag_test::inputErrorOf([&] { loadCameraCalibration(file); }),
+            "calibration file " + file +
+                ":14: key 'rectification_matrix': is not a rotation (R R^T differs from the "
+                "identity by up to 3, det 8)");
+  file = write("rnan.yaml",
+               replaced(kValidCalibration, identity, "data: [1, 0, 0, 0, .nan, 0, 0, 0, 1]"));
+  EXPECT_EQ(sag_test::inputErrorOf([&] { loadCameraCalibration(file); }),
+            "calibration file " + file +
+                ":16: key 'rectification_matrix.data[4]': must be finite, not '.nan'");
+  file = write("pinf.yaml", replaced(kValidCalibration, "data: [300.5, 0, 160.25, 0, 0, 301,",
+                                     "data: [300.5, 0, 160.25, 0, 0, .inf,"));
+  EXPECT_EQ(sag_test::inputErrorOf([&] { loadCameraCalibration(file); }),
+            "calibration file " + file +
+                ":20: key 'projection_matrix.data[5]': must be finite, not '.inf'");
+
+  const std::string rational = replaced(kValidCalibration, "distortion_model: plumb_bob",
+                                        "distortion_model: rational_polynomial");
+  file = write("rational5.yaml", rational);
+  EXPECT_EQ(sag_test::inputErrorOf([&] { loadCameraCalibration(file); }),
+            "calibration file " + file +
+                ":8: key 'distortion_model': rational_polynomial has 8 distortion coefficients (k1 "
+                "k2 p1 p2 k3 k4 k5 k6), got 5; 5 are plumb_bob's");
+  file = write("rational8.yaml", replaced(replaced(rational, "cols: 5", "cols: 8"),
+                                          "data: [-0.1, 0.02, 0.001, -0.002, 0]",
+                                          "data: [-0.1, 0.02, 0.001, -0.002, 0, 0.01, 0, 0]"));
+  EXPECT_EQ(loadCameraCalibration(file).distortion.size(), 8u);
+}
+
 TEST_F(CalibrationFiles, CalibrationErrorNonUnitQuaternion) {
   write("c.yaml", kValidCalibration);
   const std::string rig = write("rig.yaml", R"(root_frame: world

@@ -40,6 +40,13 @@ void checkPrincipalPointAndSkew(const Camera& camera, const std::string& who);
 // takes (0, 4, 5, 8, 12, 14).
 void checkDistortionCount(std::size_t count, const std::string& who);
 
+// What is wrong with a rectification matrix R (camera_info's R, a calibration file's
+// rectification_matrix), or "" when it is a rotation: finite, R R^T within 1e-3 of the identity
+// and det R within 1e-3 of 1. E.g. "is all zeros (a single camera's R is the identity)" or "is not
+// a rotation (R R^T differs from the identity by up to 3, det 8)". The tracker does not rectify,
+// but a zero or scaled R is a broken calibration.
+std::string rectificationProblem(const Eigen::Matrix3d& R);
+
 // Throws InputError "<who>: the distortion coefficients cannot be inverted ..." when undistorting
 // a grid over the image gives non-finite pixels, or pixels that the same model does not distort
 // back to within a pixel of where they were (wild coefficients). Checked where cameras enter
