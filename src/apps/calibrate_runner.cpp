@@ -232,10 +232,19 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
   std::vector<CalibrationFrame> frames;
   FrameSet set;
   std::vector<CameraObservation> observations;
+  const RoutineRequirements requirements;
+  // Frames taken as background, and of the others those with some foreground: a recording where
+  // none has any shows no hand, which "the hand was never found" did not tell from a failed start.
+  int background_frames = 0, foreground_frames = 0;
   while (reader.next(&set)) {
     if (stop && stop->load()) throw InputError("interrupted");
     const ProcessedFrame processed = pipeline.process(set, &observations);
     ++summary.frames;
+    if (processed.background) {
+      ++background_frames;
+    } else if (processed.image_gaussians >= requirements.min_foreground_gaussians) {
+      ++foreground_frames;
+    }
     const FrameResult& result = processed.result;
     if (!processed.background && result.has_pose && result.status != TrackStatus::kLost) {
       CalibrationFrame frame;
@@ -253,7 +262,31 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
   summary.tracked_frames = static_cast<int>(frames.size());
 
   // 2. Was the routine followed?
-  summary.routine = checkCalibrationRoutine(start, frames, summary.cameras);
+  summary.routine = checkCalibrationRoutine(start, frames, summary.cameras, requirements);
+  if (frames.empty()) {
+    std::string names;
+    for (const Camera& camera : reader.cameras()) names += (names.empty() ? "" : " ") + camera.name;
+    const int after_background = summary.frames - background_frames;
+    const std::string counts = std::to_string(after_background) + " frame" +
+                               (after_background == 1 ? "" : "s") + " after the " +
+                               std::to_string(background_frames) + " background frame" +
+                               (background_frames == 1 ? "" : "s");
+    std::string why;
+    if (after_background == 0) {
+      why = "all " + std::to_string(summary.frames) +
+            " frames of the recording were background frames (--background-frames " +
+            std::to_string(options.background_frames) + "): none could show the hand";
+    } else if (foreground_frames == 0) {
+      why = "no frame had foreground: the recording shows no hand (" + counts + ", cameras " +
+            names + ")";
+    } else {
+      why = "the hand was never found in the images (" + std::to_string(foreground_frames) +
+            " of the " + counts + " had foreground, cameras " + names + ")";
+    }
+    for (std::string& item : summary.routine.missing) {
+      if (item.rfind("no frame with the hand", 0) == 0) item = "no frame with the hand: " + why;
+    }
+  }
   // Without some of the routine's poses (the first seconds of any sequence) the fit still runs,
   // on the open-hand frames, and the summary says what was missing; --require-routine refuses.
   if (!summary.routine.ok || (options.require_routine && !summary.routine.complete)) {

@@ -158,7 +158,13 @@ class ModelParser {
   }
 
   void parseGaussians(const YamlValue& gaussians, HandModel* model) {
-    const std::size_t count = gaussians.size(kMaxModelGaussians);
+    const std::size_t count = gaussians.size();
+    // Counted before any is parsed: every Gaussian costs the energy, per camera and frame.
+    if (count > static_cast<std::size_t>(kMaxModelGaussians)) {
+      gaussians.fail("has " + std::to_string(count) + " Gaussians, more than the limit of " +
+                     std::to_string(kMaxModelGaussians) +
+                     " for a hand model (the SAG model has 17, the SoG model 30)");
+    }
     model->gaussians.reserve(count);
     for (std::size_t g = 0; g < count; ++g) {
       const YamlValue node = gaussians[g];

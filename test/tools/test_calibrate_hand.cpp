@@ -4,8 +4,10 @@
 // replaced; the command line is checked. (The fit itself is tested in test/unit/test_hand_fit.cpp.)
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 
 #include "sag_hand_tracker/apps/render_runner.h"
 #include "sag_hand_tracker/model/hand_model.h"
@@ -61,11 +63,20 @@ class CalibrateHandTool : public sag_test::TempDirTest {
 }  // namespace
 
 TEST_F(CalibrateHandTool, NoHandInTheRecording) {
-  // 10 frames of the empty studio: 5 for the background, 5 more without the hand.
-  expectFailure(routineBag("empty.bag", 10),
+  // 10 frames of the empty studio: 5 for the background, 5 more without the hand. The message
+  // says the recording shows no hand (no foreground at all), not only that it was never found.
+  const std::string bag = routineBag("empty.bag", 10);
+  expectFailure(bag,
                 "does not show the calibration routine (open hand, palm and back turned to the "
-                "cameras, a fist; doc/calibration.md):\n  - no frame with the hand",
+                "cameras, a fist; doc/calibration.md):\n  - no frame with the hand: no frame had "
+                "foreground: the recording shows no hand (5 frames after the 5 background frames, "
+                "cameras cam0 cam1 cam2 cam3 cam4)\n",
                 "--background-frames 5");
+  // Every frame taken as background.
+  expectFailure(bag,
+                "  - no frame with the hand: all 10 frames of the recording were background "
+                "frames (--background-frames 10): none could show the hand\n",
+                "--background-frames 10");
 }
 
 TEST_F(CalibrateHandTool, TooShortARecording) {
@@ -112,6 +123,31 @@ TEST_F(CalibrateHandTool, OneView) {
                                     "-0.587501557, 0.374348205, 0.385524815]\n");
   expectFailure(routineBag("one_view.bag", 12, rig),
                 "the recording has 1 camera; calibrate_hand needs at least 2 views of the hand");
+}
+
+// A start model of 1000 Gaussians (a hostile model file) made the fit run for hours: the model
+// loader refuses more than 64 with the file and the line, before the recording is read, and
+// nothing is written.
+TEST_F(CalibrateHandTool, AStartModelOfAThousandGaussiansIsRefusedAtOnce) {
+  std::ifstream in(kConfig + "/hand_sag_right.yaml");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::size_t at = text.find("gaussians:\n") + std::string("gaussians:\n").size();
+  ASSERT_NE(at, std::string::npos);
+  std::string many;
+  for (int i = 0; i < 1000 - 17; ++i) {
+    many += "  - {bone: palm, mean: [0, 0, 0], sigma: [0.01, 0.01, 0.01], hsv: [20, 0.4, 0.8]}\n";
+  }
+  text.insert(at, many);
+  const std::string model = write("big_model.yaml", text);
+  const long line = 1 + std::count(text.begin(), text.begin() + at, '\n');
+  const std::string out = path("hand.yaml");
+  const ToolRun run = calibrateHand("--bag '" + path("missing.bag") + "' --out '" + out +
+                                    "' --model '" + model + "'");
+  EXPECT_EQ(run.status, 1);
+  EXPECT_EQ(run.err, "calibrate_hand: error: hand model " + model + ":" + std::to_string(line) +
+                         ": key 'gaussians': has 1000 Gaussians, more than the limit of 64 for a "
+                         "hand model (the SAG model has 17, the SoG model 30)\n");
+  EXPECT_FALSE(fs::exists(out));
 }
 
 TEST_F(CalibrateHandTool, RefusesToReplaceFilesAndChecksTheCommandLine) {

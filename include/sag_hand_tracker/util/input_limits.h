@@ -14,9 +14,10 @@ constexpr std::size_t kMaxYamlFileBytes = 1u << 20;  // 1 MiB
 // Maps and lists nested in each other in any YAML input (ours are at most 5 deep). Checked while
 // the text is parsed, before yaml-cpp recurses any deeper (10000 '[' gave a bare "bad file").
 constexpr int kMaxYamlNestingDepth = 64;
-// Gaussians of a hand model: the energy costs model x image Gaussians per camera and frame
-// (SAG 17, SoG 30).
-constexpr int kMaxModelGaussians = 1000;
+// Gaussians of a hand model: the energy costs model x image Gaussians per camera and frame, and
+// calibrate_hand's fit many energies per candidate (SAG 17, SoG 30; a model of 1000 made
+// calibrate_hand run for hours). Twice the SoG model's leaves room for finer models.
+constexpr int kMaxModelGaussians = 64;
 // Standard deviations of a hand model's Gaussians (sigma): 0.1 mm. A smaller one is no finger
 // surface, and its square underflows or is lost against the other axes (1e-300 made the covariance
 // singular). Ours, fitted ones included, are at least 3.6 mm.
