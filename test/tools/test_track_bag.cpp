@@ -11,6 +11,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <random>
 #include <sstream>
 
@@ -49,7 +50,9 @@ class TrackBagTool : public sag_test::TempDirTest {
 
   // The desk for kBackgroundFrames, then the hand for kHandFrames, on the rendered rig; camera i
   // stamped i * `camera_skew` seconds after camera 0.
-  std::string writeSceneBag(const std::string& name, double camera_skew = 0.0) const {
+  // `tail`, when given, writes more messages after the scene.
+  std::string writeSceneBag(const std::string& name, double camera_skew = 0.0,
+                            const std::function<void(BagWriter*)>& tail = nullptr) const {
     const HandModel model = loadHandModel(sag_test::modelPath("sag"));
     const std::vector<Camera> cameras = sag_test::renderedRig();
     BagWriter writer(path(name));
@@ -64,6 +67,7 @@ class TrackBagTool : public sag_test::TempDirTest {
                                 i % 2 ? "bgr8" : "rgb8");
       }
     }
+    if (tail) tail(&writer);
     return path(name);
   }
 
@@ -203,6 +207,73 @@ TEST_F(TrackBagTool, TrackBagGroupsCamerasStampedMillisecondsApart) {
   EXPECT_EQ(trackBag("--bag '" + bag + "' --out '" + path("x.csv") + "' --stamp-tolerance -1").err,
             "track_bag: --stamp-tolerance expects a number within [0, 1], got '-1'\n"
             "Run 'track_bag --help' for the options.\n");
+}
+
+// Images whose header stamps go backwards (recorded after later images of their camera, e.g. a
+// driver that republishes old frames): their sets were already tracked, so they are dropped, and
+// the summary says how many and names the first with its stamp and the one it came after. When
+// they outnumber the sets, the error says so instead of "the hand was not found".
+TEST_F(TrackBagTool, TrackBagNamesImagesWhoseStampsGoBackwards) {
+  const std::vector<Camera> cameras = sag_test::renderedRig();
+  // cam<camera>'s desk stamped as frame `stamp_frame`, recorded at `recorded`.
+  const auto writeStamped = [&](BagWriter* writer, int camera, int stamp_frame,
+                                const ros::Time& recorded) {
+    std_msgs::Header header;
+    header.stamp = frameTime(stamp_frame);
+    header.frame_id = opticalFrame(cameras[camera].name);
+    writer->write(imageTopicOf(cameras[camera]), recorded,
+                  toImageMsg(sag_test::desk(cameras[camera]), header));
+  };
+  // The scene, then cam0 and cam2 once more with the stamps of frames 4 and 6, recorded last.
+  const int frames = kBackgroundFrames + kHandFrames;
+  const std::string bag = writeSceneBag("backward.bag", 0.0, [&](BagWriter* writer) {
+    writeStamped(writer, 0, 4, frameTime(frames));
+    writeStamped(writer, 2, 6, frameTime(frames + 1));
+  });
+  ToolRun run = trackBag("--bag '" + bag + "' --out '" + path("backward.csv") + "' " +
+                         modelArgument() + " --quiet");
+  ASSERT_EQ(run.status, 0) << run.err;
+  EXPECT_NE(run.out.find("frames:    11 (3 background, 8 tracked, 0 lost, 0 without a hand pose), "
+                         "2 images dropped\n"),
+            std::string::npos)
+      << run.out;
+  EXPECT_NE(run.out.find("  warning:   2 images with stamps going backwards (first: "
+                         "/cam0/image_raw at 1000.160000 after 1000.400000); images whose set was "
+                         "already tracked are dropped\n"),
+            std::string::npos)
+      << run.out;
+  // One row per set, in the order of the stamps: the late images made no second frame 4 or 6.
+  const TrackingCsv csv = readTrackingCsv(path("backward.csv"));
+  ASSERT_EQ(csv.rows.size(), static_cast<std::size_t>(kHandFrames));
+  for (std::size_t k = 1; k < csv.rows.size(); ++k) {
+    EXPECT_GT(csv.rows[k].stamp, csv.rows[k - 1].stamp) << k;
+  }
+
+  // 4 sets of the desk, then 20 images stamped as the first 3 frames: nothing is tracked, and the
+  // error names the backward stamps, not a missing hand.
+  {
+    BagWriter writer(path("mostly_backward.bag"));
+    writer.writeStaticTransforms("world", cameras, frameTime(0));
+    for (int frame = 0; frame < 4; ++frame) {
+      for (const Camera& camera : cameras) {
+        writer.writeCameraImage(camera, sag_test::desk(camera), frameTime(frame));
+      }
+    }
+    const int count = static_cast<int>(cameras.size());
+    for (int k = 0; k < 20; ++k) {
+      writeStamped(&writer, k % count, (k / count) % 3, frameTime(4) + ros::Duration(0.001 * k));
+    }
+  }
+  run = trackBag("--bag '" + path("mostly_backward.bag") + "' --out '" +
+                 path("mostly_backward.csv") + "' " + modelArgument() + " --quiet");
+  EXPECT_EQ(run.status, 1);
+  EXPECT_EQ(
+      run.err,
+      "track_bag: error: no frame was tracked: 20 images were dropped because their stamps go "
+      "backwards (first: /cam0/image_raw at 1000.000000 after 1000.120000), against 4 sets "
+      "kept; the bag's images must come in the order of their stamps; " +
+          path("mostly_backward.csv") + " was not written\n");
+  EXPECT_FALSE(fs::exists(path("mostly_backward.csv")));
 }
 
 TEST_F(TrackBagTool, TrackBagNeverOverwritesAnInputOrLosesAnOldOutput) {
