@@ -47,7 +47,9 @@ void checkDistortionCount(std::size_t count, const std::string& who) {
 
 std::string rectificationProblem(const Eigen::Matrix3d& R) {
   if (!R.allFinite()) return "is not finite";
-  if (R.isZero(0.0)) return "is all zeros (a single camera's R is the identity)";
+  // All zeros: a driver that leaves R unset (a default-constructed CameraInfo). The tracker uses
+  // K and D only, so that is accepted as "not given" rather than refusing the camera.
+  if (R.isZero(0.0)) return "";
   const double deviation = (R * R.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
   const double det = R.determinant();
   if (deviation <= 1e-3 && std::abs(det - 1.0) <= 1e-3) return "";

@@ -42,9 +42,9 @@ void checkDistortionCount(std::size_t count, const std::string& who);
 
 // What is wrong with a rectification matrix R (camera_info's R, a calibration file's
 // rectification_matrix), or "" when it is a rotation: finite, R R^T within 1e-3 of the identity
-// and det R within 1e-3 of 1. E.g. "is all zeros (a single camera's R is the identity)" or "is not
-// a rotation (R R^T differs from the identity by up to 3, det 8)". The tracker does not rectify,
-// but a zero or scaled R is a broken calibration.
+// and det R within 1e-3 of 1, or all zeros (R left unset by a driver). E.g. "is not a rotation
+// (R R^T differs from the identity by up to 3, det 8)". The tracker does not rectify, but a scaled
+// or mirrored R is a broken calibration.
 std::string rectificationProblem(const Eigen::Matrix3d& R);
 
 // Throws InputError "<who>: the distortion coefficients cannot be inverted ..." when undistorting
