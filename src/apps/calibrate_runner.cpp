@@ -22,6 +22,7 @@
 #include "sag_hand_tracker/studio/hand_surface.h"
 #include "sag_hand_tracker/tracking/tracking_pipeline.h"
 #include "sag_hand_tracker/util/atomic_output.h"
+#include "sag_hand_tracker/util/number_text.h"
 #include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
@@ -79,12 +80,6 @@ class TemporaryFiles {
   std::vector<std::string> paths_;
 };
 
-std::string fixed(double value, int digits) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof(buffer), "%.*f", digits, value);
-  return buffer;
-}
-
 // The contact sheet: rows of frames (up to 4 of the fit's frames), one column per camera, the
 // fitted model drawn over each image. Reads the bag a second time for the images.
 cv::Mat fittedContactSheet(const CalibrateHandOptions& options,
@@ -107,11 +102,11 @@ cv::Mat fittedContactSheet(const CalibrateHandOptions& options,
     for (const CameraImage& image : set.images) {
       cv::Mat tile = drawModelOverlay(image.rgb, cameras[image.camera], fit.model, fit.poses[row]);
       cv::resize(tile, tile, cv::Size(tile_w, tile_h));
-      cv::putText(
-          tile,
-          cameras[image.camera].name + " t=" + fixed(frame.stamp - frames.front().stamp, 2) + " s",
-          cv::Point(5, 15), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(255, 255, 255), 1,
-          cv::LINE_AA);
+      cv::putText(tile,
+                  cameras[image.camera].name +
+                      " t=" + fixedNumber(frame.stamp - frames.front().stamp, 2) + " s",
+                  cv::Point(5, 15), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(255, 255, 255), 1,
+                  cv::LINE_AA);
       tile.copyTo(sheet(
           cv::Rect(image.camera * tile_w, static_cast<int>(next_row) * tile_h, tile_w, tile_h)));
     }
@@ -375,9 +370,9 @@ std::string formatCalibrateHandSummary(const CalibrateHandSummary& s) {
   const HandFitResult& fit = s.fit;
   out << "calibrate_hand: " << s.bag << "\n";
   out << "  frames:       " << s.frames << " read, " << s.tracked_frames << " with the hand ("
-      << fixed(s.routine.duration, 1) << " s), " << fit.frame_indices.size() << " used by the fit"
-      << (fit.open_frames_only ? " (open hand)" : "") << "; " << s.cameras << " cameras, "
-      << s.routine.views << " seeing the hand\n";
+      << fixedNumber(s.routine.duration, 1) << " s), " << fit.frame_indices.size()
+      << " used by the fit" << (fit.open_frames_only ? " (open hand)" : "") << "; " << s.cameras
+      << " cameras, " << s.routine.views << " seeing the hand\n";
   out << "  routine:      open hand " << s.routine.open_frames << ", palm to a camera "
       << s.routine.palm_frames << ", back to a camera " << s.routine.back_frames << ", fist "
       << s.routine.fist_frames << " frames\n";
@@ -386,18 +381,18 @@ std::string formatCalibrateHandSummary(const CalibrateHandSummary& s) {
            "shows:\n";
     for (const std::string& item : s.routine.missing) out << "                - " << item << "\n";
   }
-  out << "  global shape: thickness x" << fixed(fit.shape.thickness, 3) << ", size x"
-      << fixed(fit.shape.scale, 3) << ", palm width x" << fixed(fit.shape.palm_width, 3)
-      << ", finger length x" << fixed(fit.shape.finger_length, 3) << "\n";
-  out << "  palm length:  x" << fixed(fit.shape.bone_length.at(0), 3)
+  out << "  global shape: thickness x" << fixedNumber(fit.shape.thickness, 3) << ", size x"
+      << fixedNumber(fit.shape.scale, 3) << ", palm width x" << fixedNumber(fit.shape.palm_width, 3)
+      << ", finger length x" << fixedNumber(fit.shape.finger_length, 3) << "\n";
+  out << "  palm length:  x" << fixedNumber(fit.shape.bone_length.at(0), 3)
       << " (wrist to the finger roots; follows the size unless fitted)\n";
   out << "  finger bones (mm, start -> fitted):\n";
   const auto chains = studio::fingerChains(s.start_model);
   for (int f = 0; f < kNumFingers; ++f) {
     out << "    " << fingerNames()[f] << ":";
     for (int b : chains[f]) {
-      out << " " << fixed(1e3 * s.start_model.bones[b].length, 1) << " -> "
-          << fixed(1e3 * fit.model.bones[b].length, 1);
+      out << " " << fixedNumber(1e3 * s.start_model.bones[b].length, 1) << " -> "
+          << fixedNumber(1e3 * fit.model.bones[b].length, 1);
       if (b != chains[f].back()) out << ",";
     }
     out << "\n";
@@ -409,18 +404,20 @@ std::string formatCalibrateHandSummary(const CalibrateHandSummary& s) {
     across_min = std::min(across_min, g.tail<2>().minCoeff());
     across_max = std::max(across_max, g.tail<2>().maxCoeff());
   }
-  out << "  Gaussians:    own factors beside the thickness: along the bone x" << fixed(along_min, 2)
-      << "..x" << fixed(along_max, 2) << ", across x" << fixed(across_min, 2) << "..x"
-      << fixed(across_max, 2) << "; colours sampled (palm hsv "
-      << fixed(fit.model.gaussians[0].hsv[0], 0) << ", " << fixed(fit.model.gaussians[0].hsv[1], 2)
-      << ", " << fixed(fit.model.gaussians[0].hsv[2], 2) << ")\n";
-  out << "  energy E:     " << fixed(fit.energy_before, 4) << " -> " << fixed(fit.energy_after, 4)
-      << " (mean over the frames used); shape score " << fixed(fit.score_before, 4) << " -> "
-      << fixed(fit.score_after, 4) << "; " << fit.accepted << " of " << fit.trials
-      << " shape steps taken\n";
-  out << "  fingertips:   on the foreground in " << fixed(100.0 * s.tips_on_foreground_before, 1)
-      << " % of the views with the start model, " << fixed(100.0 * s.tips_on_foreground_after, 1)
-      << " % with the fitted one\n";
+  out << "  Gaussians:    own factors beside the thickness: along the bone x"
+      << fixedNumber(along_min, 2) << "..x" << fixedNumber(along_max, 2) << ", across x"
+      << fixedNumber(across_min, 2) << "..x" << fixedNumber(across_max, 2)
+      << "; colours sampled (palm hsv " << fixedNumber(fit.model.gaussians[0].hsv[0], 0) << ", "
+      << fixedNumber(fit.model.gaussians[0].hsv[1], 2) << ", "
+      << fixedNumber(fit.model.gaussians[0].hsv[2], 2) << ")\n";
+  out << "  energy E:     " << fixedNumber(fit.energy_before, 4) << " -> "
+      << fixedNumber(fit.energy_after, 4) << " (mean over the frames used); shape score "
+      << fixedNumber(fit.score_before, 4) << " -> " << fixedNumber(fit.score_after, 4) << "; "
+      << fit.accepted << " of " << fit.trials << " shape steps taken\n";
+  out << "  fingertips:   on the foreground in "
+      << fixedNumber(100.0 * s.tips_on_foreground_before, 1)
+      << " % of the views with the start model, "
+      << fixedNumber(100.0 * s.tips_on_foreground_after, 1) << " % with the fitted one\n";
   if (!s.truth_shape.empty()) {
     const SkeletonErrors& e = s.truth_errors;
     out << "  against the true skeleton of '" << s.truth_shape
@@ -428,16 +425,16 @@ std::string formatCalibrateHandSummary(const CalibrateHandSummary& s) {
            "finger's length):\n";
     for (int f = 0; f < kNumFingers; ++f) {
       out << "    " << fingerNames()[f] << ": bones";
-      for (double error : e.bone[f]) out << " " << fixed(100.0 * error, 1) << " %";
-      out << "; knuckle " << fixed(100.0 * e.knuckle[f], 1) << " %, finger "
-          << fixed(100.0 * e.finger[f], 1) << " %\n";
+      for (double error : e.bone[f]) out << " " << fixedNumber(100.0 * error, 1) << " %";
+      out << "; knuckle " << fixedNumber(100.0 * e.knuckle[f], 1) << " %, finger "
+          << fixedNumber(100.0 * e.finger[f], 1) << " %\n";
     }
-    out << "    worst bone " << fixed(100.0 * e.worst_bone, 1) << " %, " << e.bonesWithin(0.05)
-        << " of 15 bones within 5 %\n";
+    out << "    worst bone " << fixedNumber(100.0 * e.worst_bone, 1) << " %, "
+        << e.bonesWithin(0.05) << " of 15 bones within 5 %\n";
   }
   out << "  output:       " << s.out;
   if (!s.contact_sheet.empty()) out << ", contact sheet " << s.contact_sheet;
-  out << " (" << fixed(s.seconds, 1) << " s)\n";
+  out << " (" << fixedNumber(s.seconds, 1) << " s)\n";
   return out.str();
 }
 

@@ -25,6 +25,7 @@
 #include "sag_hand_tracker/studio/hand_shapes.h"
 #include "sag_hand_tracker/studio/motion.h"
 #include "sag_hand_tracker/util/atomic_output.h"
+#include "sag_hand_tracker/util/number_text.h"
 #include "sag_hand_tracker/util/timing.h"
 #include "sag_hand_tracker/util/types.h"
 
@@ -50,14 +51,6 @@ namespace fs = std::filesystem;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-std::string fixed(double value, int decimals) {
-  if (std::isnan(value)) return "-";
-  if (std::isinf(value)) return "inf";
-  char text[64];
-  std::snprintf(text, sizeof(text), "%.*f", decimals, value);
-  return text;
-}
 
 std::string trackerLabel(const std::string& model) {
   if (model == "sag" || model == "sog") return model;
@@ -163,7 +156,7 @@ SequenceBag prepareBag(const BenchmarkOptions& options, const std::string& seque
   bag.rendered = true;
   log << "benchmark: rendered " << summary.sequence << " (hand " << hand.name
       << "): " << summary.frames << " frames x " << summary.cameras << " cameras in "
-      << fixed(summary.total_seconds, 1) << " s -> " << bag.bag << "\n"
+      << fixedNumber(summary.total_seconds, 1) << " s -> " << bag.bag << "\n"
       << std::flush;
   return bag;
 }
@@ -208,11 +201,11 @@ BenchmarkRun trackRun(const BenchmarkOptions& options, const SequenceBag& bag,
 std::string runLine(const BenchmarkRun& run) {
   std::ostringstream out;
   out << run.sequence << " " << run.shape << " " << run.tracker << " (cameras "
-      << cameraList(run.cameras) << "): " << fixed(run.stats.mean_mm, 1) << " mm mean, "
+      << cameraList(run.cameras) << "): " << fixedNumber(run.stats.mean_mm, 1) << " mm mean, "
       << run.stats.failed << "/" << run.stats.frames << " failed, reversed "
-      << fixed(run.stats.reversed_pct, 1) << " %, rolled over " << fixed(run.stats.rolled_pct, 1)
-      << " %, wrist " << fixed(run.stats.wrist_mean_mm, 1) << " mm, " << fixed(run.fps, 0)
-      << " fps";
+      << fixedNumber(run.stats.reversed_pct, 1) << " %, rolled over "
+      << fixedNumber(run.stats.rolled_pct, 1) << " %, wrist "
+      << fixedNumber(run.stats.wrist_mean_mm, 1) << " mm, " << fixedNumber(run.fps, 0) << " fps";
   return out.str();
 }
 
@@ -258,11 +251,11 @@ ShapeFit fitShape(const BenchmarkOptions& options, const studio::StudioHand& han
     fit.ok = true;
     const HandFitResult& r = fit.calibration.fit;
     log << "benchmark: fitted the model to hand " << hand.name << ": size x"
-        << fixed(r.shape.scale, 3) << ", palm width x" << fixed(r.shape.palm_width, 3)
-        << ", finger length x" << fixed(r.shape.finger_length, 3) << ", thickness x"
-        << fixed(r.shape.thickness, 3) << "; energy " << fixed(r.energy_before, 4) << " -> "
-        << fixed(r.energy_after, 4) << " in " << fixed(fit.calibration.seconds, 1) << " s -> "
-        << fit.model << "\n"
+        << fixedNumber(r.shape.scale, 3) << ", palm width x" << fixedNumber(r.shape.palm_width, 3)
+        << ", finger length x" << fixedNumber(r.shape.finger_length, 3) << ", thickness x"
+        << fixedNumber(r.shape.thickness, 3) << "; energy " << fixedNumber(r.energy_before, 4)
+        << " -> " << fixedNumber(r.energy_after, 4) << " in "
+        << fixedNumber(fit.calibration.seconds, 1) << " s -> " << fit.model << "\n"
         << std::flush;
   } catch (const std::exception& error) {
     // InputError (the routine, the bag) or fs::filesystem_error (moving the model into place).
@@ -434,8 +427,8 @@ std::string fittedReport(const BenchmarkOptions& options, const BenchmarkResults
         "and within 20 % of the default hand's error with the default model ("
      << (rows.empty() || !std::isfinite(rows.front().reference_mm)
              ? std::string("not in this run")
-             : fixed(rows.front().reference_mm, 1) + " mm, so at most " +
-                   fixed(1.2 * rows.front().reference_mm, 1) + " mm")
+             : fixedNumber(rows.front().reference_mm, 1) + " mm, so at most " +
+                   fixedNumber(1.2 * rows.front().reference_mm, 1) + " mm")
      << ").\n\n";
   const std::vector<std::string> header{
       "hand shape",     "frames",        "default mean",  "fitted mean",  "change %",
@@ -449,17 +442,17 @@ std::string fittedReport(const BenchmarkOptions& options, const BenchmarkResults
     auto fitted = [&](const std::string& cell) { return ok ? cell : std::string("-"); };
     std::vector<std::string> cells{row.shape,
                                    std::to_string(d.frames),
-                                   fixed(d.mean_mm, 1),
-                                   ok ? "**" + fixed(f.mean_mm, 1) + "**" : "fit failed",
-                                   fitted(fixed(100.0 * (f.mean_mm / d.mean_mm - 1.0), 1)),
+                                   fixedNumber(d.mean_mm, 1),
+                                   ok ? "**" + fixedNumber(f.mean_mm, 1) + "**" : "fit failed",
+                                   fitted(fixedNumber(100.0 * (f.mean_mm / d.mean_mm - 1.0), 1)),
                                    std::to_string(d.failed),
                                    fitted(std::to_string(f.failed)),
-                                   fixed(d.reversed_pct, 1),
-                                   fitted(fixed(f.reversed_pct, 1)),
-                                   fixed(d.rolled_pct, 1),
-                                   fitted(fixed(f.rolled_pct, 1)),
-                                   fixed(d.wrist_mean_mm, 1),
-                                   fitted(fixed(f.wrist_mean_mm, 1))};
+                                   fixedNumber(d.reversed_pct, 1),
+                                   fitted(fixedNumber(f.reversed_pct, 1)),
+                                   fixedNumber(d.rolled_pct, 1),
+                                   fitted(fixedNumber(f.rolled_pct, 1)),
+                                   fixedNumber(d.wrist_mean_mm, 1),
+                                   fitted(fixedNumber(f.wrist_mean_mm, 1))};
     std::string bar;
     if (row.shape == "default") {
       bar = "(reference)";
@@ -495,17 +488,17 @@ std::string fittedReport(const BenchmarkOptions& options, const BenchmarkResults
       cells.push_back("fitted");
       cells.push_back(std::to_string(c.tracked_frames));
       cells.push_back(std::to_string(c.fit.frame_indices.size()));
-      cells.push_back(fixed(c.fit.shape.scale, 3));
-      cells.push_back(fixed(c.fit.shape.palm_width, 3));
-      cells.push_back(fixed(c.fit.shape.finger_length, 3));
-      cells.push_back(fixed(c.fit.shape.thickness, 3));
-      cells.push_back(fixed(c.fit.energy_before, 4));
-      cells.push_back(fixed(c.fit.energy_after, 4));
-      cells.push_back(fixed(c.fit.score_before, 4));
-      cells.push_back(fixed(c.fit.score_after, 4));
-      cells.push_back(fixed(100.0 * c.tips_on_foreground_before, 1) + " -> " +
-                      fixed(100.0 * c.tips_on_foreground_after, 1));
-      cells.push_back(fixed(c.seconds, 1));
+      cells.push_back(fixedNumber(c.fit.shape.scale, 3));
+      cells.push_back(fixedNumber(c.fit.shape.palm_width, 3));
+      cells.push_back(fixedNumber(c.fit.shape.finger_length, 3));
+      cells.push_back(fixedNumber(c.fit.shape.thickness, 3));
+      cells.push_back(fixedNumber(c.fit.energy_before, 4));
+      cells.push_back(fixedNumber(c.fit.energy_after, 4));
+      cells.push_back(fixedNumber(c.fit.score_before, 4));
+      cells.push_back(fixedNumber(c.fit.score_after, 4));
+      cells.push_back(fixedNumber(100.0 * c.tips_on_foreground_before, 1) + " -> " +
+                      fixedNumber(100.0 * c.tips_on_foreground_after, 1));
+      cells.push_back(fixedNumber(c.seconds, 1));
     }
     md << markdownRow(cells);
   }
@@ -557,12 +550,12 @@ std::string report(const BenchmarkOptions& options, const BenchmarkResults& resu
       const Pooled p = pool(
           select(results.runs, [&](const BenchmarkRun& r) { return r.tracker == t && in(r); }));
       cells[1] = std::to_string(p.stats.frames);
-      cells.push_back(fixed(p.stats.mean_mm, 1));
-      cells.push_back(fixed(p.stats.sd_mm, 1));
+      cells.push_back(fixedNumber(p.stats.mean_mm, 1));
+      cells.push_back(fixedNumber(p.stats.sd_mm, 1));
       cells.push_back(std::to_string(p.stats.failed));
-      cells.push_back(fixed(p.stats.reversed_pct, 1));
-      cells.push_back(fixed(p.stats.rolled_pct, 1));
-      cells.push_back(fixed(p.stats.wrist_mean_mm, 1));
+      cells.push_back(fixedNumber(p.stats.reversed_pct, 1));
+      cells.push_back(fixedNumber(p.stats.rolled_pct, 1));
+      cells.push_back(fixedNumber(p.stats.wrist_mean_mm, 1));
     }
     return cells;
   };
@@ -617,9 +610,9 @@ std::string report(const BenchmarkOptions& options, const BenchmarkResults& resu
         md << "\n";
       };
       matrix("mean fingertip error (mm)",
-             [](const ErrorStats& st) { return fixed(st.mean_mm, 1); });
+             [](const ErrorStats& st) { return fixedNumber(st.mean_mm, 1); });
       matrix("reversed % / rolled-over %", [](const ErrorStats& st) {
-        return fixed(st.reversed_pct, 1) + " / " + fixed(st.rolled_pct, 1);
+        return fixedNumber(st.reversed_pct, 1) + " / " + fixedNumber(st.rolled_pct, 1);
       });
     }
   }
@@ -638,13 +631,13 @@ std::string report(const BenchmarkOptions& options, const BenchmarkResults& resu
   }
   md << markdownRow(t1) << markdownRule(t1.size());
   for (size_t b = 0; b < errorBoundsMm().size(); ++b) {
-    std::vector<std::string> cells{fixed(errorBoundsMm()[b], 0)};
+    std::vector<std::string> cells{fixedNumber(errorBoundsMm()[b], 0)};
     for (const std::string& s : results.sequences) {
       for (const std::string& t : ordered) {
         const Pooled p = pool(select(results.runs, [&](const BenchmarkRun& r) {
           return r.tracker == t && r.sequence == s;
         }));
-        cells.push_back(fixed(p.stats.percent_below[b], 1));
+        cells.push_back(fixedNumber(p.stats.percent_below[b], 1));
       }
     }
     md << markdownRow(cells);
@@ -660,7 +653,7 @@ std::string report(const BenchmarkOptions& options, const BenchmarkResults& resu
   for (const std::string& s : results.sequences) {
     std::vector<std::string> cells{s};
     for (const std::string& t : trackers) {
-      cells.push_back(fixed(
+      cells.push_back(fixedNumber(
           pool(select(results.runs,
                       [&](const BenchmarkRun& r) { return r.tracker == t && r.sequence == s; }))
               .fps,
@@ -673,10 +666,10 @@ std::string report(const BenchmarkOptions& options, const BenchmarkResults& resu
   for (const std::string& t : trackers) {
     const Pooled p =
         pool(select(results.runs, [&](const BenchmarkRun& r) { return r.tracker == t; }));
-    all_cells.push_back(fixed(p.fps, 0));
+    all_cells.push_back(fixedNumber(p.fps, 0));
     per_frame << (per_frame.tellp() > 0 ? "; " : "") << displayName(t) << ": segmentation "
-              << fixed(p.segmentation_ms, 2) << " ms + optimisation " << fixed(p.tracking_ms, 2)
-              << " ms per frame";
+              << fixedNumber(p.segmentation_ms, 2) << " ms + optimisation "
+              << fixedNumber(p.tracking_ms, 2) << " ms per frame";
   }
   md << markdownRow(all_cells) << "\n" << per_frame.str() << ".\n\n";
 
@@ -704,10 +697,10 @@ std::string report(const BenchmarkOptions& options, const BenchmarkResults& resu
         const Pooled p = pool(select(results.camera_runs, [&](const BenchmarkRun& r) {
           return r.tracker == t && static_cast<int>(r.cameras.size()) == count;
         }));
-        cells.push_back(fixed(p.stats.mean_mm, 1));
-        cells.push_back(fixed(p.stats.sd_mm, 1));
+        cells.push_back(fixedNumber(p.stats.mean_mm, 1));
+        cells.push_back(fixedNumber(p.stats.sd_mm, 1));
         cells.push_back(
-            fixed(p.stats.frames > 0 ? 100.0 * p.stats.failed / p.stats.frames : kNaN, 1));
+            fixedNumber(p.stats.frames > 0 ? 100.0 * p.stats.failed / p.stats.frames : kNaN, 1));
       }
       md << markdownRow(cells);
     }
@@ -726,10 +719,11 @@ void writeResultsCsv(const std::string& path, const BenchmarkResults& results) {
   auto row = [&](const std::string& sequence, const std::string& shape, const std::string& tracker,
                  const ErrorStats& stats, double fps) {
     out << sequence << "," << shape << "," << tracker << "," << stats.frames << ","
-        << fixed(stats.mean_mm, 3) << "," << fixed(stats.sd_mm, 3);
-    for (double p : stats.percent_below) out << "," << fixed(p, 2);
-    out << "," << fixed(fps, 1) << "," << stats.failed << "," << fixed(stats.reversed_pct, 2) << ","
-        << fixed(stats.rolled_pct, 2) << "," << fixed(stats.wrist_mean_mm, 3) << "\n";
+        << fixedNumber(stats.mean_mm, 3) << "," << fixedNumber(stats.sd_mm, 3);
+    for (double p : stats.percent_below) out << "," << fixedNumber(p, 2);
+    out << "," << fixedNumber(fps, 1) << "," << stats.failed << ","
+        << fixedNumber(stats.reversed_pct, 2) << "," << fixedNumber(stats.rolled_pct, 2) << ","
+        << fixedNumber(stats.wrist_mean_mm, 3) << "\n";
   };
   for (const BenchmarkRun& run : results.runs) {
     row(run.sequence, run.shape, run.tracker, run.stats, run.fps);
@@ -771,14 +765,14 @@ void writeFittedCsv(const std::string& path, const BenchmarkResults& results) {
     const ShapeFit& fit = *row.fit;
     const CalibrateHandSummary& c = fit.calibration;
     auto ifFitted = [&](double value, int decimals) {
-      return fit.ok ? fixed(value, decimals) : std::string("-");
+      return fit.ok ? fixedNumber(value, decimals) : std::string("-");
     };
     out << row.shape << "," << (fit.ok ? "ok" : "failed") << "," << d.frames << ","
-        << fixed(d.mean_mm, 3) << "," << ifFitted(f.mean_mm, 3) << "," << d.failed << ","
-        << (fit.ok ? std::to_string(f.failed) : "-") << "," << fixed(d.reversed_pct, 2) << ","
-        << ifFitted(f.reversed_pct, 2) << "," << fixed(d.rolled_pct, 2) << ","
-        << ifFitted(f.rolled_pct, 2) << "," << fixed(d.wrist_mean_mm, 3) << ","
-        << ifFitted(f.wrist_mean_mm, 3) << "," << fixed(row.reference_mm, 3) << ","
+        << fixedNumber(d.mean_mm, 3) << "," << ifFitted(f.mean_mm, 3) << "," << d.failed << ","
+        << (fit.ok ? std::to_string(f.failed) : "-") << "," << fixedNumber(d.reversed_pct, 2) << ","
+        << ifFitted(f.reversed_pct, 2) << "," << fixedNumber(d.rolled_pct, 2) << ","
+        << ifFitted(f.rolled_pct, 2) << "," << fixedNumber(d.wrist_mean_mm, 3) << ","
+        << ifFitted(f.wrist_mean_mm, 3) << "," << fixedNumber(row.reference_mm, 3) << ","
         << (row.lower ? 1 : 0) << "," << (row.within_20_percent ? 1 : 0) << ","
         << (fit.ok ? std::to_string(c.tracked_frames) : "-") << ","
         << (fit.ok ? std::to_string(c.fit.frame_indices.size()) : "-") << ","
@@ -802,8 +796,8 @@ void writeCameraCsvs(const std::string& dir, const BenchmarkResults& results,
         return r.tracker == t && static_cast<int>(r.cameras.size()) == count;
       }));
       counts << t << "," << count << "," << combos << "," << p.runs << "," << p.stats.frames << ","
-             << p.stats.failed << "," << fixed(p.stats.mean_mm, 3) << "," << fixed(p.stats.sd_mm, 3)
-             << "\n";
+             << p.stats.failed << "," << fixedNumber(p.stats.mean_mm, 3) << ","
+             << fixedNumber(p.stats.sd_mm, 3) << "\n";
     }
   }
   const std::string runs_path = dir + "/camera_combinations.csv";
@@ -814,8 +808,8 @@ void writeCameraCsvs(const std::string& dir, const BenchmarkResults& results,
     std::string cams = cameraList(r.cameras);
     std::replace(cams.begin(), cams.end(), ',', ' ');
     runs << r.sequence << "," << r.tracker << "," << cams << "," << r.stats.frames << ","
-         << r.stats.failed << "," << fixed(r.stats.mean_mm, 3) << "," << fixed(r.stats.sd_mm, 3)
-         << "," << fixed(r.fps, 1) << "\n";
+         << r.stats.failed << "," << fixedNumber(r.stats.mean_mm, 3) << ","
+         << fixedNumber(r.stats.sd_mm, 3) << "," << fixedNumber(r.fps, 1) << "\n";
   }
   writeOutputFile(runs_path, runs.str());
 }
@@ -846,14 +840,14 @@ void writePlots(const std::string& dir, const BenchmarkResults& results,
       for (const BenchmarkRun& run : results.runs) {
         if (run.sequence != s || run.tracker != t || run.shape != hand) continue;
         PlotSeries line;
-        line.label = displayName(t) + " (" + fixed(run.stats.mean_mm, 1) + " mm)";
+        line.label = displayName(t) + " (" + fixedNumber(run.stats.mean_mm, 1) + " mm)";
         line.colour = trackerColour(t, i);
         // The normal's line is unlabelled (lighter colour) so that the legend stays small.
         PlotSeries forward, normal;
         forward.label = displayName(t) + " axis (light: normal)";
         rates << (rates.tellp() > 0 ? ", " : "") << displayName(t) << " rev "
-              << fixed(run.stats.reversed_pct, 0) << " % roll " << fixed(run.stats.rolled_pct, 0)
-              << " %";
+              << fixedNumber(run.stats.reversed_pct, 0) << " % roll "
+              << fixedNumber(run.stats.rolled_pct, 0) << " %";
         forward.colour = line.colour;
         normal.colour = line.colour * 0.5 + cv::Scalar(128, 128, 128);
         for (size_t k = 0; k < run.errors.errors_mm.size(); ++k) {

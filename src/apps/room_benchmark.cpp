@@ -15,19 +15,13 @@
 #include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/ros/package_config.h"
 #include "sag_hand_tracker/studio/sequence.h"
+#include "sag_hand_tracker/util/number_text.h"
 #include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string fixed(double value, int decimals) {
-  if (!std::isfinite(value)) return "-";
-  char text[64];
-  std::snprintf(text, sizeof(text), "%.*f", decimals, value);
-  return text;
-}
 
 // The mean error, or NaN (printed "-") when the tracker had no pose in any frame.
 double meanError(const studio::RoomRunResult& r) {
@@ -131,15 +125,15 @@ std::string runRoomBenchmark(const BenchmarkOptions& options, std::ostream& log)
         const studio::RoomRunResult& r = results[k];
         log << "benchmark --rooms: " << sequence_stem << " "
             << (room_name.empty() ? "clean" : room_name) << " [" << k << "] " << r.label
-            << ": precision " << fixed(100.0 * r.precision(), 1) << " %, recall "
-            << fixed(100.0 * r.recall(), 1) << " %, error " << fixed(meanError(r), 1) << " mm over "
-            << r.frames_posed << "/" << r.frames << " frames\n"
+            << ": precision " << fixedNumber(100.0 * r.precision(), 1) << " %, recall "
+            << fixedNumber(100.0 * r.recall(), 1) << " %, error " << fixedNumber(meanError(r), 1)
+            << " mm over " << r.frames_posed << "/" << r.frames << " frames\n"
             << std::flush;
       }
       log << "benchmark --rooms: " << sequence_stem << " "
           << (room_name.empty() ? "clean" : room_name) << " took "
-          << fixed(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
-                   1)
+          << fixedNumber(
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 1)
           << " s\n"
           << std::flush;
     }
@@ -172,14 +166,15 @@ std::string runRoomBenchmark(const BenchmarkOptions& options, std::ostream& log)
         clean != clean_error.end() && row.room != "clean" ? meanError(r) / clean->second : NAN;
     md << "| " << row.sequence << " | " << row.room << " | " << row.model << " | "
        << row.segmentation << " | " << (row.cues ? "yes" : "no") << " | "
-       << fixed(100.0 * r.precision(), 1) << " | " << fixed(100.0 * r.recall(), 1) << " | "
-       << r.frames_posed << "/" << r.frames << " | " << fixed(meanError(r), 1) << " | "
-       << fixed(r.errors_mm.empty() ? NAN : r.errors.sd_mm, 1) << " | "
-       << (std::isfinite(ratio) ? fixed(ratio, 2) : "-") << " |\n";
+       << fixedNumber(100.0 * r.precision(), 1) << " | " << fixedNumber(100.0 * r.recall(), 1)
+       << " | " << r.frames_posed << "/" << r.frames << " | " << fixedNumber(meanError(r), 1)
+       << " | " << fixedNumber(r.errors_mm.empty() ? NAN : r.errors.sd_mm, 1) << " | "
+       << (std::isfinite(ratio) ? fixedNumber(ratio, 2) : "-") << " |\n";
     csv << row.sequence << "," << row.room << "," << row.model << "," << row.segmentation << ","
-        << (row.cues ? 1 : 0) << "," << fixed(r.precision(), 4) << "," << fixed(r.recall(), 4)
-        << "," << r.frames << "," << r.frames_posed << "," << fixed(meanError(r), 2) << ","
-        << fixed(r.errors_mm.empty() ? NAN : r.errors.sd_mm, 2) << "\n";
+        << (row.cues ? 1 : 0) << "," << fixedNumber(r.precision(), 4) << ","
+        << fixedNumber(r.recall(), 4) << "," << r.frames << "," << r.frames_posed << ","
+        << fixedNumber(meanError(r), 2) << ","
+        << fixedNumber(r.errors_mm.empty() ? NAN : r.errors.sd_mm, 2) << "\n";
   }
   if (!csv) throw InputError("cannot write " + (dir / "rooms.csv").string());
   std::ofstream(dir / "rooms.md") << md.str();

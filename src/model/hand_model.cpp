@@ -11,6 +11,7 @@
 #include <set>
 #include <sstream>
 
+#include "sag_hand_tracker/util/number_text.h"
 #include "sag_hand_tracker/util/yaml_reader.h"
 
 namespace sag_hand_tracker {

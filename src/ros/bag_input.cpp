@@ -29,6 +29,7 @@
 #include "sag_hand_tracker/ros/message_bounds.h"
 #include "sag_hand_tracker/tracking/camera_set_synchronizer.h"
 #include "sag_hand_tracker/util/input_limits.h"
+#include "sag_hand_tracker/util/number_text.h"
 #include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
@@ -57,12 +58,6 @@ std::string stripSlash(const std::string& frame) {
 std::string formatStamp(std::int64_t stamp_ns) {
   char buffer[48];
   std::snprintf(buffer, sizeof(buffer), "%.6f", static_cast<double>(stamp_ns) * 1e-9);
-  return buffer;
-}
-
-std::string formatNumber(double value) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof(buffer), "%g", value);
   return buffer;
 }
 
@@ -774,13 +769,13 @@ void BagReader::Impl::readExtrinsics() {
       std::snprintf(text, sizeof(text), "(%.6g, %.6g, %.6g)", centre.x(), centre.y(), centre.z());
       fail(std::string(kTfStaticTopic) + ": camera " + cameraName(ids[i]) + " is at " + text +
            " m in '" + root_frame + "'; translations must lie within +-" +
-           formatNumber(kMaxRigExtentMetres) + " m");
+           shortNumber(kMaxRigExtentMetres) + " m");
     }
     for (std::size_t j = 0; j < i; ++j) {
       if ((top_to_camera[j].translation() - centre).norm() < kMinCameraSeparation) {
         fail(std::string(kTfStaticTopic) + ": camera " + cameraName(ids[i]) +
              " is at the same point as camera " + cameraName(ids[j]) + " (closer than " +
-             formatNumber(kMinCameraSeparation) + " m)");
+             shortNumber(kMinCameraSeparation) + " m)");
       }
     }
   }

@@ -12,18 +12,13 @@
 
 #include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/util/input_limits.h"
+#include "sag_hand_tracker/util/number_text.h"
 #include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
 namespace {
 
 const std::string kOpticalSuffix = "_optical_frame";
-
-std::string describe(double value) {
-  std::ostringstream text;
-  text << value;
-  return text.str();
-}
 
 }  // namespace
 
@@ -106,15 +101,15 @@ Camera fromCameraInfo(const sensor_msgs::CameraInfo& info, const std::string& ca
     throw InputError(who + "has a rectification matrix R that " + rectification);
   }
   if (!(info.K[0] > 0.0) || !(info.K[4] > 0.0)) {
-    throw InputError(who + "has a zero or negative focal length (fx " + describe(info.K[0]) +
-                     ", fy " + describe(info.K[4]) + "): is the camera calibrated?");
+    throw InputError(who + "has a zero or negative focal length (fx " + shortNumber(info.K[0]) +
+                     ", fy " + shortNumber(info.K[4]) + "): is the camera calibrated?");
   }
 
   if (info.K[0] > kMaxFocalLengthPixels || info.K[4] > kMaxFocalLengthPixels ||
       info.K[0] < kMinFocalLengthPixels || info.K[4] < kMinFocalLengthPixels) {
-    throw InputError(who + "has a focal length outside [" + describe(kMinFocalLengthPixels) + ", " +
-                     describe(kMaxFocalLengthPixels) + "] pixels (fx " + describe(info.K[0]) +
-                     ", fy " + describe(info.K[4]) + ")");
+    throw InputError(who + "has a focal length outside [" + shortNumber(kMinFocalLengthPixels) +
+                     ", " + shortNumber(kMaxFocalLengthPixels) + "] pixels (fx " +
+                     shortNumber(info.K[0]) + ", fy " + shortNumber(info.K[4]) + ")");
   }
   // image_geometry divides by zero (SIGFPE) on an empty D (with or without a model), and OpenCV
   // asserts on counts it does not know: an empty D is no distortion, 4 or 5 (plumb_bob) are
@@ -230,7 +225,7 @@ Eigen::Isometry3d toIsometry(const geometry_msgs::Transform& transform) {
   }
   const Eigen::Quaterniond q(r.w, r.x, r.y, r.z);
   if (std::abs(q.norm() - 1.0) > 1e-3) {
-    throw InputError("transform rotation is not a unit quaternion (norm " + describe(q.norm()) +
+    throw InputError("transform rotation is not a unit quaternion (norm " + shortNumber(q.norm()) +
                      ")");
   }
   Eigen::Isometry3d isometry = Eigen::Isometry3d::Identity();

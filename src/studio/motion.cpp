@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "sag_hand_tracker/studio/renderer.h"  // mixSeed
+#include "sag_hand_tracker/util/number_text.h"
 #include "sag_hand_tracker/util/types.h"
 #include "sag_hand_tracker/util/yaml_reader.h"
 

@@ -13,6 +13,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "sag_hand_tracker/util/number_text.h"
 #include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
@@ -25,7 +26,6 @@ int lineOf(const YAML::Node& node, int fallback) {
   const YAML::Mark mark = node.Mark();
   return mark.is_null() || mark.line < 0 ? fallback : mark.line + 1;
 }
-
 
 // "<kind> <source>:<line>: key '<key>': <problem>" (line and key left out when unknown).
 std::string yamlMessage(const std::string& kind, const std::string& source, int line,
@@ -131,12 +131,6 @@ std::optional<YamlValue> presentMember(const YamlValue& map, const std::string& 
 }
 
 }  // namespace
-
-std::string shortNumber(double value) {
-  std::ostringstream text;
-  text << value;
-  return text.str();
-}
 
 std::string readYamlFileText(const std::string& path, const std::string& kind,
                              std::size_t max_bytes) {

@@ -22,9 +22,6 @@ namespace sag_hand_tracker {
 
 class YamlValue;
 
-// A number as the YAML errors print it: the shortest stream form ("1e-300", "0.0001", "12").
-std::string shortNumber(double value);
-
 // Parses the (first) document of `text`: the one place every YAML input of the core is parsed.
 // Throws InputError "<kind> <source>:<line>: key '<map>': ..." when the text exceeds
 // kMaxYamlFileBytes, is malformed YAML, nests maps and lists deeper than kMaxYamlNestingDepth
