@@ -167,7 +167,7 @@ Camera readCameraCalibration(const YamlDocument& document) {
     root.get("distortion_coefficients").fail(error.what());
   }
   // Not used (the tracker works on raw images with K and D), but checked as camera_info's are:
-  // their numbers finite (readMatrix), R a rotation (a zero R is a broken calibration).
+  // their numbers finite (readMatrix), R a rotation or unset (all zeros).
   if (root.has("rectification_matrix")) {
     const YamlValue node = root["rectification_matrix"];
     const std::vector<double> r = readMatrix(node, 3, 3);

@@ -87,8 +87,9 @@ Camera fromCameraInfo(const sensor_msgs::CameraInfo& info, const std::string& ca
   for (double value : info.D) {
     if (!std::isfinite(value)) throw InputError(who + "has non-finite distortion coefficients");
   }
-  // R and P are not used (the tracker works on raw images with K and D), but NaN in them or a zero
-  // R is a broken calibration, refused like a broken K.
+  // R and P are not used (the tracker works on raw images with K and D), but NaN in them or an R
+  // that is neither a rotation nor unset (all zeros) is a broken calibration, refused like a
+  // broken K.
   for (double value : info.P) {
     if (!std::isfinite(value)) throw InputError(who + "has a non-finite projection matrix P");
   }
