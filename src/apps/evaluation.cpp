@@ -976,7 +976,8 @@ and the wrist error per sequence and per hand shape, the paper's Table 1, the sp
 
 Options:
   --sequences a,b,..   sequences (names or motion files; default: adbadd fingercount fingerwave
-                       flexex1 pinch random tigergrasp raised pronation wristflex fastturn)
+                       flexex1 pinch random tigergrasp raised pronation wristflex fastturn
+                       natural)
   --shapes a,b,..      rendered hands from config/hand_shapes.yaml (default: all of them); the
                        trackers keep their default models
   --camera-counts      also track every combination of 2..N of the N cameras, on the Dexter 1
@@ -990,7 +991,7 @@ Options:
   --reuse              reuse the bags in DIR/bags rendered with the same settings (default)
   --rerender           render the bags again
   --discard-bags       remove each bag this run rendered once it is tracked (a full run renders
-                       77 bags of ~350 MB; the ground-truth CSVs and tracks stay)
+                       84 bags of ~350 MB; the ground-truth CSVs and tracks stay)
   --config-dir DIR     the built-in motions, rigs and models (the package's config/)
   --no-plots           no PNG plots
   --fitted             per hand shape, also fit the model to the calibration routine rendered

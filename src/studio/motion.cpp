@@ -419,7 +419,8 @@ const std::vector<std::string>& builtinMotionNames() {
 }
 
 const std::vector<std::string>& hardMotionNames() {
-  static const std::vector<std::string> names{"raised", "pronation", "wristflex", "fastturn"};
+  static const std::vector<std::string> names{"raised", "pronation", "wristflex", "fastturn",
+                                              "natural"};
   return names;
 }
 

@@ -92,11 +92,12 @@ class BenchmarkTool : public sag_test::TempDirTest {
 TEST(BenchmarkArguments, BenchmarkParsesOptionsAndRejectsBadOnes) {
   const BenchmarkOptions defaults = parseBenchmarkArguments({});
   EXPECT_EQ(defaults.sequences, benchmarkSequences());
-  // The 7 of Dexter 1 first, then issue 9's 4 harder ones.
-  ASSERT_EQ(defaults.sequences.size(), 11u);
+  // The 7 of Dexter 1 first, then issue 9's 5 harder ones.
+  ASSERT_EQ(defaults.sequences.size(), 12u);
   EXPECT_EQ(defaults.sequences[0], "adbadd");
   EXPECT_EQ(defaults.sequences[6], "tigergrasp");
   EXPECT_EQ(defaults.sequences[7], "raised");
+  EXPECT_EQ(defaults.sequences[11], "natural");
   EXPECT_TRUE(defaults.shapes.empty());  // all of config/hand_shapes.yaml
   EXPECT_FALSE(defaults.discard_bags);
   EXPECT_EQ(defaults.models, (std::vector<std::string>{"sag", "sog"}));

@@ -8,11 +8,11 @@
 #include <string>
 #include <vector>
 
+#include "sag_hand_tracker/apps/metrics.h"
 #include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/energy/colour.h"
 #include "sag_hand_tracker/model/hand_model.h"
 #include "sag_hand_tracker/model/kinematics.h"
-#include "sag_hand_tracker/apps/metrics.h"
 #include "sag_hand_tracker/studio/hand_shapes.h"
 #include "sag_hand_tracker/studio/hand_surface.h"
 #include "sag_hand_tracker/studio/motion.h"
@@ -356,7 +356,7 @@ TEST(StudioShapes, BareForearmIsSkinUpToTheElbowRegion) {
 
 TEST(StudioHardMotions, LoadStayInLimitsAboveTheTableAndInView) {
   const HandModel& model = handModel();
-  ASSERT_EQ(hardMotionNames().size(), 4u);
+  ASSERT_EQ(hardMotionNames().size(), 5u);
   // On the default hand and the largest one.
   for (const std::string shape_name : {"default", "long_distal_large"}) {
     const StudioHand hand = resolveHandShape(shape_name, kConfig);
@@ -445,8 +445,38 @@ TEST(StudioHardMotions, DoWhatTheirNamesSay) {
   EXPECT_GT(fastturn.max_turn_rate, 400.0);  // fast: more than 16 deg between frames
   EXPECT_LT(fastturn.min_back_z, -0.9);
   EXPECT_GT(fastturn.max_forward_change, 150.0);
+  // `natural`: the fingers' joints move independently, as a person's do (hook: PIP bent with the
+  // MCP straight; flat: the reverse), unlike the open-to-fist keyframes of the other motions, where
+  // the MCP is 0.85 x the PIP within 0.06 rad (rms; README "Session 21").
+  auto joint = [&](const std::string& name) {
+    for (int j = 0; j < kNumJointDof; ++j) {
+      if (model.joints[j].name == name) return j;
+    }
+    ADD_FAILURE() << "no joint " << name;
+    return 0;
+  };
+  auto couplingRms = [&](const std::string& name) {
+    const Motion motion = loadMotion(resolveMotionPath(name, kConfig), model, 1);
+    const StudioSequence sequence(model, motion, SequenceParams());
+    double sum = 0.0;
+    int count = 0;
+    for (int k = 10; k < sequence.frameCount(); ++k) {
+      const Pose pose = sequence.frame(k).pose;
+      for (const std::string finger : {"index", "middle", "ring", "pinky"}) {
+        const double mcp = pose.joints[joint(finger + "_mcp_flex")];
+        const double pip = pose.joints[joint(finger + "_pip_flex")];
+        sum += (mcp - 0.85 * pip) * (mcp - 0.85 * pip);
+        ++count;
+      }
+    }
+    return std::sqrt(sum / count);
+  };
+  EXPECT_GT(couplingRms("natural"), 0.4);
+  EXPECT_LT(couplingRms("fingercount"), 0.1);
+  const Extremes natural = measure("natural");
+  EXPECT_GT(natural.max_forward_change, 45.0);  // lifted and turning, not palm down
   // None turns faster than a human forearm and wrist can (about 1000 deg/s at most).
-  for (const Extremes& e : {raised, pronation, wristflex, fastturn}) {
+  for (const Extremes& e : {raised, pronation, wristflex, fastturn, natural}) {
     EXPECT_LT(e.max_turn_rate, 1000.0);
   }
 }

@@ -107,7 +107,7 @@ Motion loadMotion(const std::string& path, const HandModel& model, std::uint64_t
 // pinch, random, tigergrasp.
 const std::vector<std::string>& builtinMotionNames();
 // Issue 9's harder motions (natural, not palm-down over the table): raised, pronation,
-// wristflex, fastturn.
+// wristflex, fastturn, natural (everyday grips whose finger joints are not tied to each other).
 const std::vector<std::string>& hardMotionNames();
 // A built-in name (of either list) -> `<config_dir>/motions/<name>.yaml`; anything else is taken
 // as a path.
