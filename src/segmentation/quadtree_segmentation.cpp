@@ -410,6 +410,18 @@ void validate(const SegmentationParams& params) {
   if (!(r.colour_core_depth > r.colour_rim_depth && r.colour_rim_depth >= 0.0)) {
     fail("room.colour_core_depth > room.colour_rim_depth >= 0 is required");
   }
+  if (r.older_margin_frames < 0 || r.older_margin_frames > 65535) {
+    fail("room.older_margin_frames must be in [0, 65535]");
+  }
+  if (!(r.older_quantile >= 0.0 && r.older_quantile <= 1.0)) {
+    fail("room.older_quantile must be in [0, 1]");
+  }
+  if (!(r.unchanged_chromaticity > 0.0 && r.unchanged_chromaticity < 1.0)) {
+    fail("room.unchanged_chromaticity must be in (0, 1)");
+  }
+  if (!(r.unchanged_brightness > 1.0 && std::isfinite(r.unchanged_brightness))) {
+    fail("room.unchanged_brightness must be a finite factor > 1");
+  }
 }
 
 ImageSoG quadtreeSegment(const cv::Mat& rgb, const QuadtreeParams& params,
@@ -688,7 +700,8 @@ void ImageSegmenter::setRegionOfInterest(const cv::Mat& roi_mask, RegionSource s
 }
 
 bool ImageSegmenter::usesModelSilhouette() const {
-  return params_.room.enabled && params_.room.still_object_frames > 0 &&
+  return params_.room.enabled &&
+         (params_.room.still_object_frames > 0 || params_.room.drop_older_than_hand) &&
          effectiveMode() == SegmentationMode::kSkin;
 }
 

@@ -63,6 +63,18 @@ struct Component {
   int x0 = 1 << 30, y0 = 1 << 30, x1 = -1, y1 = -1;  // cell box, inclusive
 };
 
+// The frame's overall brightness change against the previous frame's cell means (1 without
+// them).
+double frameGain(const std::vector<float>& means, const std::vector<float>& previous) {
+  if (previous.size() != means.size()) return 1.0;
+  double now = 0.0, before = 0.0;
+  for (size_t i = 0; i < means.size(); ++i) {
+    now += means[i];
+    before += previous[i];
+  }
+  return before > 0.0 ? now / before : 1.0;
+}
+
 // This frame's motion per cell (RoomCueParams: decaying history, 1 = moved now) from the previous
 // frame's cell means in `state`, with the frame's overall brightness change taken out (changing
 // light is no motion). `state` is not changed.
@@ -73,12 +85,7 @@ std::vector<float> motionOf(const RoomCueParams& room, const std::vector<float>&
     return std::vector<float>(cells, 0.0f);
   }
   std::vector<float> motion(cells, 0.0f);
-  double now = 0.0, before = 0.0;
-  for (size_t i = 0; i < means.size(); ++i) {
-    now += means[i];
-    before += state.previous_means[i];
-  }
-  const double gain = before > 0.0 ? now / before : 1.0;
+  const double gain = frameGain(means, state.previous_means);
   for (int i = 0; i < cells; ++i) {
     double change = 0.0;
     for (int k = 0; k < 3; ++k) {
@@ -230,6 +237,60 @@ std::vector<unsigned char> groupAround(const std::vector<Component>& components,
   return group;
 }
 
+// Cue 8: whether a cell's colour `now` differs from `then` (the colour it had when it last
+// changed, scaled by the light's change since): its chromaticity by more than
+// unchanged_chromaticity, its brightness by more than the factor unchanged_brightness, or one of
+// them is (near) black and the other not.
+bool colourChanged(const RoomCueParams& room, const float* now, const double* then) {
+  const double sum_now = static_cast<double>(now[0]) + now[1] + now[2];
+  const double sum_then = then[0] + then[1] + then[2];
+  constexpr double kBlack = 15.0;  // as chromaticity()
+  if ((sum_now < kBlack) != (sum_then < kBlack)) return true;
+  if (sum_now < kBlack) return false;
+  const double ratio = sum_now / sum_then;
+  if (ratio > room.unchanged_brightness || ratio < 1.0 / room.unchanged_brightness) return true;
+  return std::fabs(now[0] / sum_now - then[0] / sum_then) > room.unchanged_chromaticity ||
+         std::fabs(now[1] / sum_now - then[1] / sum_then) > room.unchanged_chromaticity;
+}
+
+// Cue 8: counts, per cell, the frames since its colour last changed (state.unchanged_frames).
+void updateUnchangedFrames(const RoomCueParams& room, const std::vector<float>& means, double gain,
+                           RoomCueState& state) {
+  const size_t cells = means.size() / 3;
+  if (state.unchanged_frames.size() != cells) {
+    state.unchanged_frames.assign(cells, 0);
+    state.unchanged_colour = means;
+    state.light = 1.0;
+  }
+  state.light *= gain;
+  for (size_t i = 0; i < cells; ++i) {
+    float* colour = &state.unchanged_colour[3 * i];
+    const double then[3] = {state.light * colour[0], state.light * colour[1],
+                            state.light * colour[2]};
+    int& frames = state.unchanged_frames[i];
+    if (colourChanged(room, &means[3 * i], then)) {
+      frames = 0;
+      for (int k = 0; k < 3; ++k) colour[k] = static_cast<float>(means[3 * i + k] / state.light);
+    } else if (frames < (1 << 30)) {  // ~500 days at 25 frames/s
+      ++frames;
+    }
+  }
+}
+
+// Cue 8: the older_quantile of the ages (unchanged frames) of the cells in `cells`; -1 when there
+// are fewer than min_cells.
+int ageQuantile(const RoomCueParams& room, const RoomCueState& state, const std::vector<int>& cells,
+                int min_cells) {
+  if (cells.empty() || static_cast<int>(cells.size()) < min_cells) return -1;
+  std::vector<int> ages;
+  ages.reserve(cells.size());
+  for (const int i : cells) ages.push_back(state.unchanged_frames[i]);
+  const size_t q =
+      std::min(ages.size() - 1, static_cast<size_t>(room.older_quantile * ages.size()));
+  std::nth_element(ages.begin(), ages.begin() + q, ages.end());
+  return ages[q];
+}
+
 }  // namespace
 
 void applyRoomCues(const SegmentationParams& params, const std::vector<float>& means, int cells_x,
@@ -240,6 +301,7 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
   const int cells = cells_x * cells_y;
   const std::vector<unsigned char> candidate = mask;
   const std::vector<float> motion = motionOf(room, means, state, cells);
+  const double gain = frameGain(means, state.previous_means);
   state.motion = motion;
   state.previous_means = means;
 
@@ -285,6 +347,61 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
       }
     }
     removeBackgroundColoured(room, means, state, cell_depth, mask);
+  }
+
+  // Cue 8 (without a plate): what lay there unchanged before the hand came. The hand arrived
+  // moving: its cells changed then, so none is older than the track (or, at the start, than the
+  // youngest of the region's cells) by more than the margin, however still it holds later.
+  const bool model_given = model_silhouette.size() == cv::Size(width, height);
+  if (plate != nullptr || !room.drop_older_than_hand) {
+    state.unchanged_frames.clear();
+    state.unchanged_colour.clear();
+    state.track_age_reference = -1;
+    state.track_frames = 0;
+  } else {
+    updateUnchangedFrames(room, means, gain, state);
+    if (has_roi && learn_skin) {
+      if (state.track_age_reference < 0) {
+        // The first frame of the track with enough of the hand in this view: the cells under the
+        // model (all kept cells without its silhouette).
+        std::vector<int> hand;
+        for (int cy = 0; cy < cells_y; ++cy) {
+          for (int cx = 0; cx < cells_x; ++cx) {
+            const int i = cy * cells_x + cx;
+            if (mask[i] &&
+                (!model_given || model_silhouette.at<unsigned char>(cellCentre(cx, cy)) != 0)) {
+              hand.push_back(i);
+            }
+          }
+        }
+        state.track_age_reference = ageQuantile(room, state, hand, room.skin_min_cells);
+        state.track_frames = 0;
+      }
+      if (state.track_age_reference >= 0) {
+        const int limit = state.track_age_reference + state.track_frames + room.older_margin_frames;
+        for (int i = 0; i < cells; ++i) {
+          if (state.unchanged_frames[i] > limit) mask[i] = 0;
+        }
+        ++state.track_frames;
+      }
+    } else {
+      // No tracked hand: the next tracked region starts a new track.
+      state.track_age_reference = -1;
+      state.track_frames = 0;
+      if (has_roi) {
+        // A region of candidates (the start): against its own youngest cells.
+        std::vector<int> kept;
+        for (int i = 0; i < cells; ++i) {
+          if (mask[i]) kept.push_back(i);
+        }
+        const int reference = ageQuantile(room, state, kept, room.skin_min_cells);
+        if (reference >= 0) {
+          for (int i = 0; i < cells; ++i) {
+            if (state.unchanged_frames[i] > reference + room.older_margin_frames) mask[i] = 0;
+          }
+        }
+      }
+    }
   }
 
   // Cue 7 (without a plate, which holds still objects already): a cell that stays still outside

@@ -444,6 +444,75 @@ TEST(RoomCues, AStillSkinObjectBesideTheModelIsDroppedOnceItHasStayedStill) {
   }
 }
 
+// Cue 8 (doc/segmentation.md, "Session 21"): a skin-coloured ball that lay unchanged beside the
+// place where the hand then came into view is dropped at the start and for as long as it stays
+// unchanged, even once the model covers it and after the hand has held still for longer than
+// cue 7's count, through dimming light and a shadow; the hand is kept. A hand that was there as
+// still as the ball from the first frame (a still start) is kept, and so is the ball then.
+TEST(RoomCues, WhatLayUnchangedBeforeTheHandCameIsDroppedEvenUnderTheModel) {
+  const cv::Point hand(100, 120), ball(138, 120);
+  cv::Mat region(240, 320, CV_8UC1, cv::Scalar(0));
+  cv::circle(region, hand, 60, cv::Scalar(255), cv::FILLED);  // holds hand and ball
+  // The model has crept onto the ball: its silhouette covers both.
+  cv::Mat silhouette(240, 320, CV_8UC1, cv::Scalar(0));
+  cv::circle(silhouette, hand, 27, cv::Scalar(255), cv::FILLED);
+  cv::circle(silhouette, ball, 16, cv::Scalar(255), cv::FILLED);
+  // light: the scene's brightness; shadow: the ball's own, as if the hand's shadow fell on it.
+  auto image = [&](bool with_hand, double light, double shadow) {
+    cv::Mat rgb = greyImage(light);
+    const cv::Vec3b skin(kSkin[0] * light, kSkin[1] * light, kSkin[2] * light);
+    disc(rgb, ball, 14,
+         cv::Vec3b(skin[0] * shadow, skin[1] * shadow, skin[2] * shadow));  // the hand's colour
+    if (with_hand) disc(rgb, hand, 25, skin);
+    return rgb;
+  };
+  SegmentationParams params = roomSkinParams();
+  ASSERT_TRUE(params.room.drop_older_than_hand);
+  ASSERT_EQ(params.room.still_object_frames, 25);
+  for (const bool cue : {true, false}) {
+    params.room.drop_older_than_hand = cue;
+    ImageSegmenter segmenter(params);
+    // Frames 1-6: the ball alone, nothing tracked.
+    for (int frame = 1; frame <= 6; ++frame) segmenter.segmentFrame(image(false, 1.0, 1.0));
+    // Frame 7: the hand comes into view touching the ball; the start's region holds both.
+    segmenter.setRegionOfInterest(region, RegionSource::kCandidates);
+    segmenter.segmentFrame(image(true, 1.0, 1.0));
+    EXPECT_EQ(maskAt(segmenter, hand), 255) << "start, cue " << cue;
+    EXPECT_EQ(maskAt(segmenter, ball), cue ? 0 : 255) << "start, cue " << cue;
+    // Frames 8-47: tracked; the hand holds perfectly still for 40 frames under the model, the
+    // light dims by 30 % and the ball is shaded by 30 % in every other frame.
+    for (int frame = 8; frame <= 47; ++frame) {
+      segmenter.setRegionOfInterest(region, RegionSource::kTrack, silhouette);
+      const double light = 1.0 - 0.3 * (frame - 8) / 39.0;
+      segmenter.segmentFrame(image(true, light, frame % 2 ? 0.7 : 1.0));
+      EXPECT_EQ(maskAt(segmenter, hand), 255) << "frame " << frame << ", cue " << cue;
+      // Without the cue the ball under the model counts as hand for ever (cue 7 starts again
+      // under the model): the loop of session 20.
+      EXPECT_EQ(maskAt(segmenter, ball), cue ? 0 : 255) << "frame " << frame << ", cue " << cue;
+    }
+  }
+
+  // A hand held still from the first frame beside the ball (a still start): as old as the ball,
+  // both kept (cue 7 off, which would drop the ball outside the model).
+  params = roomSkinParams();
+  params.room.still_object_frames = 0;
+  ImageSegmenter still(params);
+  for (int frame = 1; frame <= 6; ++frame) still.segmentFrame(image(true, 1.0, 1.0));
+  still.setRegionOfInterest(region, RegionSource::kCandidates);
+  still.segmentFrame(image(true, 1.0, 1.0));
+  EXPECT_EQ(maskAt(still, hand), 255);
+  EXPECT_EQ(maskAt(still, ball), 255);
+  for (int frame = 8; frame <= 40; ++frame) {
+    still.setRegionOfInterest(region, RegionSource::kTrack, silhouette);
+    still.segmentFrame(image(true, 1.0, 1.0));
+  }
+  EXPECT_EQ(maskAt(still, hand), 255);
+  EXPECT_EQ(maskAt(still, ball), 255);
+
+  // With a plate the cue is off (a plate holds still things already).
+  EXPECT_FALSE(ImageSegmenter(SegmentationParams()).usesModelSilhouette());
+}
+
 // The model's own silhouette (cue 7) lies inside the region of interest, covers the rendered
 // hand, and is much tighter than the region; nothing behind the camera.
 TEST(RoomCues, TheModelSilhouetteCoversTheRenderedHandInsideTheRegion) {
@@ -529,6 +598,23 @@ TEST(RoomCues, BadParametersAreNamed) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("room.still_object_frames"), std::string::npos)
         << e.what();
+  }
+  SegmentationParams older;
+  older.room.unchanged_brightness = 1.0;  // every change of brightness would be a change
+  try {
+    validate(older);
+    FAIL() << "unchanged_brightness 1 accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("room.unchanged_brightness"), std::string::npos)
+        << e.what();
+  }
+  older = SegmentationParams();
+  older.room.older_quantile = 1.5;
+  try {
+    validate(older);
+    FAIL() << "older_quantile 1.5 accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("room.older_quantile"), std::string::npos) << e.what();
   }
 }
 

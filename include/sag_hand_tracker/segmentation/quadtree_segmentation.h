@@ -112,6 +112,23 @@ struct RoomCueParams {
   //    the region: a skin-coloured ball at the fingertips, a wooden spoon, the other hand at rest.
   //    It counts again once it moves or the model covers it. 0 turns the cue off.
   int still_object_frames = 25;
+  // 8. what was there before the hand (without a plate): per cell, the frames since its colour
+  //    last changed against the colour it had then (chromaticity by more than
+  //    unchanged_chromaticity, or brightness by more than the factor unchanged_brightness, after
+  //    the frame's overall light change, so that dimming light and a passing shadow are no
+  //    change; a slow edge that creeps across the cell adds up). A region of candidates (the
+  //    start) drops its cells older than the older_quantile of its kept cells' ages plus
+  //    older_margin_frames; a tracked region takes that quantile once, from the cells under the
+  //    model in its first frame with enough of them, and then drops the cells older than it
+  //    plus the frames tracked since plus the margin: a skin-coloured ball or a wooden spoon
+  //    that lay unchanged beside the hand before the hand came into view, even once the model
+  //    covers it. A hand that arrived moving is younger than that however still it holds; a hand
+  //    held still from the first frame sets the quantile itself and is kept. Off when false.
+  bool drop_older_than_hand = true;
+  int older_margin_frames = 3;
+  double older_quantile = 0.25;
+  double unchanged_chromaticity = 0.03;
+  double unchanged_brightness = 3.0;
 };
 
 struct SegmentationParams {
@@ -159,6 +176,15 @@ struct RoomCueState {
   std::vector<float> hand_colour, background_colour;
   // Cue 7: per cell, the frames in a row it stayed still outside the model's silhouette.
   std::vector<unsigned short> still_outside;
+  // Cue 8: per cell, the frames since its colour last changed, and that colour (RGB divided by
+  // `light`, the product of the frames' overall brightness changes since the first frame).
+  std::vector<int> unchanged_frames;
+  std::vector<float> unchanged_colour;
+  double light = 1.0;
+  // Cue 8: the age quantile of the tracked hand's cells in the track's first frame with enough of
+  // them (-1: not yet taken), and the frames tracked since.
+  int track_age_reference = -1;
+  int track_frames = 0;
   // The last foreground at pixel level when its border cells were refined (refine_border_pixels),
   // else empty (the cells are the foreground).
   cv::Mat pixel_mask;
@@ -234,8 +260,9 @@ class ImageSegmenter {
   // silhouette (projectedModelSilhouette), for cue 7.
   void setRegionOfInterest(const cv::Mat& roi_mask, RegionSource source = RegionSource::kTrack,
                            const cv::Mat& model_silhouette = cv::Mat());
-  // Whether cue 7 runs, so that a tracked region should come with the model's silhouette: room
-  // cues on, still_object_frames > 0, and no plate in use (a plate holds still things already).
+  // Whether cue 7 or 8 runs, so that a tracked region should come with the model's silhouette:
+  // room cues on, still_object_frames > 0 or drop_older_than_hand, and no plate in use (a plate
+  // holds still things already).
   bool usesModelSilhouette() const;
   // The hand candidates of `rgb` as segmentFrame would choose among them when no region of
   // interest is set (best first, at most max_candidates), without changing any memory. Empty
