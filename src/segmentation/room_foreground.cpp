@@ -76,16 +76,15 @@ double frameGain(const std::vector<float>& means, const std::vector<float>& prev
 }
 
 // This frame's motion per cell (RoomCueParams: decaying history, 1 = moved now) from the previous
-// frame's cell means in `state`, with the frame's overall brightness change taken out (changing
-// light is no motion). `state` is not changed.
-std::vector<float> motionOf(const RoomCueParams& room, const std::vector<float>& means,
+// frame's cell means in `state`, with the frame's overall brightness change `gain` (frameGain)
+// taken out (changing light is no motion). `state` is not changed.
+std::vector<float> motionOf(const RoomCueParams& room, const std::vector<float>& means, double gain,
                             const RoomCueState& state, int cells) {
   if (state.previous_means.size() != means.size() ||
       state.motion.size() != static_cast<size_t>(cells)) {
     return std::vector<float>(cells, 0.0f);
   }
   std::vector<float> motion(cells, 0.0f);
-  const double gain = frameGain(means, state.previous_means);
   for (int i = 0; i < cells; ++i) {
     double change = 0.0;
     for (int k = 0; k < 3; ++k) {
@@ -300,8 +299,8 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
   const RoomCueParams& room = params.room;
   const int cells = cells_x * cells_y;
   const std::vector<unsigned char> candidate = mask;
-  const std::vector<float> motion = motionOf(room, means, state, cells);
   const double gain = frameGain(means, state.previous_means);
+  const std::vector<float> motion = motionOf(room, means, gain, state, cells);
   state.motion = motion;
   state.previous_means = means;
 
@@ -553,7 +552,8 @@ std::vector<HandCandidate> roomCandidates(const SegmentationParams& params,
                                           const RoomCueState& state,
                                           std::vector<unsigned char> mask, int max_candidates) {
   const int cells = cells_x * cells_y;
-  const std::vector<float> motion = motionOf(params.room, means, state, cells);
+  const std::vector<float> motion =
+      motionOf(params.room, means, frameGain(means, state.previous_means), state, cells);
   removeUnlikeLearnedSkin(params.room, means, state, mask);
   std::vector<int> labels;
   const std::vector<Component> components =
