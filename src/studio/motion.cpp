@@ -221,6 +221,13 @@ void drawRandomKeyframes(const YamlValue& blocks, const HandModel& model, Motion
     gen.allowOnly({"from", "to", "interval", "position", "orientation", "joints"});
     const double from = gen["from"].number(0.0, kMaxMotionSeconds);
     const double to = gen["to"].number(from, kMaxMotionSeconds);
+    // Keyframes drawn after the motion's end were silently never shown (a typo in a time).
+    if (to > motion->duration + 1e-9) {
+      gen["to"].fail(shortNumber(to) + " s is after the motion's end at " +
+                     shortNumber(motion->duration) +
+                     " s (its duration, or its last keyframe's time): the random keyframes after "
+                     "it would never be shown");
+    }
     const YamlValue interval_node = gen["interval"];
     const double interval = interval_node.number();
     if (!(interval > 0.0)) interval_node.fail("must be positive");

@@ -867,6 +867,10 @@ TEST(StudioMotion, BadFilesAreRejectedNamingTheProblem) {
       {"keyframes:\n  - {time: 0}\n", {"key 'keyframes[0].position': missing"}},
       {key0 + "}\nduration: 2\nrandom: {keyframes: {from: 1, to: 2, interval: 0, joints: 0.5}}\n",
        {"key 'random.keyframes.interval': must be positive"}},
+      // Random keyframes after the end were silently never shown.
+      {key0 + "}\nduration: 2\nrandom: {keyframes: {from: 1, to: 5, interval: 0.5}}\n",
+       {"key 'random.keyframes.to': 5 s is after the motion's end at 2 s (its duration, or its "
+        "last keyframe's time)"}},
       {key0 + "}\nduration: 2\nrandom: {jitter: {joints: abc}}\n",
        {"key 'random.jitter.joints': must be a number"}},
   };
