@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "sag_hand_tracker/apps/track_runner.h"
+#include "sag_hand_tracker/camera/camera.h"
 #include "sag_hand_tracker/model/hand_model.h"
 #include "sag_hand_tracker/ros/bag_input.h"
 #include "sag_hand_tracker/ros/package_config.h"
@@ -259,8 +260,7 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
   // 2. Was the routine followed?
   summary.routine = checkCalibrationRoutine(start, frames, summary.cameras, requirements);
   if (frames.empty()) {
-    std::string names;
-    for (const Camera& camera : reader.cameras()) names += (names.empty() ? "" : " ") + camera.name;
+    const std::string names = cameraNames(reader.cameras());
     const int after_background = summary.frames - background_frames;
     const std::string counts = std::to_string(after_background) + " frame" +
                                (after_background == 1 ? "" : "s") + " after the " +

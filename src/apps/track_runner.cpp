@@ -8,6 +8,7 @@
 #include <set>
 #include <sstream>
 
+#include "sag_hand_tracker/camera/camera.h"
 #include "sag_hand_tracker/ros/package_config.h"
 
 #include "sag_hand_tracker/model/pose.h"
@@ -335,11 +336,9 @@ TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
   const PipelineParams params = trackBagPipelineParams(options);
   if (static_cast<int>(reader.cameras().size()) < params.tracker.min_cameras_for_start) {
     // Named here, where the bag is known: which cameras have images (or were chosen).
-    std::string names;
-    for (const Camera& camera : reader.cameras()) names += (names.empty() ? "" : " ") + camera.name;
     throw InputError(
         options.bag + ": images of " + std::to_string(reader.cameras().size()) + " camera (" +
-        names + (options.cameras.empty() ? "" : ", chosen by --cameras") +
+        cameraNames(reader.cameras()) + (options.cameras.empty() ? "" : ", chosen by --cameras") +
         "); the tracker starts from at least " +
         std::to_string(params.tracker.min_cameras_for_start) + " cameras that see the hand");
   }

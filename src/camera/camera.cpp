@@ -45,6 +45,12 @@ void checkDistortionCount(std::size_t count, const std::string& who) {
                    "(rational_polynomial), 12 or 14");
 }
 
+std::string cameraNames(const std::vector<Camera>& cameras) {
+  std::string names;
+  for (const Camera& camera : cameras) names += (names.empty() ? "" : " ") + camera.name;
+  return names;
+}
+
 std::string rectificationProblem(const Eigen::Matrix3d& R) {
   if (!R.allFinite()) return "is not finite";
   // All zeros: a driver that leaves R unset (a default-constructed CameraInfo). The tracker uses

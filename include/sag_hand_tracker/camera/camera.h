@@ -32,6 +32,9 @@ struct Camera {
 // non-finite values, bad or too large image size, a distortion count OpenCV does not take,
 // extrinsics not a rigid transform). The limits are in input_limits.h.
 void validateCamera(const Camera& camera);
+
+// The cameras' names separated by spaces ("cam0 cam1 cam2"), for messages.
+std::string cameraNames(const std::vector<Camera>& cameras);
 // Throws InputError "<who>: principal point ..." unless cx, cy are finite and within
 // [-width, 2 width] x [-height, 2 height], or "<who>: skew ..." when |K(0,1)| exceeds fx. Part of
 // validateCamera; calibration files call it for their camera_matrix too.
