@@ -997,7 +997,9 @@ Options:
   --fitted             per hand shape, also fit the model to the calibration routine rendered
                        on that hand (calibrate_hand's code; DIR/models/<shape>.yaml) and track
                        every sequence of the hand with it: the tracker "fitted" beside SAG with
-                       the default model (needs sag among --models); DIR/fitted.csv
+                       the default model (needs sag among --models); DIR/fitted.csv. With
+                       --rooms: the default hand's model fitted in the clean studio, tracked in
+                       the rooms with its own skin gate and with the generic one
   --routine-frames N   frames of the rendered calibration routine (its full length, 125)
   --fit-sequence NAME  fit from this motion instead of the routine (with --routine-frames 75:
                        its first 3 s, what calibrate_hand gets from the start of a recording)
@@ -1094,7 +1096,6 @@ BenchmarkOptions parseBenchmarkArguments(const std::vector<std::string>& args) {
           "--fitted compares with SAG's default model, the fit's start: --models "
           "must include sag");
     }
-    if (!options.rooms.empty()) throw UsageError("--fitted does not apply to --rooms");
   }
   return options;
 }
@@ -1221,7 +1222,17 @@ BenchmarkResults runBenchmark(const BenchmarkOptions& options, std::ostream& log
   BenchmarkResults results;
   checkBenchmarkOutputs(options);
   if (!options.rooms.empty()) {
-    results.markdown = runRoomBenchmark(options, log);
+    // --fitted: the rooms' hand is the default one; its model fitted in the clean studio (a user
+    // who ran calibrate_hand once) brings the user's skin gate into the rooms.
+    std::string fitted_model;
+    if (options.fitted) {
+      const ShapeFit fit = fitShape(
+          options, studio::resolveHandShape("default", packageConfigDir(options.config_dir)), log);
+      if (!fit.ok)
+        throw InputError("--rooms --fitted: the fit on the default hand failed: " + fit.error);
+      fitted_model = fit.model;
+    }
+    results.markdown = runRoomBenchmark(options, log, fitted_model);
     results.seconds = secondsSince(start);
     return results;
   }

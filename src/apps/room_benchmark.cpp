@@ -45,13 +45,24 @@ struct Row {
 
 }  // namespace
 
-std::string runRoomBenchmark(const BenchmarkOptions& options, std::ostream& log) {
+std::string runRoomBenchmark(const BenchmarkOptions& options, std::ostream& log,
+                             const std::string& fitted_model) {
   const std::string config = packageConfigDir(options.config_dir);
   const CameraRig rig = loadCameraRig(studio::resolveRigPath(options.rig, config));
   const HandModel render_model = loadHandModel(resolveModelPath("sag", config));
-  std::vector<std::pair<std::string, HandModel>> models;
+  struct TrackedModel {
+    std::string label;
+    HandModel model;
+    bool skin_gate_from_model = true;
+  };
+  std::vector<TrackedModel> models;
   for (const std::string& model : options.models) {
-    models.emplace_back(modelLabel(model), loadHandModel(resolveModelPath(model, config)));
+    models.push_back({modelLabel(model), loadHandModel(resolveModelPath(model, config))});
+  }
+  if (!fitted_model.empty()) {
+    const HandModel fitted = loadHandModel(fitted_model);
+    models.push_back({"SAG fitted", fitted, true});
+    models.push_back({"SAG fitted (generic gate)", fitted, false});
   }
   std::vector<std::string> rooms{""};  // "" = the clean studio
   for (const std::string& room : options.rooms) {
@@ -77,7 +88,7 @@ std::string runRoomBenchmark(const BenchmarkOptions& options, std::ostream& log)
       const bool hand_free = room_name.empty() || room.hand_free_frames;
       std::vector<studio::RoomRunConfig> configs;
       std::vector<Row> pending;
-      for (const auto& [label, model] : models) {
+      for (const TrackedModel& tracked : models) {
         for (const std::string segmentation : {"skin", "plate"}) {
           if (segmentation == std::string("plate") && !hand_free) continue;
           for (const bool cues : {false, true}) {
@@ -87,7 +98,8 @@ std::string runRoomBenchmark(const BenchmarkOptions& options, std::ostream& log)
               continue;
             }
             studio::RoomRunConfig run;
-            run.model = model;
+            run.model = tracked.model;
+            run.pipeline.skin_gate_from_model = tracked.skin_gate_from_model;
             run.pipeline.tracker.optimizer.iterations = options.iterations;
             run.pipeline.segmentation.room.enabled = cues;
             if (segmentation == std::string("skin")) {
@@ -97,13 +109,13 @@ std::string runRoomBenchmark(const BenchmarkOptions& options, std::ostream& log)
               run.pipeline.segmentation.mode = SegmentationMode::kPlate;
               run.pipeline.background_frames = 10;
             }
-            run.label = label + " " + segmentation + (cues ? " + room cues" : "");
+            run.label = tracked.label + " " + segmentation + (cues ? " + room cues" : "");
             configs.push_back(run);
             pending.push_back({sequence_stem,
                                room_name.empty() ? "clean" : room_name,
                                segmentation,
                                cues,
-                               label,
+                               tracked.label,
                                {}});
           }
         }

@@ -15,6 +15,7 @@
 #include "sag_hand_tracker/optimization/optimizer.h"
 #include "sag_hand_tracker/ros/package_config.h"
 #include "sag_hand_tracker/util/atomic_output.h"
+#include "sag_hand_tracker/util/number_text.h"
 #include "sag_hand_tracker/util/timing.h"
 #include "sag_hand_tracker/util/types.h"
 
@@ -79,6 +80,9 @@ Options:
   --no-room-cues           the skin gate or the plate alone
   --fixed-colours          keep the model's colours (default: learnt while tracking, palm
                            Gaussians each, fingers together; the live graph's colour_adaptation)
+  --generic-skin-gate      without a plate, the generic skin-colour gate even when the model's
+                           colours are the user's (default: a model from calibrate_hand gives
+                           the gate around its colours, which drops wood and cardboard)
   --overwrite              replace a file already at --out (default: refused before the bag is
                            read)
   --quiet                  no progress bar
@@ -113,6 +117,8 @@ TrackBagOptions parseTrackBagArguments(const std::vector<std::string>& args) {
       options.room_cues = false;
     } else if (arg == "--fixed-colours") {
       options.fixed_colours = true;
+    } else if (arg == "--generic-skin-gate") {
+      options.generic_skin_gate = true;
     } else if (arg == "--overwrite") {
       options.overwrite = true;
     } else {
@@ -147,6 +153,7 @@ std::string formatSummary(const TrackBagSummary& summary) {
   if (summary.dropped_images > 0) out << ", " << summary.dropped_images << " images dropped";
   out << "\n";
   out << "  cameras:   " << summary.cameras.size() << " (" << names << ")\n";
+  if (!summary.skin_gate.empty()) out << "  skin gate: " << summary.skin_gate << "\n";
   out << "  speed:     " << fps << " frames/s (segmentation + optimisation over "
       << after_background << " frames, decode excluded); per frame: segmentation "
       << formatMillis(summary.segmentation_seconds, after_background) << ", optimisation "
@@ -310,6 +317,7 @@ PipelineParams trackBagPipelineParams(const TrackBagOptions& options) {
   params.background_frames = options.background_frames;
   params.segmentation.room.enabled = options.room_cues.value_or(options.background_frames == 0);
   params.tracker.colour_adaptation.enabled = !options.fixed_colours;
+  params.skin_gate_from_model = !options.generic_skin_gate;
   return params;
 }
 
@@ -355,6 +363,18 @@ TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
       stop);
   summary.csv = options.out;
   summary.out_existed = out_existed;
+  if (params.background_frames == 0) {
+    const SkinParams& gate = pipeline.params().segmentation.skin;
+    summary.skin_gate =
+        (params.skin_gate_from_model && model.colours_fitted
+             ? "the model's colours (the user's skin): "
+             : std::string(model.colours_fitted ? "generic (--generic-skin-gate): "
+                                                : "generic (the model's colours are not the "
+                                                  "user's; calibrate_hand gives them): ")) +
+        "hue " + shortNumber(gate.hue_min_deg) + ".." + shortNumber(gate.hue_max_deg) +
+        " deg, saturation " + shortNumber(gate.saturation_min) + ".." +
+        shortNumber(gate.saturation_max) + ", value >= " + shortNumber(gate.value_min);
+  }
   summary.csv_written = commitsTrackCsv(summary, csv.rows());
   if (summary.csv_written) out.commit();
   return summary;

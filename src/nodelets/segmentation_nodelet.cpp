@@ -14,8 +14,11 @@
 //   save_background (true: after learning, write the plate to background_file), room_cues (false;
 //   the launch files set it to mode == skin: SegmentationParams::room.enabled, below),
 //   region_timeout (0.5 s), max_candidates (4) and region_margin_cells (2) (MultiViewParams'
-//   max_candidates_per_view, region_margin_cells), plus cfg/Segmentation.cfg (mode, quad-tree
-//   thresholds, background_frames, relearn_background).
+//   max_candidates_per_view, region_margin_cells), skin_model ("": a hand model file whose
+//   colours are the user's, from calibrate_hand or ~calibrate; the skin gate is then the one
+//   around them, personalSkinGate, as track_bag does with such a model; graph.launch passes its
+//   model argument when that is a file), plus cfg/Segmentation.cfg (mode, quad-tree thresholds,
+//   background_frames, relearn_background).
 // Room cues (issue 11; ros/live_room_cues.h, doc/segmentation.md "The live graph"): with a fresh
 //   tracked hand_region (stamped within region_timeout of the image) the foreground is kept inside
 //   its projected silhouette (projectedHandMask with this camera_info; SoG region TRACKED and
@@ -38,18 +41,22 @@
 #include <sensor_msgs/image_encodings.h>
 #include <pluginlib/class_list_macros.hpp>
 
+#include <cstdio>
 #include <fstream>
 #include <memory>
 #include <mutex>
 #include <opencv2/imgproc.hpp>
+#include <string>
 
 #include "sag_hand_tracker/SegmentationConfig.h"
+#include "sag_hand_tracker/model/hand_model.h"
 #include "sag_hand_tracker/ros/checked_subscription.h"
 #include "sag_hand_tracker/ros/conversions.h"
 #include "sag_hand_tracker/ros/image_transport_lock.h"
 #include "sag_hand_tracker/ros/live_room_cues.h"
 #include "sag_hand_tracker/ros/sog_conversions.h"
 #include "sag_hand_tracker/ros/throttled_warnings.h"
+#include "sag_hand_tracker/segmentation/background_plate.h"
 #include "sag_hand_tracker/segmentation/quadtree_segmentation.h"
 
 namespace sag_hand_tracker {
@@ -78,6 +85,7 @@ class SegmentationNodelet : public nodelet::Nodelet {
     {
       SegmentationParams params = segmenter_.params();
       params.room.enabled = room_cues_;
+      params.skin = skinGateOf(pnh.param<std::string>("skin_model", ""), params.skin);
       segmenter_.setParams(params);
     }
     {
@@ -109,6 +117,38 @@ class SegmentationNodelet : public nodelet::Nodelet {
     // inside roscpp's Publication::peerDisconnect during bag replay.
     subscription_timer_ = nh.createWallTimer(
         ros::WallDuration(0.1), [this](const ros::WallTimerEvent&) { updateSubscription(); });
+  }
+
+  // The user's skin gate from the colours of the model at `path` (skin_model), or `generic` when
+  // there is no such model: a file that cannot be read, or colours that are not the user's.
+  // Logged now, and again with the first segmented image (skin_gate_note_).
+  SkinParams skinGateOf(const std::string& path, const SkinParams& generic) {
+    if (path.empty()) return generic;
+    try {
+      const HandModel model = loadHandModel(path);
+      if (!model.colours_fitted) {
+        skin_gate_note_ = "skin_model " + path +
+                          ": its colours are not the user's (no 'colours: fitted'; calibrate_hand "
+                          "or ~calibrate give them)";
+        skin_gate_note_is_problem_ = true;
+        NODELET_WARN("%s; the generic skin gate stays", skin_gate_note_.c_str());
+        return generic;
+      }
+      const SkinParams gate = personalSkinGate(model);
+      char ranges[160];
+      std::snprintf(ranges, sizeof(ranges),
+                    "hue %.1f..%.1f deg, saturation %.2f..%.2f, value >= %.2f", gate.hue_min_deg,
+                    gate.hue_max_deg, gate.saturation_min, gate.saturation_max, gate.value_min);
+      skin_gate_note_ = "the skin gate from " + path + ": " + ranges;
+      skin_gate_note_is_problem_ = false;
+      NODELET_INFO("%s", skin_gate_note_.c_str());
+      return gate;
+    } catch (const std::exception& e) {
+      skin_gate_note_ = std::string("skin_model: ") + e.what();
+      skin_gate_note_is_problem_ = true;
+      NODELET_ERROR("%s; the generic skin gate stays", skin_gate_note_.c_str());
+      return generic;
+    }
   }
 
   void loadBackgroundFile() {
@@ -222,6 +262,16 @@ class SegmentationNodelet : public nodelet::Nodelet {
         }
         return;
       }
+      if (!skin_gate_note_.empty()) {
+        // Said again with the first image it segments: the start-up line scrolls away, and a
+        // skin_model that was not used changes what is kept in every image.
+        if (skin_gate_note_is_problem_) {
+          NODELET_WARN("segmenting with the generic skin gate: %s", skin_gate_note_.c_str());
+        } else {
+          NODELET_INFO("segmenting with %s", skin_gate_note_.c_str());
+        }
+        skin_gate_note_.clear();
+      }
       std::vector<HandCandidate> candidates;
       std::uint8_t region = SumOfGaussians::REGION_NONE;
       if (room_cues_) region = setRoomRegion(rgb, *image, *info, &candidates);
@@ -286,6 +336,9 @@ class SegmentationNodelet : public nodelet::Nodelet {
   std::string background_file_;
   bool save_background_ = false;
   bool room_cues_ = false;
+  // What skin_model gave (skinGateOf), said once more with the first segmented image.
+  std::string skin_gate_note_;
+  bool skin_gate_note_is_problem_ = false;
   double region_timeout_ = 0.5;
   int max_candidates_ = 4;
   int region_margin_cells_ = 2;

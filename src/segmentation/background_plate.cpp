@@ -7,6 +7,7 @@
 
 #include "sag_hand_tracker/energy/colour.h"
 #include "sag_hand_tracker/segmentation/background_plate.h"
+#include "sag_hand_tracker/util/number_text.h"
 #include "segmentation_internal.h"
 
 namespace sag_hand_tracker {
@@ -19,6 +20,58 @@ bool isSkinColour(const Eigen::Vector3d& rgb, const SkinParams& params) {
   double offset = std::fmod(hsv[0] - params.hue_min_deg, 360.0);
   if (offset < 0.0) offset += 360.0;
   return offset <= params.hue_max_deg - params.hue_min_deg;
+}
+
+SkinParams personalSkinGate(const std::vector<Hsv>& colours, const PersonalSkinGateParams& params) {
+  if (colours.empty())
+    throw InputError("personal skin gate: no colours (a model without Gaussians?)");
+  if (!(params.hue_margin_deg >= 0.0 && params.saturation_low_factor >= 0.0 &&
+        params.saturation_high_factor >= params.saturation_low_factor &&
+        params.value_factor >= 0.0)) {
+    throw InputError(
+        "personal skin gate: the margins must be >= 0 (and the high saturation factor "
+        ">= the low one)");
+  }
+  // Hues relative to their circular mean, so that colours on both sides of 0/360 form one range.
+  Eigen::Vector2d direction = Eigen::Vector2d::Zero();
+  for (size_t i = 0; i < colours.size(); ++i) {
+    const Hsv& c = colours[i];
+    if (!c.allFinite() || c[1] < 0.0 || c[1] > 1.0 || c[2] < 0.0 || c[2] > 1.0) {
+      throw InputError("personal skin gate: colour " + std::to_string(i) + " (hsv " +
+                       shortNumber(c[0]) + ", " + shortNumber(c[1]) + ", " + shortNumber(c[2]) +
+                       ") is not a colour (saturation and value in [0, 1])");
+    }
+    const double hue = c[0] * M_PI / 180.0;
+    direction += Eigen::Vector2d(std::cos(hue), std::sin(hue));
+  }
+  const double centre = std::atan2(direction.y(), direction.x()) * 180.0 / M_PI;
+  double low = 180.0, high = -180.0;
+  double saturation_min = 1.0, saturation_max = 0.0, value_min = 1.0;
+  for (const Hsv& c : colours) {
+    double offset = std::fmod(c[0] - centre, 360.0);
+    if (offset > 180.0) offset -= 360.0;
+    if (offset <= -180.0) offset += 360.0;
+    low = std::min(low, offset);
+    high = std::max(high, offset);
+    saturation_min = std::min(saturation_min, c[1]);
+    saturation_max = std::max(saturation_max, c[1]);
+    value_min = std::min(value_min, c[2]);
+  }
+  SkinParams gate;
+  gate.hue_min_deg = centre + low - params.hue_margin_deg;
+  gate.hue_max_deg = centre + high + params.hue_margin_deg;
+  if (gate.hue_max_deg - gate.hue_min_deg > 360.0) gate.hue_max_deg = gate.hue_min_deg + 360.0;
+  gate.saturation_min = params.saturation_low_factor * saturation_min;
+  gate.saturation_max = std::min(1.0, params.saturation_high_factor * saturation_max);
+  gate.value_min = params.value_factor * value_min;
+  return gate;
+}
+
+SkinParams personalSkinGate(const HandModel& model, const PersonalSkinGateParams& params) {
+  std::vector<Hsv> colours;
+  colours.reserve(model.gaussians.size());
+  for (const ModelGaussian& g : model.gaussians) colours.push_back(g.hsv);
+  return personalSkinGate(colours, params);
 }
 
 bool isDarkNonSkin(const Eigen::Vector3d& rgb, const BackgroundParams& params) {

@@ -723,6 +723,14 @@ void ImageSegmenter::resetRoomState() {
   model_silhouette_ = cv::Mat();
 }
 
+void ImageSegmenter::forgetTrackedHand() {
+  room_.skin_frames = 0;
+  room_.skin_mean[0] = room_.skin_mean[1] = 0.0;
+  room_.skin_cov[0] = room_.skin_cov[1] = room_.skin_cov[2] = 0.0;
+  room_.hand_colour.clear();
+  room_.background_colour.clear();
+}
+
 cv::Mat ImageSegmenter::lastForegroundMask() const {
   if (!room_.pixel_mask.empty()) return room_.pixel_mask.clone();
   if (room_.mask.empty()) return cv::Mat();

@@ -13,13 +13,16 @@
 namespace sag_hand_tracker {
 namespace {
 
-PipelineParams adjusted(PipelineParams params) {
+PipelineParams adjusted(PipelineParams params, const HandModel& model) {
   if (params.background_frames < 0) {
     throw InputError("background_frames must be >= 0, got " +
                      std::to_string(params.background_frames));
   }
   if (params.background_frames > 0) {
     params.segmentation.background.frames = params.background_frames;
+  }
+  if (params.skin_gate_from_model && model.colours_fitted) {
+    params.segmentation.skin = personalSkinGate(model, params.personal_skin_gate);
   }
   validate(params.segmentation);
   validate(params.multi_view);
@@ -95,7 +98,7 @@ double modelOnForeground(const PosedHand& hand, const std::vector<Camera>& camer
 
 TrackingPipeline::TrackingPipeline(const HandModel& model, const std::vector<Camera>& cameras,
                                    const PipelineParams& params)
-    : cameras_(cameras), params_(adjusted(params)), tracker_(model, params.tracker) {
+    : cameras_(cameras), params_(adjusted(params, model)), tracker_(model, params.tracker) {
   if (static_cast<int>(cameras_.size()) < params_.tracker.min_cameras_for_start) {
     throw InputError("the tracker starts from at least " +
                      std::to_string(params_.tracker.min_cameras_for_start) +
@@ -164,6 +167,14 @@ bool TrackingPipeline::chooseRegionsAcrossViews(const FrameSet& set, bool tracki
             : replacesTrack(choice, at_track, params_.multi_view);
     if (!replace) return false;
     tracker_.reset();
+    // A provisional track was on something still (a face, a photograph): what the segmenters
+    // learned from it as the hand's colours would keep the hand out (a fitted model's own skin
+    // gate made the office's face such a start: 12.9 mm instead of 3.6 on adbadd, doc/
+    // segmentation.md "Session 22"). A confirmed track that is replaced was on moving skin: its
+    // colours are kept (forgetting them too cost daylight pinch 0.6 mm).
+    if (provisional_track_) {
+      for (ImageSegmenter& segmenter : segmenters_) segmenter.forgetTrackedHand();
+    }
     tracked_regions_ = false;
     provisional_track_ = false;
   }

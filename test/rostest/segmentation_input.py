@@ -13,20 +13,13 @@ from rosgraph_msgs.msg import Log
 from sensor_msgs.msg import CameraInfo, Image
 from sag_hand_tracker.msg import SumOfGaussians
 
+from camera_messages import pinhole_info
+
 W, H = 160, 120
 
 
-def make_info(stamp, w=W, h=H):
-    info = CameraInfo()
-    info.header.stamp = stamp
-    info.header.frame_id = "cam0_optical_frame"
-    info.width, info.height = w, h
-    info.distortion_model = "plumb_bob"
-    info.D = [0.0] * 5
-    info.K = [150.0, 0, W / 2.0, 0, 150.0, H / 2.0, 0, 0, 1]
-    info.R = [1, 0, 0, 0, 1, 0, 0, 0, 1]
-    info.P = [150.0, 0, W / 2.0, 0, 0, 150.0, H / 2.0, 0, 0, 0, 1, 0]
-    return info
+def make_info(stamp):
+    return pinhole_info(stamp, "cam0_optical_frame", W, H)
 
 
 def make_image(stamp, w=W, h=H, encoding="rgb8", square=False):

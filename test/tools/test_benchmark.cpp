@@ -509,7 +509,8 @@ TEST(BenchmarkArguments, BenchmarkParsesTheFittedOptions) {
   // The fitted runs' label must not be taken by a model file.
   EXPECT_THROW(parseBenchmarkArguments({"--fitted", "--models", "sag,/tmp/fitted.yaml"}),
                UsageError);
-  EXPECT_THROW(parseBenchmarkArguments({"--fitted", "--rooms", "office"}), UsageError);
+  // With the rooms: the default hand's fitted model beside the --models (runRoomBenchmark).
+  EXPECT_TRUE(parseBenchmarkArguments({"--fitted", "--rooms", "office"}).fitted);
   EXPECT_THROW(parseBenchmarkArguments({"--routine-frames", "0"}), UsageError);
   EXPECT_EQ(plain.fit_sequence, "calibration_routine");
   EXPECT_EQ(parseBenchmarkArguments({"--fitted", "--fit-sequence", "random", "--models", "sag"})

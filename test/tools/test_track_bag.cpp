@@ -18,6 +18,8 @@
 #include "sag_hand_tracker/apps/csv.h"
 #include "sag_hand_tracker/ros/bag_output.h"
 #include "sag_hand_tracker/ros/conversions.h"
+#include "sag_hand_tracker/segmentation/background_plate.h"
+#include "sag_hand_tracker/util/number_text.h"
 #include "test_support/rendered_scene.h"
 
 using namespace sag_hand_tracker;
@@ -128,6 +130,36 @@ TEST_F(TrackBagTool, TrackBagTracksASyntheticBagFromItsFirstFrame) {
   ASSERT_EQ(subset.status, 0) << subset.err;
   EXPECT_EQ(subset.err, "");
   EXPECT_NE(subset.out.find("cameras:   3 (cam0 cam2 cam3)"), std::string::npos) << subset.out;
+}
+
+// Without a plate, a model whose colours are the user's (calibrate_hand's) brings its own skin
+// gate (PipelineParams::skin_gate_from_model); the summary says which gate segmented the images.
+TEST_F(TrackBagTool, TrackBagSaysWhichSkinGateItUsed) {
+  writeSceneBag("scene.bag");
+  const std::string fitted = std::string(SAG_SOURCE_DIR) + "/test/data/default_fitted.yaml";
+  auto run = [&](const std::string& model, const std::string& options, const std::string& out) {
+    return trackBag("--bag '" + path("scene.bag") + "' --out '" + path(out) + "' --model '" +
+                    model + "' --quiet " + options);
+  };
+  const ToolRun own = run(fitted, "--background-frames 0", "own.csv");
+  EXPECT_EQ(own.status, 0) << own.err;
+  const SkinParams gate = personalSkinGate(loadHandModel(fitted));
+  EXPECT_NE(
+      own.out.find("skin gate: the model's colours (the user's skin): hue " +
+                   shortNumber(gate.hue_min_deg) + ".." + shortNumber(gate.hue_max_deg) + " deg"),
+      std::string::npos)
+      << own.out;
+  const ToolRun generic = run(fitted, "--background-frames 0 --generic-skin-gate", "generic.csv");
+  EXPECT_NE(generic.out.find("skin gate: generic (--generic-skin-gate): hue -25..50 deg"),
+            std::string::npos)
+      << generic.out << generic.err;
+  const ToolRun default_model =
+      run(sag_test::modelPath("sag"), "--background-frames 0", "default.csv");
+  EXPECT_NE(default_model.out.find("skin gate: generic (the model's colours are not the user's"),
+            std::string::npos)
+      << default_model.out << default_model.err;
+  const ToolRun plate = run(fitted, "--background-frames 3", "plate.csv");
+  EXPECT_EQ(plate.out.find("skin gate:"), std::string::npos) << plate.out;
 }
 
 TEST_F(TrackBagTool, TrackBagReportsAnEmptyResult) {

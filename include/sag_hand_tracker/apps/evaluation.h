@@ -60,6 +60,7 @@ struct BenchmarkOptions {
   std::vector<std::string> room_configs{"skin", "skin+cues", "plate", "plate+cues"};
   // --fitted: per hand shape, fit the model to the calibration routine rendered on that hand and
   // track with it too (tracker "fitted"); needs "sag" among the models, the default it starts from.
+  // With --rooms: the default hand's fit, tracked in the rooms (runRoomBenchmark's fitted_model).
   bool fitted = false;
   int routine_frames = 0;  // --routine-frames N of the rendered routine (0: its full length)
   // --fit-sequence NAME: fit from this motion rendered on each hand (the first --routine-frames

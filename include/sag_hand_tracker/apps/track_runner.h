@@ -39,6 +39,9 @@ struct TrackBagOptions {
   std::optional<bool> room_cues;
   // --fixed-colours: TrackerParams::colour_adaptation off (the model's colours as loaded)
   bool fixed_colours = false;
+  // --generic-skin-gate: the skin gate of SegmentationParams::skin even with a model whose colours
+  // are the user's (PipelineParams::skin_gate_from_model off)
+  bool generic_skin_gate = false;
   std::string root_frame;  // --root-frame FRAME (empty: the root of the bag's tf tree)
   double stamp_tolerance = BagReaderOptions().stamp_tolerance;  // --stamp-tolerance S
   bool overwrite = false;  // --overwrite: replace a file at --out (default: refused)
@@ -85,6 +88,9 @@ struct TrackBagSummary {
   std::string first_near_stamp_mismatch;
   int tolerated_stamps = 0;  // see BagReaderStatistics
   double largest_stamp_difference = 0.0;
+  // Without a plate: which skin gate segmented the images ("generic", or the user's from the
+  // model's colours with its ranges); empty with a plate.
+  std::string skin_gate;
 
   // Frames per second of the pipeline (segmentation + optimisation, decode excluded) over the
   // sets after the background phase; 0 when there were none.

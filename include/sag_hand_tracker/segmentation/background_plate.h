@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "sag_hand_tracker/model/hand_model.h"
 #include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
@@ -51,6 +52,33 @@ struct SkinParams {
   double saturation_max = 0.8;
   double value_min = 0.2;
 };
+
+// The user's own skin gate (issue 11): the generic gate above keeps every beige, wooden or orange
+// thing; a hand model whose colours were sampled from the user's hand (calibrate_hand, the
+// tracker's ~calibrate: HandModel::colours_fitted) gives a gate around those colours instead. The
+// margins allow for other light than at the calibration: the hue range of the colours widened by
+// hue_margin_deg on each side, the saturation range by the factors below, and value down to
+// value_factor of the darkest colour (shading, a dimmer room). In the studio's kitchen the generic
+// gate keeps the wooden table joined with the hand and the track never starts; this one drops the
+// table (doc/segmentation.md, "Session 22").
+struct PersonalSkinGateParams {
+  double hue_margin_deg = 12.0;
+  double saturation_low_factor = 0.6;
+  double saturation_high_factor = 1.6;
+  double value_factor = 0.4;
+};
+
+// The skin gate around `colours` (HSV: hue degrees, saturation and value in [0, 1]; hues may lie
+// on both sides of 0/360). Throws InputError when there is no colour or one is not finite or out
+// of range, or for negative margins.
+SkinParams personalSkinGate(const std::vector<Hsv>& colours,
+                            const PersonalSkinGateParams& params = PersonalSkinGateParams());
+
+// personalSkinGate of the model's Gaussians' colours: the user's gate when the colours are the
+// user's (HandModel::colours_fitted; TrackingPipeline and the segmentation nodelet's skin_model
+// use it only then).
+SkinParams personalSkinGate(const HandModel& model,
+                            const PersonalSkinGateParams& params = PersonalSkinGateParams());
 
 // Skin-colour gate on one colour (RGB in [0, 255]).
 bool isSkinColour(const Eigen::Vector3d& rgb, const SkinParams& params);

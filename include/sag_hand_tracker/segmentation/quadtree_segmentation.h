@@ -284,6 +284,10 @@ class ImageSegmenter {
   bool skinColourLearned() const { return room_.skin_frames > 0; }
   // Forgets the motion history, the learned skin colour and the region of interest.
   void resetRoomState();
+  // Forgets what was learned from a tracked hand (cue 1's skin colour, cue 6's histograms) and
+  // keeps the scene's history (motion, cue 8's ages): for a track that turned out to be something
+  // else and is replaced (TrackingPipeline's re-check), whose colours are not the hand's.
+  void forgetTrackedHand();
 
  private:
   SegmentationParams params_;

@@ -41,6 +41,12 @@ struct PipelineParams {
   // the segmentation then uses the skin-colour gate (ImageSegmenter::effectiveMode). When > 0 it
   // also sets segmentation.background.frames, so that the plates are ready after these sets.
   int background_frames = 10;
+  // With a model whose colours are the user's (HandModel::colours_fitted: calibrate_hand, the
+  // tracker's ~calibrate), the skin gate is the one around them (personalSkinGate) instead of
+  // segmentation.skin: the generic gate keeps wood, cardboard and coffee (doc/segmentation.md,
+  // "Session 22"). false: segmentation.skin whatever the model.
+  bool skin_gate_from_model = true;
+  PersonalSkinGateParams personal_skin_gate;
 };
 
 // The box around a posed hand in one camera's image (pixels, clipped to the image; empty when the
