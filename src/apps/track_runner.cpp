@@ -365,15 +365,20 @@ TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
   summary.out_existed = out_existed;
   if (params.background_frames == 0) {
     const SkinParams& gate = pipeline.params().segmentation.skin;
-    summary.skin_gate =
-        (params.skin_gate_from_model && model.colours_fitted
-             ? "the model's colours (the user's skin): "
-             : std::string(model.colours_fitted ? "generic (--generic-skin-gate): "
-                                                : "generic (the model's colours are not the "
-                                                  "user's; calibrate_hand gives them): ")) +
-        "hue " + shortNumber(gate.hue_min_deg) + ".." + shortNumber(gate.hue_max_deg) +
-        " deg, saturation " + shortNumber(gate.saturation_min) + ".." +
-        shortNumber(gate.saturation_max) + ", value >= " + shortNumber(gate.value_min);
+    std::string source;
+    if (pipeline.skinGateFromModel()) {
+      source = "the model's colours (the user's skin): ";
+    } else if (!pipeline.skinGateProblem().empty()) {
+      source = "generic, not the model's (" + pipeline.skinGateProblem() + "): ";
+    } else if (model.colours_fitted) {
+      source = "generic (--generic-skin-gate): ";
+    } else {
+      source = "generic (the model's colours are not the user's; calibrate_hand gives them): ";
+    }
+    summary.skin_gate = source + "hue " + shortNumber(gate.hue_min_deg) + ".." +
+                        shortNumber(gate.hue_max_deg) + " deg, saturation " +
+                        shortNumber(gate.saturation_min) + ".." + shortNumber(gate.saturation_max) +
+                        ", value >= " + shortNumber(gate.value_min);
   }
   summary.csv_written = commitsTrackCsv(summary, csv.rows());
   if (summary.csv_written) out.commit();

@@ -44,6 +44,22 @@ SkinParams personalSkinGate(const std::vector<Hsv>& colours, const PersonalSkinG
     const double hue = c[0] * M_PI / 180.0;
     direction += Eigen::Vector2d(std::cos(hue), std::sin(hue));
   }
+  // Colours sampled from something else than skin (a fit that took the background) would make a
+  // gate that keeps the wrong things: most of them must pass the generic gate they replace.
+  const SkinParams generic;
+  int skin_like = 0;
+  for (const Hsv& c : colours) {
+    skin_like += isSkinColour(hsvToRgb(c) * 255.0, generic) ? 1 : 0;
+  }
+  if (4 * skin_like < 3 * static_cast<int>(colours.size())) {
+    throw InputError(
+        "personal skin gate: only " + std::to_string(skin_like) + " of " +
+        std::to_string(colours.size()) + " colours are skin-coloured (the generic gate's hue " +
+        shortNumber(generic.hue_min_deg) + ".." + shortNumber(generic.hue_max_deg) +
+        " deg, saturation " + shortNumber(generic.saturation_min) + ".." +
+        shortNumber(generic.saturation_max) + ", value >= " + shortNumber(generic.value_min) +
+        "); were they sampled from the hand? Calibrate again in view of the cameras");
+  }
   const double centre = std::atan2(direction.y(), direction.x()) * 180.0 / M_PI;
   double low = 180.0, high = -180.0;
   double saturation_min = 1.0, saturation_max = 0.0, value_min = 1.0;

@@ -13,16 +13,13 @@
 namespace sag_hand_tracker {
 namespace {
 
-PipelineParams adjusted(PipelineParams params, const HandModel& model) {
+PipelineParams adjusted(PipelineParams params) {
   if (params.background_frames < 0) {
     throw InputError("background_frames must be >= 0, got " +
                      std::to_string(params.background_frames));
   }
   if (params.background_frames > 0) {
     params.segmentation.background.frames = params.background_frames;
-  }
-  if (params.skin_gate_from_model && model.colours_fitted) {
-    params.segmentation.skin = personalSkinGate(model, params.personal_skin_gate);
   }
   validate(params.segmentation);
   validate(params.multi_view);
@@ -98,12 +95,20 @@ double modelOnForeground(const PosedHand& hand, const std::vector<Camera>& camer
 
 TrackingPipeline::TrackingPipeline(const HandModel& model, const std::vector<Camera>& cameras,
                                    const PipelineParams& params)
-    : cameras_(cameras), params_(adjusted(params, model)), tracker_(model, params.tracker) {
+    : cameras_(cameras), params_(adjusted(params)), tracker_(model, params.tracker) {
   if (static_cast<int>(cameras_.size()) < params_.tracker.min_cameras_for_start) {
     throw InputError("the tracker starts from at least " +
                      std::to_string(params_.tracker.min_cameras_for_start) +
                      " cameras that see the hand, but there are " +
                      std::to_string(cameras_.size()));
+  }
+  if (params_.skin_gate_from_model && model.colours_fitted) {
+    try {
+      params_.segmentation.skin = personalSkinGate(model, params_.personal_skin_gate);
+      skin_gate_from_model_ = true;
+    } catch (const InputError& e) {
+      skin_gate_problem_ = e.what();  // the generic gate stays
+    }
   }
   for (const Camera& camera : cameras_) {
     validateCamera(camera);

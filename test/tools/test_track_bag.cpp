@@ -160,6 +160,24 @@ TEST_F(TrackBagTool, TrackBagSaysWhichSkinGateItUsed) {
       << default_model.out << default_model.err;
   const ToolRun plate = run(fitted, "--background-frames 3", "plate.csv");
   EXPECT_EQ(plate.out.find("skin gate:"), std::string::npos) << plate.out;
+  // Fitted colours that are not skin (sampled from a blue desk): the generic gate, and why.
+  std::string text;
+  {
+    std::ifstream in(fitted);
+    std::stringstream buffer;
+    buffer << in.rdbuf();
+    text = buffer.str();
+  }
+  for (std::size_t at = text.find("hsv: ["); at != std::string::npos;
+       at = text.find("hsv: [", at + 1)) {
+    text.replace(at, text.find(']', at) - at + 1, "hsv: [216, 0.36, 0.55]");
+  }
+  std::ofstream(path("desk_colours.yaml")) << text;
+  const ToolRun desk = run(path("desk_colours.yaml"), "--background-frames 0", "desk.csv");
+  EXPECT_NE(desk.out.find("skin gate: generic, not the model's (personal skin gate: only 0 of 17 "
+                          "colours are skin-coloured"),
+            std::string::npos)
+      << desk.out << desk.err;
 }
 
 TEST_F(TrackBagTool, TrackBagReportsAnEmptyResult) {

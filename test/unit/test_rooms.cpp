@@ -374,6 +374,15 @@ TEST(RoomCues, TheUsersSkinGateRefusesWhatIsNoColour) {
     EXPECT_NE(std::string(e.what()).find("colour 1"), std::string::npos) << e.what();
   }
   EXPECT_THROW(personalSkinGate(std::vector<Hsv>{{NAN, 0.4, 0.7}}), InputError);
+  // Colours of a blue-grey desk (a fit that sampled the background): no skin gate from them.
+  try {
+    personalSkinGate(std::vector<Hsv>{{216.0, 0.36, 0.55}, {20.0, 0.4, 0.7}, {210.0, 0.3, 0.5}});
+    ADD_FAILURE() << "a gate from a desk's colours";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("only 1 of 3 colours are skin-coloured"),
+              std::string::npos)
+        << e.what();
+  }
   PersonalSkinGateParams negative;
   negative.hue_margin_deg = -1.0;
   EXPECT_THROW(personalSkinGate(std::vector<Hsv>{{20.0, 0.4, 0.7}}, negative), InputError);

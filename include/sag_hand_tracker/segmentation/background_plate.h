@@ -69,8 +69,9 @@ struct PersonalSkinGateParams {
 };
 
 // The skin gate around `colours` (HSV: hue degrees, saturation and value in [0, 1]; hues may lie
-// on both sides of 0/360). Throws InputError when there is no colour or one is not finite or out
-// of range, or for negative margins.
+// on both sides of 0/360). Throws InputError when there is no colour, one is not finite or out of
+// range, fewer than 3 in 4 pass the generic gate (SkinParams(): colours sampled from something
+// else than skin), or for negative margins.
 SkinParams personalSkinGate(const std::vector<Hsv>& colours,
                             const PersonalSkinGateParams& params = PersonalSkinGateParams());
 

@@ -97,6 +97,11 @@ class TrackingPipeline {
 
   const std::vector<Camera>& cameras() const { return cameras_; }
   const PipelineParams& params() const { return params_; }
+  // Whether params().segmentation.skin is the model's own gate (PipelineParams::
+  // skin_gate_from_model), and why not when the model's colours could not give one (empty: they
+  // were not asked for, or gave it).
+  bool skinGateFromModel() const { return skin_gate_from_model_; }
+  const std::string& skinGateProblem() const { return skin_gate_problem_; }
   const HandTracker& tracker() const { return tracker_; }
   const ImageSegmenter& segmenter(int camera) const { return segmenters_.at(camera); }
   // The foreground of each camera's last segmented image (ImageSegmenter::lastForegroundMask), or
@@ -128,6 +133,8 @@ class TrackingPipeline {
 
   std::vector<Camera> cameras_;
   PipelineParams params_;
+  bool skin_gate_from_model_ = false;
+  std::string skin_gate_problem_;
   std::vector<ImageSegmenter> segmenters_;
   HandTracker tracker_;
   int sets_seen_ = 0;
