@@ -8,6 +8,9 @@
 //        foreground the SoG was made of, for overlays and the graph tests' precision)
 //   in (room_cues only): hand_region (sag_hand_tracker/HandRegion, from the tracker's
 //        cam<i>/hand_region: the tracked hand in this camera's frame)
+//   in: skin_gate (sag_hand_tracker/SkinGate; graph.launch remaps it to the tracker's latched
+//        ~skin_gate: the skin gate around the colours of the user's calibrated model, at start and
+//        after ~calibrate); it replaces the gate in use (skin_model's or the generic one)
 // Lazy: the camera is subscribed only while `sog` has subscribers, so the plate too is learned
 // only then.
 // Private parameters: background_file (load the plate from it when it exists; "" = learn),
@@ -16,9 +19,10 @@
 //   region_timeout (0.5 s), max_candidates (4) and region_margin_cells (2) (MultiViewParams'
 //   max_candidates_per_view, region_margin_cells), skin_model ("": a hand model file whose
 //   colours are the user's, from calibrate_hand or ~calibrate; the skin gate is then the one
-//   around them, personalSkinGate, as track_bag does with such a model; graph.launch passes its
-//   model argument when that is a file), plus cfg/Segmentation.cfg (mode, quad-tree thresholds,
-//   background_frames, relearn_background).
+//   around them, personalSkinGate, as track_bag does with such a model; for a segmentation
+//   without the tracker: in graph.launch the tracker sends its model's gate on skin_gate),
+//   plus cfg/Segmentation.cfg (mode, quad-tree thresholds, background_frames,
+//   relearn_background).
 // Room cues (issue 11; ros/live_room_cues.h, doc/segmentation.md "The live graph"): with a fresh
 //   tracked hand_region (stamped within region_timeout of the image) the foreground is kept inside
 //   its projected silhouette (projectedHandMask with this camera_info; SoG region TRACKED and
@@ -31,6 +35,7 @@
 // The plate is learned from the first background_frames images (the hand must be out of view);
 // nothing is published for those images.
 #include "sag_hand_tracker/HandRegion.h"
+#include "sag_hand_tracker/SkinGate.h"
 #include "sag_hand_tracker/SumOfGaussians.h"
 
 #include <cv_bridge/cv_bridge.h>
@@ -92,6 +97,11 @@ class SegmentationNodelet : public nodelet::Nodelet {
       std::lock_guard<std::mutex> plugins(imageTransportMutex());
       it_ = std::make_unique<image_transport::ImageTransport>(nh);
     }
+    skin_gate_sub_ = subscribeChecked<SkinGate>(
+        nh, "skin_gate", 1, [this](const SkinGate::ConstPtr& msg) { onSkinGate(*msg); },
+        [this](const std::string& problem) {
+          warn("malformed message on skin_gate dropped (" + problem + ")");
+        });
     if (room_cues_) {
       region_sub_ = subscribeChecked<HandRegion>(
           nh, "hand_region", 2,
@@ -121,6 +131,26 @@ class SegmentationNodelet : public nodelet::Nodelet {
 
   // The user's skin gate from the colours of the model at `path` (skin_model), or `generic` when
   // there is no such model: a file that cannot be read, or colours that are not the user's.
+  // A gate from the tracker (skin_gate): used from the next image on; a bad one is said and the
+  // gate in use stays.
+  void onSkinGate(const SkinGate& msg) {
+    try {
+      const SkinParams gate = skinGateFromMsg(msg);
+      std::lock_guard<std::mutex> lock(mutex_);
+      SegmentationParams params = segmenter_.params();
+      params.skin = gate;
+      segmenter_.setParams(params);
+      skin_gate_note_.clear();  // skin_model's gate is replaced
+      NODELET_INFO(
+          "skin gate from the tracker (%s): hue %.1f..%.1f deg, saturation %.2f..%.2f, "
+          "value >= %.2f",
+          msg.source.c_str(), gate.hue_min_deg, gate.hue_max_deg, gate.saturation_min,
+          gate.saturation_max, gate.value_min);
+    } catch (const InputError& e) {
+      warn(std::string("skin_gate message ignored, the skin gate in use stays: ") + e.what());
+    }
+  }
+
   // Logged now, and again with the first segmented image (skin_gate_note_).
   SkinParams skinGateOf(const std::string& path, const SkinParams& generic) {
     if (path.empty()) return generic;
@@ -343,6 +373,7 @@ class SegmentationNodelet : public nodelet::Nodelet {
   int max_candidates_ = 4;
   int region_margin_cells_ = 2;
   ros::Subscriber region_sub_;
+  ros::Subscriber skin_gate_sub_;
   HandRegion::ConstPtr region_;          // the latest hand_region (guarded by mutex_)
   HandRegion::ConstPtr applied_region_;  // the one the segmenter's region comes from
   bool learned_logged_ = false;

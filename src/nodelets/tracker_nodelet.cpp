@@ -6,7 +6,10 @@
 //   in:  cam<i>/sog (sag_hand_tracker/SumOfGaussians), cam<i>/camera_info,
 //        cam<i>/image_raw (only while cam<i>/overlay has subscribers)
 //   out: joint_states, markers, fingertips, status, cam<i>/overlay, /tf, /diagnostics,
-//        cam<i>/hand_region (sag_hand_tracker/HandRegion; room_cues only)
+//        cam<i>/hand_region (sag_hand_tracker/HandRegion; room_cues only),
+//        cam<i>/skin_gate (sag_hand_tracker/SkinGate, latched: the skin gate around the model's
+//        colours when they are the user's, at start and after each ~calibrate; each camera's
+//        segmentation takes it)
 //   service: ~calibrate (sag_hand_tracker/Calibrate, below)
 // Private parameters: num_cameras (5), root_frame (world), model ("sag", "sog" or a path),
 //   handedness (right|left), camera_timeout (0.5 s), time_jump_threshold (1.0 s),
@@ -22,7 +25,8 @@
 //   re-detecting worker's nice value above the frame path's; 0-19), search_threads (2: threads of
 //   one start or re-detection search, which give the same result as one; 1-16), room_cues
 //   (false; the launch files set it to mode == skin), multi_view (true) and recheck_interval (1)
-//   (below), plus the dynamic_reconfigure parameters of cfg/Tracker.cfg.
+//   (below), skin_gate_from_model (true: publish cam<i>/skin_gate, above; false: the segmentations
+//   keep their own gate), plus the dynamic_reconfigure parameters of cfg/Tracker.cfg.
 //
 // Room cues (issue 11; ros/live_room_cues.h, doc/segmentation.md "The live graph"; the segmentation
 // nodelets' room_cues must be on too): after every set the tracked hand is published to each
@@ -156,7 +160,8 @@ class TrackerNodelet : public nodelet::Nodelet {
     ros::Subscriber info_sub;
     sensor_msgs::CameraInfo::ConstPtr info;
     image_transport::Publisher overlay_pub;
-    ros::Publisher region_pub;  // cam<i>/hand_region (room_cues only)
+    ros::Publisher region_pub;     // cam<i>/hand_region (room_cues only)
+    ros::Publisher skin_gate_pub;  // cam<i>/skin_gate, latched
     image_transport::Subscriber image_sub;
     std::deque<sensor_msgs::ImageConstPtr> images;  // recent images, for the overlay
   };
@@ -198,6 +203,7 @@ class TrackerNodelet : public nodelet::Nodelet {
       search_threads_ = 2;
     }
     room_cues_ = pnh.param("room_cues", false);
+    skin_gate_from_model_ = pnh.param("skin_gate_from_model", true);
     {
       MultiViewParams multi_view;
       multi_view.enabled = pnh.param("multi_view", multi_view.enabled);
@@ -274,8 +280,10 @@ class TrackerNodelet : public nodelet::Nodelet {
       // No connect callbacks: the timer below polls the subscriber count (see onTimer).
       cameras_[i].overlay_pub = it_->advertise(cam + "/overlay", 1);
       if (room_cues_) cameras_[i].region_pub = nh.advertise<HandRegion>(cam + "/hand_region", 2);
+      cameras_[i].skin_gate_pub = nh.advertise<SkinGate>(cam + "/skin_gate", 1, /*latch=*/true);
     }
     plugins.unlock();
+    publishSkinGate(model_, model_name);
 
     diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
     diagnostics_->setHardwareID("sag_hand_tracker");
@@ -846,8 +854,28 @@ class TrackerNodelet : public nodelet::Nodelet {
       model_label_ = request.save_path.empty() ? "fitted (not saved)" : request.save_path;
     }
     summary << "; the tracker now uses the fitted model";
+    publishSkinGate(fit.model, request.save_path.empty() ? "~calibrate" : request.save_path);
     *message = summary.str();
     return true;
+  }
+
+  // The segmentations' skin gate from `model`'s colours when they are the user's (latched on
+  // cam<i>/skin_gate); colours that give no gate (personalSkinGate) are said and nothing is
+  // published.
+  void publishSkinGate(const HandModel& model, const std::string& source) {
+    if (!skin_gate_from_model_ || !model.colours_fitted) return;
+    try {
+      SkinGate msg = skinGateMsg(personalSkinGate(model), source);
+      msg.header.stamp = ros::Time::now();
+      for (CameraInput& camera : cameras_) camera.skin_gate_pub.publish(msg);
+      NODELET_INFO(
+          "skin gate for the segmentations from %s: hue %.1f..%.1f deg, saturation %.2f..%.2f, "
+          "value >= %.2f",
+          source.c_str(), msg.hue_min_deg, msg.hue_max_deg, msg.saturation_min, msg.saturation_max,
+          msg.value_min);
+    } catch (const InputError& e) {
+      NODELET_WARN("no skin gate from %s: %s", source.c_str(), e.what());
+    }
   }
 
   // Writes `model` to `path` through a temporary file that is loaded back before it is renamed;
@@ -1057,6 +1085,7 @@ class TrackerNodelet : public nodelet::Nodelet {
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   std::unique_ptr<image_transport::ImageTransport> it_;
   ros::Publisher joint_pub_, marker_pub_, fingertip_pub_, status_pub_;
+  bool skin_gate_from_model_ = true;  // publish cam<i>/skin_gate
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   boost::recursive_mutex reconfigure_mutex_;
   std::unique_ptr<dynamic_reconfigure::Server<TrackerConfig>> reconfigure_;

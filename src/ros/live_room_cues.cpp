@@ -8,6 +8,7 @@
 
 #include "sag_hand_tracker/energy/hand_projection.h"
 #include "sag_hand_tracker/tracking/tracking_pipeline.h"
+#include "sag_hand_tracker/util/number_text.h"
 
 namespace sag_hand_tracker {
 
@@ -98,6 +99,46 @@ sag_hand_tracker::HandRegion handRegionMsg(const PosedHand& hand, const Camera& 
     msg.gaussians.push_back(m);
   }
   return msg;
+}
+
+sag_hand_tracker::SkinGate skinGateMsg(const SkinParams& gate, const std::string& source) {
+  sag_hand_tracker::SkinGate msg;
+  msg.source = source;
+  msg.hue_min_deg = gate.hue_min_deg;
+  msg.hue_max_deg = gate.hue_max_deg;
+  msg.saturation_min = gate.saturation_min;
+  msg.saturation_max = gate.saturation_max;
+  msg.value_min = gate.value_min;
+  return msg;
+}
+
+SkinParams skinGateFromMsg(const sag_hand_tracker::SkinGate& msg) {
+  const double values[] = {msg.hue_min_deg, msg.hue_max_deg, msg.saturation_min, msg.saturation_max,
+                           msg.value_min};
+  for (const double v : values) {
+    if (!std::isfinite(v)) throw InputError("skin gate with a value that is not finite");
+  }
+  if (!(msg.hue_max_deg > msg.hue_min_deg && msg.hue_max_deg - msg.hue_min_deg <= 360.0)) {
+    throw InputError("skin gate hue " + shortNumber(msg.hue_min_deg) + ".." +
+                     shortNumber(msg.hue_max_deg) +
+                     " deg: the end must lie above the start, by at most 360");
+  }
+  for (const double v : {msg.saturation_min, msg.saturation_max, msg.value_min}) {
+    if (v < 0.0 || v > 1.0) {
+      throw InputError("skin gate saturation or value " + shortNumber(v) + " outside [0, 1]");
+    }
+  }
+  if (msg.saturation_min > msg.saturation_max) {
+    throw InputError("skin gate saturation " + shortNumber(msg.saturation_min) + ".." +
+                     shortNumber(msg.saturation_max) + ": the minimum is above the maximum");
+  }
+  SkinParams gate;
+  gate.hue_min_deg = msg.hue_min_deg;
+  gate.hue_max_deg = msg.hue_max_deg;
+  gate.saturation_min = msg.saturation_min;
+  gate.saturation_max = msg.saturation_max;
+  gate.value_min = msg.value_min;
+  return gate;
 }
 
 PosedHand handFromRegionMsg(const sag_hand_tracker::HandRegion& msg) {

@@ -25,10 +25,13 @@
 #include <limits>
 #include <mutex>
 #include <string>
+#include <vector>
 
 #include "sag_hand_tracker/Calibrate.h"
+#include "sag_hand_tracker/SkinGate.h"
 #include "sag_hand_tracker/TrackingStatus.h"
 #include "sag_hand_tracker/model/hand_model.h"
+#include "sag_hand_tracker/segmentation/background_plate.h"
 
 namespace {
 
@@ -48,6 +51,9 @@ struct Observed {
   long joint_states_while_fitting = 0;
   std::string calibration;  // the last status' calibration field
   std::string model;        // the last status' model field
+  // The skin gates on cam0/skin_gate (latched): none for the built-in model, whose colours are
+  // not the user's; the fitted model's after the switch.
+  std::vector<sag_hand_tracker::SkinGate> skin_gates;
 };
 
 class CalibrateChecker : public ::testing::Test {
@@ -60,6 +66,7 @@ class CalibrateChecker : public ::testing::Test {
     observed_ = new Observed;
     joint_sub_ = new ros::Subscriber(nh.subscribe("joint_states", 50, &onJointState));
     status_sub_ = new ros::Subscriber(nh.subscribe("status", 50, &onStatus));
+    skin_gate_sub_ = new ros::Subscriber(nh.subscribe("cam0/skin_gate", 5, &onSkinGate));
     char pattern[] = "/tmp/sag_calibrate_checker_XXXXXX";
     const char* dir = ::mkdtemp(pattern);
     ASSERT_NE(dir, nullptr);
@@ -81,11 +88,17 @@ class CalibrateChecker : public ::testing::Test {
     if (msg->calibration.rfind("fitting", 0) == 0) ++observed_->status_while_fitting;
   }
 
+  static void onSkinGate(const sag_hand_tracker::SkinGate::ConstPtr& msg) {
+    std::lock_guard<std::mutex> lock(observed_->mutex);
+    observed_->skin_gates.push_back(*msg);
+  }
+
   static void TearDownTestSuite() {
     std::error_code ignored;
     fs::remove_all(dir_, ignored);
     delete joint_sub_;
     delete status_sub_;
+    delete skin_gate_sub_;
     spinner_->stop();
   }
 
@@ -118,6 +131,7 @@ class CalibrateChecker : public ::testing::Test {
   static inline ros::AsyncSpinner* spinner_ = nullptr;
   static inline ros::Subscriber* joint_sub_ = nullptr;
   static inline ros::Subscriber* status_sub_ = nullptr;
+  static inline ros::Subscriber* skin_gate_sub_ = nullptr;
   static inline Observed* observed_ = nullptr;
   static inline std::string service_name_;
   static inline std::string dir_;
@@ -183,6 +197,10 @@ TEST_F(CalibrateChecker, FitsSwitchesSavesAndRefusesASecondCall) {
   ASSERT_TRUE(waitFor(pnh.param("wait_for_tracking", 60.0), [](const Observed& o) {
     return o.joint_states > 0;
   })) << "the tracker never published joint_states";
+  {
+    std::lock_guard<std::mutex> lock(observed_->mutex);
+    EXPECT_TRUE(observed_->skin_gates.empty()) << "a skin gate from the built-in model's colours";
+  }
   const double duration = pnh.param("duration", 7.0);
   const double call_timeout = pnh.param("call_timeout", 200.0);
   // Two calls, the second made once a collection runs. Which one the tracker takes first is not
@@ -266,8 +284,19 @@ TEST_F(CalibrateChecker, FitsSwitchesSavesAndRefusesASecondCall) {
       << "fewer than " << wanted << " joint_states after the switch";
   EXPECT_TRUE(waitFor(5.0, [&](const Observed& o) { return o.model == path; }))
       << "the status does not name the saved model";
+  // The segmentations get the skin gate around the fitted model's colours.
+  EXPECT_TRUE(waitFor(5.0, [&](const Observed& o) { return !o.skin_gates.empty(); }))
+      << "no skin gate on cam0/skin_gate after the calibration";
   std::lock_guard<std::mutex> lock(observed_->mutex);
   EXPECT_EQ(observed_->calibration.rfind("fitted: ", 0), 0u) << observed_->calibration;
+  if (!observed_->skin_gates.empty()) {
+    const sag_hand_tracker::SkinGate& gate = observed_->skin_gates.back();
+    EXPECT_EQ(gate.source, path);
+    const sag_hand_tracker::SkinParams expected = sag_hand_tracker::personalSkinGate(model);
+    EXPECT_NEAR(gate.hue_min_deg, expected.hue_min_deg, 1e-3);
+    EXPECT_NEAR(gate.hue_max_deg, expected.hue_max_deg, 1e-3);
+    EXPECT_NEAR(gate.value_min, expected.value_min, 1e-4);
+  }
 }
 
 }  // namespace

@@ -1,8 +1,11 @@
 #!/usr/bin/env python3
-"""rostest node for the segmentation nodelets' skin_model parameter: images with a square of the
-user's skin and a square of wood (both pass the generic skin gate) go to cam0 (skin_model: a
-calibrated model), cam1 (none) and cam2 (a missing file). cam0's image Gaussians lie on the skin
-square only; cam1's and cam2's on both; cam2's missing file is an ERROR that names it."""
+"""rostest node for the segmentation nodelets' skin gate from the user's colours: images with a
+square of the user's skin and a square of wood (both pass the generic skin gate) go to cam0
+(skin_model: a calibrated model), cam1 (none) and cam2 (a missing file). cam0's image Gaussians
+lie on the skin square only, cam1's and cam2's on both, and cam2's missing file is said with its
+name. Then a gate comes on cam1/skin_gate (as the tracker sends it) and a bad one (NaN) on
+cam2/skin_gate: cam1 drops the wood from then on, cam2 says why it ignored its gate and keeps
+the wood."""
 import sys
 import threading
 import unittest
@@ -11,7 +14,7 @@ import rospy
 import rostest
 from rosgraph_msgs.msg import Log
 from sensor_msgs.msg import CameraInfo, Image
-from sag_hand_tracker.msg import SumOfGaussians
+from sag_hand_tracker.msg import SkinGate, SumOfGaussians
 
 from camera_messages import pinhole_info
 
@@ -62,34 +65,58 @@ class SegmentationSkinModel(unittest.TestCase):
         for c in cams:
             self.assertGreater(pubs[c][0].get_num_connections(), 0, c + " never subscribed")
         rospy.sleep(0.5)
-        for _ in range(4):
-            t = rospy.Time.now()
-            for c in cams:
-                pubs[c][0].publish(make_image(t, c + "_optical_frame"))
-                pubs[c][1].publish(pinhole_info(t, c + "_optical_frame", W, H))
-            rospy.sleep(0.2)
-        rospy.sleep(1.5)
+        def send_images(count):
+            stamps = []
+            for _ in range(count):
+                t = rospy.Time.now()
+                stamps.append(t)
+                for c in cams:
+                    pubs[c][0].publish(make_image(t, c + "_optical_frame"))
+                    pubs[c][1].publish(pinhole_info(t, c + "_optical_frame", W, H))
+                rospy.sleep(0.2)
+            rospy.sleep(1.5)
+            return stamps
+
+        before = send_images(4)
+        # The gates, latched as the tracker publishes them: the studio hand's (test/data's model:
+        # hue 7.5..39.1, saturation 0.15..0.56) for cam1, a broken one for cam2.
+        gate = SkinGate(source="test", hue_min_deg=7.5, hue_max_deg=39.1, saturation_min=0.15,
+                        saturation_max=0.56, value_min=0.24)
+        bad = SkinGate(source="test", hue_min_deg=7.5, hue_max_deg=39.1, saturation_min=0.15,
+                       saturation_max=0.56, value_min=float("nan"))
+        gate_pubs = [rospy.Publisher(c + "/skin_gate", SkinGate, queue_size=1, latch=True)
+                     for c in ("cam1", "cam2")]
+        gate_pubs[0].publish(gate)
+        gate_pubs[1].publish(bad)
+        rospy.sleep(1.0)
+        after = send_images(3)
 
         def on_square(g, columns):  # one 4-pixel cell of slack
             return columns[0] - 4 <= g.x <= columns[1] + 4 and 36 <= g.y <= 84
 
         with lock:
             for c in cams:
-                self.assertGreaterEqual(len(self.sogs[c]), 2, c + ": images not segmented")
-                for m in self.sogs[c]:
-                    self.assertTrue(all(on_square(g, SKIN_X) or on_square(g, WOOD_X)
-                                        for g in m.gaussians), c)
-                    self.assertTrue(any(on_square(g, SKIN_X) for g in m.gaussians),
-                                    c + ": the skin square is not foreground")
-                    wood = any(on_square(g, WOOD_X) for g in m.gaussians)
-                    self.assertEqual(wood, c != "cam0",
-                                     c + (": the wood passed the user's gate" if c == "cam0"
-                                          else ": the generic gate dropped the wood"))
+                for stamps, wood_kept in ((before, c != "cam0"), (after, c == "cam2")):
+                    got = [m for m in self.sogs[c] if m.header.stamp in stamps]
+                    self.assertGreaterEqual(len(got), 2, c + ": images not segmented")
+                    for m in got:
+                        self.assertTrue(all(on_square(g, SKIN_X) or on_square(g, WOOD_X)
+                                            for g in m.gaussians), c)
+                        self.assertTrue(any(on_square(g, SKIN_X) for g in m.gaussians),
+                                        c + ": the skin square is not foreground")
+                        wood = any(on_square(g, WOOD_X) for g in m.gaussians)
+                        self.assertEqual(wood, wood_kept,
+                                         "%s, %s the gate message: wood %s" %
+                                         (c, "before" if stamps is before else "after",
+                                          "kept" if wood else "dropped"))
             # Said at start-up (before this node listened) and again with the first image.
             warnings = [text for level, text in self.logs if level >= Log.WARN]
             self.assertTrue(any("generic skin gate" in w and "/nonexistent/my_hand.yaml" in w
                                 and "does not exist" in w for w in warnings), warnings)
+            self.assertTrue(any("skin_gate message ignored" in w and "not finite" in w
+                                for w in warnings), warnings)
             infos = [text for level, text in self.logs if level == Log.INFO]
+            self.assertTrue(any("skin gate from the tracker (test)" in i for i in infos), infos)
             self.assertTrue(any("the skin gate from" in i and "default_fitted.yaml" in i
                                 for i in infos), infos)
 

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
@@ -191,6 +192,40 @@ TEST(LiveRoomCues, BadRegionsAreRefused) {
   }
   msg.gaussians.resize(kMaxRegionGaussians + 1, msg.gaussians[0]);
   EXPECT_THROW(handFromRegionMsg(msg), InputError);
+}
+
+// The tracker's skin gate (cam<i>/skin_gate) reaches the segmentation as it was made, and a bad
+// one is refused with what is wrong.
+TEST(LiveRoomCues, TheSkinGateSurvivesTheMessageAndBadOnesAreNamed) {
+  SkinParams gate;
+  gate.hue_min_deg = -5.5;
+  gate.hue_max_deg = 39.0;
+  gate.saturation_min = 0.15;
+  gate.saturation_max = 0.56;
+  gate.value_min = 0.24;
+  const SkinGate msg = skinGateMsg(gate, "/home/me/my_hand.yaml");
+  EXPECT_EQ(msg.source, "/home/me/my_hand.yaml");
+  const SkinParams back = skinGateFromMsg(msg);
+  EXPECT_EQ(back.hue_min_deg, gate.hue_min_deg);
+  EXPECT_EQ(back.hue_max_deg, gate.hue_max_deg);
+  EXPECT_EQ(back.saturation_min, gate.saturation_min);
+  EXPECT_EQ(back.saturation_max, gate.saturation_max);
+  EXPECT_EQ(back.value_min, gate.value_min);
+  auto refused = [&](const std::function<void(SkinGate&)>& spoil, const std::string& what) {
+    SkinGate bad = msg;
+    spoil(bad);
+    try {
+      skinGateFromMsg(bad);
+      ADD_FAILURE() << "accepted: " << what;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+    }
+  };
+  refused([](SkinGate& m) { m.value_min = NAN; }, "not finite");
+  refused([](SkinGate& m) { m.hue_max_deg = m.hue_min_deg; }, "the end must lie above the start");
+  refused([](SkinGate& m) { m.hue_max_deg = m.hue_min_deg + 400; }, "by at most 360");
+  refused([](SkinGate& m) { m.saturation_max = 1.5; }, "outside [0, 1]");
+  refused([](SkinGate& m) { m.saturation_min = 0.6; }, "the minimum is above the maximum");
 }
 
 TEST(LiveRoomCues, StaleRegionsAreIgnored) {

@@ -23,9 +23,11 @@
 #include <vector>
 
 #include "sag_hand_tracker/HandRegion.h"
+#include "sag_hand_tracker/SkinGate.h"
 #include "sag_hand_tracker/SumOfGaussians.h"
 #include "sag_hand_tracker/camera/camera.h"
 #include "sag_hand_tracker/model/kinematics.h"
+#include "sag_hand_tracker/segmentation/background_plate.h"
 #include "sag_hand_tracker/segmentation/multi_view_consistency.h"
 #include "sag_hand_tracker/segmentation/quadtree_segmentation.h"
 #include "sag_hand_tracker/util/types.h"
@@ -47,6 +49,13 @@ sag_hand_tracker::HandRegion handRegionMsg(const PosedHand& hand, const Camera& 
 // value, a covariance that is not positive definite, or more than kMaxRegionGaussians Gaussians.
 constexpr int kMaxRegionGaussians = 1024;
 PosedHand handFromRegionMsg(const sag_hand_tracker::HandRegion& msg);
+
+// The user's skin gate (personalSkinGate) from the tracker to the segmentations (~skin_gate).
+sag_hand_tracker::SkinGate skinGateMsg(const SkinParams& gate, const std::string& source);
+// Throws InputError naming the problem: a value that is not finite, hue_max_deg not above
+// hue_min_deg or more than 360 degrees above it, saturation_min above saturation_max, or a
+// saturation or value outside [0, 1].
+SkinParams skinGateFromMsg(const sag_hand_tracker::SkinGate& msg);
 
 // ---- segmentation nodelet ----
 // The region of interest of a HandRegion in its camera (projectedHandMask with the camera at the
