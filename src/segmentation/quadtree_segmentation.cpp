@@ -386,6 +386,10 @@ void validate(const SegmentationParams& params) {
     fail("room.skin_learning_rate must be in [0, 1]");
   }
   if (r.skin_min_cells < 1) fail("room.skin_min_cells must be >= 1");
+  if (!(r.split_candidate_share >= 0.0 && r.split_candidate_share <= 1.0)) {
+    fail("room.split_candidate_share must be in [0, 1]");
+  }
+  if (r.split_margin_cells < 0) fail("room.split_margin_cells must be >= 0");
   if (!(r.min_component_share >= 0.0 && r.min_component_share <= 1.0)) {
     fail("room.min_component_share must be in [0, 1]");
   }

@@ -236,6 +236,62 @@ std::vector<unsigned char> groupAround(const std::vector<Component>& components,
   return group;
 }
 
+// Cue 9: the cells of `group` (a candidate's cells) within `margin` cells (8-neighbour steps inside
+// the group) of one of its moving cells, as a candidate of its own; no cells when none moves.
+HandCandidate movingPart(const SegmentationParams& params, const std::vector<int>& group,
+                         const std::vector<float>& motion, int cells_x, int cells_y, int cell_size,
+                         int width, int height, int margin) {
+  const int cells = cells_x * cells_y;
+  std::vector<int> distance(cells, -1);
+  std::vector<unsigned char> in_group(cells, 0);
+  std::vector<int> queue;
+  for (const int i : group) {
+    in_group[i] = 1;
+    if (motion[i] > 0.5f) {
+      distance[i] = 0;
+      queue.push_back(i);
+    }
+  }
+  for (size_t q = 0; q < queue.size(); ++q) {
+    const int i = queue[q];
+    if (distance[i] >= margin) continue;
+    const int cx = i % cells_x, cy = i / cells_x;
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int nx = cx + dx, ny = cy + dy;
+        if (nx < 0 || ny < 0 || nx >= cells_x || ny >= cells_y) continue;
+        const int n = ny * cells_x + nx;
+        if (distance[n] >= 0 || !in_group[n]) continue;
+        distance[n] = distance[i] + 1;
+        queue.push_back(n);
+      }
+    }
+  }
+  HandCandidate part;
+  part.cell_size = cell_size;
+  part.cells_x = cells_x;
+  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+  int x0 = cells_x, y0 = cells_y, x1 = -1, y1 = -1;
+  for (const int i : group) {
+    if (distance[i] < 0) continue;
+    const int cx = i % cells_x, cy = i / cells_x;
+    part.cell_indices.push_back(i);
+    if (motion[i] > 0.5f) ++part.moving;
+    sum += Eigen::Vector2d((cx + 0.5) * cell_size - 0.5, (cy + 0.5) * cell_size - 0.5);
+    x0 = std::min(x0, cx);
+    y0 = std::min(y0, cy);
+    x1 = std::max(x1, cx);
+    y1 = std::max(y1, cy);
+  }
+  if (part.cell_indices.empty()) return part;
+  part.score = part.cell_indices.size() + params.room.motion_weight * part.moving;
+  part.centroid = sum / static_cast<double>(part.cell_indices.size());
+  part.box = cv::Rect(x0 * cell_size, y0 * cell_size, (x1 - x0 + 1) * cell_size,
+                      (y1 - y0 + 1) * cell_size) &
+             cv::Rect(0, 0, width, height);
+  return part;
+}
+
 // Cue 8: whether a cell's colour `now` differs from `then` (the colour it had when it last
 // changed, scaled by the light's change since): its chromaticity by more than
 // unchanged_chromaticity, its brightness by more than the factor unchanged_brightness, or one of
@@ -591,7 +647,18 @@ std::vector<HandCandidate> roomCandidates(const SegmentationParams& params,
     candidate.box = cv::Rect(x0 * cell_size, y0 * cell_size, (x1 - x0 + 1) * cell_size,
                              (y1 - y0 + 1) * cell_size) &
                     cv::Rect(0, 0, width, height);
+    // Cue 9: an oversized group that moves somewhere also offers its moving part.
+    const bool split = params.room.split_candidate_share > 0.0 && candidate.moving > 0 &&
+                       candidate.cell_indices.size() > params.room.split_candidate_share * cells;
+    HandCandidate part;
+    if (split) {
+      part = movingPart(params, candidate.cell_indices, motion, cells_x, cells_y, cell_size, width,
+                        height, params.room.split_margin_cells);
+    }
     candidates.push_back(std::move(candidate));
+    if (!part.cell_indices.empty() && static_cast<int>(candidates.size()) < max_candidates) {
+      candidates.push_back(std::move(part));
+    }
   }
   return candidates;
 }
