@@ -2,6 +2,7 @@
 // connectivity, motion and plate adaptation on top of the plate and the skin gate.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
@@ -236,6 +237,32 @@ std::vector<unsigned char> groupAround(const std::vector<Component>& components,
   return group;
 }
 
+// A candidate of `cell_indices` (row after row): its moving cells, centroid and box; score 0.
+HandCandidate candidateOfCells(std::vector<int> cell_indices, const std::vector<float>& motion,
+                               int cells_x, int cell_size, int width, int height) {
+  HandCandidate candidate;
+  candidate.cell_size = cell_size;
+  candidate.cells_x = cells_x;
+  candidate.cell_indices = std::move(cell_indices);
+  if (candidate.cell_indices.empty()) return candidate;
+  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+  int x0 = cells_x, y0 = std::numeric_limits<int>::max(), x1 = -1, y1 = -1;
+  for (const int i : candidate.cell_indices) {
+    const int cx = i % cells_x, cy = i / cells_x;
+    if (motion[i] > 0.5f) ++candidate.moving;
+    sum += Eigen::Vector2d((cx + 0.5) * cell_size - 0.5, (cy + 0.5) * cell_size - 0.5);
+    x0 = std::min(x0, cx);
+    y0 = std::min(y0, cy);
+    x1 = std::max(x1, cx);
+    y1 = std::max(y1, cy);
+  }
+  candidate.centroid = sum / static_cast<double>(candidate.cell_indices.size());
+  candidate.box = cv::Rect(x0 * cell_size, y0 * cell_size, (x1 - x0 + 1) * cell_size,
+                           (y1 - y0 + 1) * cell_size) &
+                  cv::Rect(0, 0, width, height);
+  return candidate;
+}
+
 // Cue 9: the cells of `group` (a candidate's cells) within `margin` cells (8-neighbour steps inside
 // the group) of one of its moving cells, as a candidate of its own; no cells when none moves.
 HandCandidate movingPart(const SegmentationParams& params, const std::vector<int>& group,
@@ -267,28 +294,13 @@ HandCandidate movingPart(const SegmentationParams& params, const std::vector<int
       }
     }
   }
-  HandCandidate part;
-  part.cell_size = cell_size;
-  part.cells_x = cells_x;
-  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
-  int x0 = cells_x, y0 = cells_y, x1 = -1, y1 = -1;
+  std::vector<int> near_moving;
   for (const int i : group) {
-    if (distance[i] < 0) continue;
-    const int cx = i % cells_x, cy = i / cells_x;
-    part.cell_indices.push_back(i);
-    if (motion[i] > 0.5f) ++part.moving;
-    sum += Eigen::Vector2d((cx + 0.5) * cell_size - 0.5, (cy + 0.5) * cell_size - 0.5);
-    x0 = std::min(x0, cx);
-    y0 = std::min(y0, cy);
-    x1 = std::max(x1, cx);
-    y1 = std::max(y1, cy);
+    if (distance[i] >= 0) near_moving.push_back(i);
   }
-  if (part.cell_indices.empty()) return part;
+  HandCandidate part =
+      candidateOfCells(std::move(near_moving), motion, cells_x, cell_size, width, height);
   part.score = part.cell_indices.size() + params.room.motion_weight * part.moving;
-  part.centroid = sum / static_cast<double>(part.cell_indices.size());
-  part.box = cv::Rect(x0 * cell_size, y0 * cell_size, (x1 - x0 + 1) * cell_size,
-                      (y1 - y0 + 1) * cell_size) &
-             cv::Rect(0, 0, width, height);
   return part;
 }
 
@@ -624,29 +636,15 @@ std::vector<HandCandidate> roomCandidates(const SegmentationParams& params,
     if (static_cast<int>(candidates.size()) >= max_candidates) break;
     if (taken[main]) continue;
     const std::vector<unsigned char> group = groupAround(components, main);
-    HandCandidate candidate;
-    candidate.score = components[main].score;
-    candidate.cell_size = cell_size;
-    candidate.cells_x = cells_x;
-    Eigen::Vector2d sum = Eigen::Vector2d::Zero();
-    int x0 = cells_x, y0 = cells_y, x1 = -1, y1 = -1;
+    std::vector<int> group_cells;
     for (int i = 0; i < cells; ++i) {
-      if (labels[i] < 0 || !group[labels[i]]) continue;
-      const int cx = i % cells_x, cy = i / cells_x;
-      candidate.cell_indices.push_back(i);
-      if (motion[i] > 0.5f) ++candidate.moving;
-      sum += Eigen::Vector2d((cx + 0.5) * cell_size - 0.5, (cy + 0.5) * cell_size - 0.5);
-      x0 = std::min(x0, cx);
-      y0 = std::min(y0, cy);
-      x1 = std::max(x1, cx);
-      y1 = std::max(y1, cy);
+      if (labels[i] >= 0 && group[labels[i]]) group_cells.push_back(i);
     }
     for (size_t k = 0; k < group.size(); ++k) taken[k] = taken[k] || group[k];
-    if (candidate.cell_indices.empty()) continue;
-    candidate.centroid = sum / static_cast<double>(candidate.cell_indices.size());
-    candidate.box = cv::Rect(x0 * cell_size, y0 * cell_size, (x1 - x0 + 1) * cell_size,
-                             (y1 - y0 + 1) * cell_size) &
-                    cv::Rect(0, 0, width, height);
+    if (group_cells.empty()) continue;
+    HandCandidate candidate =
+        candidateOfCells(std::move(group_cells), motion, cells_x, cell_size, width, height);
+    candidate.score = components[main].score;
     // Cue 9: an oversized group that moves somewhere also offers its moving part.
     const bool split = params.room.split_candidate_share > 0.0 && candidate.moving > 0 &&
                        candidate.cell_indices.size() > params.room.split_candidate_share * cells;
