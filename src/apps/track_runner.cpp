@@ -375,10 +375,7 @@ TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
     } else {
       source = "generic (the model's colours are not the user's; calibrate_hand gives them): ";
     }
-    summary.skin_gate = source + "hue " + shortNumber(gate.hue_min_deg) + ".." +
-                        shortNumber(gate.hue_max_deg) + " deg, saturation " +
-                        shortNumber(gate.saturation_min) + ".." + shortNumber(gate.saturation_max) +
-                        ", value >= " + shortNumber(gate.value_min);
+    summary.skin_gate = source + skinGateText(gate);
   }
   summary.csv_written = commitsTrackCsv(summary, csv.rows());
   if (summary.csv_written) out.commit();

@@ -46,7 +46,6 @@
 #include <sensor_msgs/image_encodings.h>
 #include <pluginlib/class_list_macros.hpp>
 
-#include <cstdio>
 #include <fstream>
 #include <memory>
 #include <mutex>
@@ -141,11 +140,8 @@ class SegmentationNodelet : public nodelet::Nodelet {
       params.skin = gate;
       segmenter_.setParams(params);
       skin_gate_note_.clear();  // skin_model's gate is replaced
-      NODELET_INFO(
-          "skin gate from the tracker (%s): hue %.1f..%.1f deg, saturation %.2f..%.2f, "
-          "value >= %.2f",
-          msg.source.c_str(), gate.hue_min_deg, gate.hue_max_deg, gate.saturation_min,
-          gate.saturation_max, gate.value_min);
+      NODELET_INFO("skin gate from the tracker (%s): %s", msg.source.c_str(),
+                   skinGateText(gate).c_str());
     } catch (const InputError& e) {
       warn(std::string("skin_gate message ignored, the skin gate in use stays: ") + e.what());
     }
@@ -165,11 +161,7 @@ class SegmentationNodelet : public nodelet::Nodelet {
         return generic;
       }
       const SkinParams gate = personalSkinGate(model);
-      char ranges[160];
-      std::snprintf(ranges, sizeof(ranges),
-                    "hue %.1f..%.1f deg, saturation %.2f..%.2f, value >= %.2f", gate.hue_min_deg,
-                    gate.hue_max_deg, gate.saturation_min, gate.saturation_max, gate.value_min);
-      skin_gate_note_ = "the skin gate from " + path + ": " + ranges;
+      skin_gate_note_ = "the skin gate from " + path + ": " + skinGateText(gate);
       skin_gate_note_is_problem_ = false;
       NODELET_INFO("%s", skin_gate_note_.c_str());
       return gate;

@@ -865,14 +865,12 @@ class TrackerNodelet : public nodelet::Nodelet {
   void publishSkinGate(const HandModel& model, const std::string& source) {
     if (!skin_gate_from_model_ || !model.colours_fitted) return;
     try {
-      SkinGate msg = skinGateMsg(personalSkinGate(model), source);
+      const SkinParams gate = personalSkinGate(model);
+      SkinGate msg = skinGateMsg(gate, source);
       msg.header.stamp = ros::Time::now();
       for (CameraInput& camera : cameras_) camera.skin_gate_pub.publish(msg);
-      NODELET_INFO(
-          "skin gate for the segmentations from %s: hue %.1f..%.1f deg, saturation %.2f..%.2f, "
-          "value >= %.2f",
-          source.c_str(), msg.hue_min_deg, msg.hue_max_deg, msg.saturation_min, msg.saturation_max,
-          msg.value_min);
+      NODELET_INFO("skin gate for the segmentations from %s: %s", source.c_str(),
+                   skinGateText(gate).c_str());
     } catch (const InputError& e) {
       NODELET_WARN("no skin gate from %s: %s", source.c_str(), e.what());
     }

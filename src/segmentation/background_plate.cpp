@@ -33,7 +33,11 @@ SkinParams personalSkinGate(const std::vector<Hsv>& colours, const PersonalSkinG
         ">= the low one)");
   }
   // Hues relative to their circular mean, so that colours on both sides of 0/360 form one range.
+  // Colours sampled from something else than skin (a fit that took the background) would make a
+  // gate that keeps the wrong things: most of them must pass the generic gate they replace.
+  const SkinParams generic;
   Eigen::Vector2d direction = Eigen::Vector2d::Zero();
+  int skin_like = 0;
   for (size_t i = 0; i < colours.size(); ++i) {
     const Hsv& c = colours[i];
     if (!c.allFinite() || c[1] < 0.0 || c[1] > 1.0 || c[2] < 0.0 || c[2] > 1.0) {
@@ -43,22 +47,13 @@ SkinParams personalSkinGate(const std::vector<Hsv>& colours, const PersonalSkinG
     }
     const double hue = c[0] * M_PI / 180.0;
     direction += Eigen::Vector2d(std::cos(hue), std::sin(hue));
-  }
-  // Colours sampled from something else than skin (a fit that took the background) would make a
-  // gate that keeps the wrong things: most of them must pass the generic gate they replace.
-  const SkinParams generic;
-  int skin_like = 0;
-  for (const Hsv& c : colours) {
     skin_like += isSkinColour(hsvToRgb(c) * 255.0, generic) ? 1 : 0;
   }
   if (4 * skin_like < 3 * static_cast<int>(colours.size())) {
-    throw InputError(
-        "personal skin gate: only " + std::to_string(skin_like) + " of " +
-        std::to_string(colours.size()) + " colours are skin-coloured (the generic gate's hue " +
-        shortNumber(generic.hue_min_deg) + ".." + shortNumber(generic.hue_max_deg) +
-        " deg, saturation " + shortNumber(generic.saturation_min) + ".." +
-        shortNumber(generic.saturation_max) + ", value >= " + shortNumber(generic.value_min) +
-        "); were they sampled from the hand? Calibrate again in view of the cameras");
+    throw InputError("personal skin gate: only " + std::to_string(skin_like) + " of " +
+                     std::to_string(colours.size()) + " colours are skin-coloured (the generic " +
+                     "gate's " + skinGateText(generic) +
+                     "); were they sampled from the hand? Calibrate again in view of the cameras");
   }
   const double centre = std::atan2(direction.y(), direction.x()) * 180.0 / M_PI;
   double low = 180.0, high = -180.0;
@@ -88,6 +83,12 @@ SkinParams personalSkinGate(const HandModel& model, const PersonalSkinGateParams
   colours.reserve(model.gaussians.size());
   for (const ModelGaussian& g : model.gaussians) colours.push_back(g.hsv);
   return personalSkinGate(colours, params);
+}
+
+std::string skinGateText(const SkinParams& gate) {
+  return "hue " + shortNumber(gate.hue_min_deg) + ".." + shortNumber(gate.hue_max_deg) +
+         " deg, saturation " + shortNumber(gate.saturation_min) + ".." +
+         shortNumber(gate.saturation_max) + ", value >= " + shortNumber(gate.value_min);
 }
 
 bool isDarkNonSkin(const Eigen::Vector3d& rgb, const BackgroundParams& params) {

@@ -81,6 +81,9 @@ SkinParams personalSkinGate(const std::vector<Hsv>& colours,
 SkinParams personalSkinGate(const HandModel& model,
                             const PersonalSkinGateParams& params = PersonalSkinGateParams());
 
+// The gate's ranges for messages and logs: "hue A..B deg, saturation C..D, value >= E".
+std::string skinGateText(const SkinParams& gate);
+
 // Skin-colour gate on one colour (RGB in [0, 255]).
 bool isSkinColour(const Eigen::Vector3d& rgb, const SkinParams& params);
 // The dark/sleeve rejection of BackgroundParams on one colour: true when too dark to be skin or
