@@ -27,6 +27,19 @@ bool Camera::project(const Eigen::Vector3d& world_point, Eigen::Vector2d* pixel)
   return true;
 }
 
+bool Camera::projectDistorted(const Eigen::Vector3d& world_point, Eigen::Vector2d* pixel) const {
+  if (!hasDistortion()) return project(world_point, pixel);
+  const Eigen::Vector3d p = world_to_camera * world_point;
+  if (p.z() <= 1e-9) return false;
+  cv::Mat K_cv;
+  cv::eigen2cv(K, K_cv);
+  const std::vector<cv::Point3d> ray{cv::Point3d(p.x() / p.z(), p.y() / p.z(), 1.0)};
+  std::vector<cv::Point2d> out;
+  cv::projectPoints(ray, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), K_cv, distortion, out);
+  *pixel = Eigen::Vector2d(out[0].x, out[0].y);
+  return pixel->allFinite();
+}
+
 Eigen::Vector2d Camera::undistortPixel(const Eigen::Vector2d& pixel) const {
   if (!hasDistortion()) return pixel;
   cv::Mat K_cv;

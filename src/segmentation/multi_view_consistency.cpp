@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <opencv2/imgproc.hpp>
 #include <string>
 
@@ -47,6 +48,19 @@ std::vector<int> support(const std::vector<Camera>& cameras,
     }
   }
   return chosen;
+}
+
+// Whether one of the candidate's cells, or a cell next to one, holds `pixel` (distorted pixels).
+bool candidateCoversPixel(const HandCandidate& candidate, const Eigen::Vector2d& pixel) {
+  if (candidate.cells_x <= 0 || candidate.cell_size <= 0) return false;
+  const int cx = static_cast<int>(std::floor(pixel.x() / candidate.cell_size));
+  const int cy = static_cast<int>(std::floor(pixel.y() / candidate.cell_size));
+  for (const int i : candidate.cell_indices) {
+    if (std::abs(i % candidate.cells_x - cx) <= 1 && std::abs(i / candidate.cells_x - cy) <= 1) {
+      return true;
+    }
+  }
+  return false;
 }
 
 // Per view, the undistorted centroids of its first max_candidates_per_view candidates. Throws
@@ -237,7 +251,18 @@ MultiViewChoice supportAt(const std::vector<Camera>& cameras,
                           const Eigen::Vector3d& point, const MultiViewParams& params) {
   const std::vector<std::vector<Eigen::Vector2d>> centroids =
       undistortedCentroids(cameras, candidates, params, "supportAt");
-  return tally(candidates, point, support(cameras, centroids, point, params));
+  std::vector<int> chosen = support(cameras, centroids, point, params);
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    if (chosen[c] >= 0) continue;
+    Eigen::Vector2d pixel;
+    if (!cameras[c].projectDistorted(point, &pixel)) continue;
+    const size_t n =
+        std::min(candidates[c].size(), static_cast<size_t>(params.max_candidates_per_view));
+    for (size_t j = 0; j < n && chosen[c] < 0; ++j) {
+      if (candidateCoversPixel(candidates[c][j], pixel)) chosen[c] = static_cast<int>(j);
+    }
+  }
+  return tally(candidates, point, std::move(chosen));
 }
 
 bool replacesTrack(const MultiViewChoice& challenger, const MultiViewChoice& tracked,

@@ -265,3 +265,29 @@ TEST(Projection, JacobiansMatchCentralDifferences) {
     }
   }
 }
+
+// projectDistorted is where the camera delivers a point: undistorting that pixel gives the pinhole
+// projection back (plumb_bob, strong barrel distortion, points over the whole image).
+TEST(Projection, ProjectDistortedIsTheInverseOfUndistortPixel) {
+  Camera camera;
+  camera.width = 640;
+  camera.height = 480;
+  camera.K << 500.0, 0.0, 320.0, 0.0, 500.0, 240.0, 0.0, 0.0, 1.0;
+  camera.distortion = {-0.3, 0.1, 0.001, -0.002, 0.0};
+  for (const double x : {-0.25, 0.0, 0.3}) {
+    for (const double y : {-0.2, 0.05, 0.2}) {
+      const Eigen::Vector3d point(x, y, 0.5);
+      Eigen::Vector2d ideal, delivered;
+      ASSERT_TRUE(camera.project(point, &ideal));
+      ASSERT_TRUE(camera.projectDistorted(point, &delivered));
+      // undistortPixel iterates as often as cv::undistortPoints does by default: 0.1 pixel.
+      EXPECT_LT((camera.undistortPixel(delivered) - ideal).norm(), 0.1) << x << " " << y;
+      if (std::abs(x) > 0.2) EXPECT_GT((delivered - ideal).norm(), 5.0);  // it does distort
+    }
+  }
+  Eigen::Vector2d pixel;
+  EXPECT_FALSE(camera.projectDistorted(Eigen::Vector3d(0.0, 0.0, -0.5), &pixel));  // behind
+  camera.distortion.clear();
+  ASSERT_TRUE(camera.projectDistorted(Eigen::Vector3d(0.1, 0.0, 0.5), &pixel));
+  EXPECT_NEAR(pixel.x(), 420.0, 1e-9);
+}

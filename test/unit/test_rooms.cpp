@@ -945,6 +945,64 @@ TEST(MultiViewConsistency, AHandThatComesIntoViewReplacesATrackOnTheOtherArm) {
   EXPECT_FALSE(replacesTrack(arm_choice, at_hand, params));
 }
 
+// The kitchen (doc/segmentation.md, "Session 23"): the tracked hand lies on a skin-coloured table,
+// so in most views its candidate is one blob of hand and table whose centroid is far from the
+// hand. Those views still see the hand where the track is: the blob covers its projection. The
+// other arm, drifting in two views, must not take the track for having more views that agree on
+// a centroid.
+TEST(MultiViewConsistency, ATrackOnAHandMergedWithTheTableKeepsTheViewsThatSeeIt) {
+  const std::vector<Camera>& cameras = dexter5();
+  const Eigen::Vector3d hand = studioPose().translation;
+  const Eigen::Vector3d other_arm = hand + Eigen::Vector3d(0.35, -0.1, -0.1);
+  const int cell_size = 4;
+  // A blob of 11 x 30 cells that starts `gap` cells beside the hand's projection and reaches away
+  // from it toward the wider side of the image: its centroid is at least 15 cells (60 pixels) from
+  // the hand, beyond the support radius (5 cm at the hand's depth: 20-40 pixels in dexter5).
+  auto tableBlob = [&](const Camera& camera, const Eigen::Vector3d& at, int gap) {
+    Eigen::Vector2d pixel;
+    EXPECT_TRUE(camera.projectDistorted(at, &pixel));
+    HandCandidate blob;
+    blob.cell_size = cell_size;
+    blob.cells_x = camera.width / cell_size;
+    const int cx = static_cast<int>(pixel.x()) / cell_size;
+    const int cy = static_cast<int>(pixel.y()) / cell_size;
+    const int first = 2 * cx < blob.cells_x ? cx + gap : cx - gap - 29;
+    for (int y = cy - 5; y <= cy + 5; ++y) {
+      for (int x = first; x < first + 30; ++x) blob.cell_indices.push_back(y * blob.cells_x + x);
+    }
+    EXPECT_GE(first, 0);
+    EXPECT_LE(first + 30, blob.cells_x);  // no cell wraps into the next row
+    blob.centroid = Eigen::Vector2d((first + 15) * cell_size, (cy + 0.5) * cell_size);
+    blob.score = static_cast<double>(blob.cell_indices.size());
+    blob.moving = 20;
+    return blob;
+  };
+  // The hand is a candidate of its own in camera 0 only; the arm moves in cameras 1 and 2.
+  auto scene = [&](int gap) {
+    std::vector<std::vector<HandCandidate>> candidates(cameras.size());
+    for (size_t c = 0; c < cameras.size(); ++c) {
+      candidates[c].push_back(c == 0 ? candidateAt(cameras[c], hand, 200.0, 20)
+                                     : tableBlob(cameras[c], hand, gap));
+      if (c == 1 || c == 2) candidates[c].push_back(candidateAt(cameras[c], other_arm, 300.0, 45));
+    }
+    return candidates;
+  };
+  const std::vector<std::vector<HandCandidate>> candidates = scene(0);
+  const MultiViewParams params;
+  const MultiViewChoice at_hand = supportAt(cameras, candidates, hand, params);
+  EXPECT_EQ(at_hand.supporting_views, static_cast<int>(cameras.size()));
+  EXPECT_EQ(at_hand.moving, 100);
+  MultiViewChoice arm_choice = supportAt(cameras, candidates, other_arm, params);
+  EXPECT_EQ(arm_choice.supporting_views, 2);
+  arm_choice.found = true;
+  EXPECT_FALSE(replacesTrack(arm_choice, at_hand, params));
+  // Blobs that end 3 cells short of the hand's projection do not see it: only camera 0 supports
+  // the track, and the arm takes it.
+  const MultiViewChoice beside = supportAt(cameras, scene(3), hand, params);
+  EXPECT_EQ(beside.supporting_views, 1);
+  EXPECT_TRUE(replacesTrack(arm_choice, beside, params));
+}
+
 TEST(MultiViewConsistency, APointBehindACameraIsNeverChosen) {
   // Two cameras that look at each other's backs from in front: rays that meet behind camera 1.
   const std::vector<Camera>& rig = dexter5();

@@ -26,6 +26,9 @@ struct Camera {
   bool project(const Eigen::Vector3d& world_point, Eigen::Vector2d* pixel) const;
   // Maps a distorted pixel to the ideal pinhole pixel (identity without distortion).
   Eigen::Vector2d undistortPixel(const Eigen::Vector2d& pixel) const;
+  // Pinhole projection followed by the distortion: where the point lies in the image as the camera
+  // delivers it (project() without distortion); false if behind.
+  bool projectDistorted(const Eigen::Vector3d& world_point, Eigen::Vector2d* pixel) const;
 };
 
 // Throws InputError naming the camera and the problem (zero, negative or huge focal length,

@@ -102,7 +102,9 @@ double candidateArea(const std::vector<Camera>& cameras,
                      const MultiViewChoice& choice);
 
 // The support of a root-frame point (e.g. the tracked hand's centre): per view the candidate whose
-// centroid is nearest its projection within support_radius; `point` as given, `found` false.
+// centroid is nearest its projection within support_radius, else the first candidate whose cells
+// reach its projection (a hand merged with a skin-coloured table into one blob whose centroid lies
+// far away: the view still sees the hand there); `point` as given, `found` false.
 MultiViewChoice supportAt(const std::vector<Camera>& cameras,
                           const std::vector<std::vector<HandCandidate>>& candidates,
                           const Eigen::Vector3d& point, const MultiViewParams& params);
