@@ -111,6 +111,8 @@ std::string renderBagUsage() {
          "                     (thumb,index,middle,ring,pinky) (default 1)\n"
          "  --thickness F      factor on the radii of the fingers, palm and wrist (default 1)\n"
          "  --model M          hand skeleton: sag (default) or a model file\n"
+         "  --hand left|right  a left or a right hand (right; the model is mirrored if\n"
+         "                     needed; track it with track_bag --hand left)\n"
          "  --preview PNG      also write a contact sheet of one frame (all views + labels)\n"
          "  --preview-frame N  the frame of the contact sheet (default: the middle one)\n"
          "  --start-stamp T    stamp of the first frame in seconds (default 1400000000)\n"
@@ -186,6 +188,8 @@ RenderBagOptions parseRenderBagArguments(const std::vector<std::string>& args) {
       options.config_dir = value(&i);
     } else if (a == "--model") {
       options.model = value(&i);
+    } else if (a == "--hand") {
+      options.hand = parseHandOption(value(&i));
     } else if (a == "--fps") {
       options.fps = number(&i);
       if (!(options.fps > 0.0 && options.fps <= 1000.0))
@@ -308,7 +312,7 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
   checkOutputIsNew(options.out, options.overwrite);
   checkOutputIsNew(options.gt_csv, options.overwrite, "--gt-csv");
   if (!options.preview.empty()) checkOutputIsNew(options.preview, options.overwrite, "--preview");
-  const HandModel model = loadHandModel(model_path);
+  const HandModel model = loadHandModel(model_path, options.hand);
   const CameraRig rig = loadCameraRig(rig_path);
   if (rig.cameras.empty()) throw InputError("the rig has no cameras");
   studio::Motion motion = studio::loadMotion(motion_path, model, options.seed);

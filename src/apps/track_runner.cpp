@@ -14,6 +14,7 @@
 #include "sag_hand_tracker/model/pose.h"
 #include "sag_hand_tracker/optimization/optimizer.h"
 #include "sag_hand_tracker/ros/package_config.h"
+#include "sag_hand_tracker/tracking/handedness.h"
 #include "sag_hand_tracker/util/atomic_output.h"
 #include "sag_hand_tracker/util/number_text.h"
 #include "sag_hand_tracker/util/timing.h"
@@ -64,7 +65,8 @@ Options:
   --bag FILE               input bag (required)
   --out FILE               output CSV (required)
   --model sag|sog|FILE     hand model: the SAG model, the SoG baseline, or a model YAML (sag)
-  --hand left|right        handedness; the model is mirrored if needed (right)
+  --hand left|right|auto   handedness; the model is mirrored if needed (right); auto: the first
+                           second with the hand is tracked as both, the images decide
   --iterations N           optimiser iterations per frame (20)
   --step-control rprop|fixed  optimiser step control (rprop)
   --cameras 0,2,4          track with these cameras only (all)
@@ -96,6 +98,15 @@ TrackBagOptions parseTrackBagArguments(const std::vector<std::string>& args) {
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string& arg = args[i];
     auto value = [&]() -> const std::string& { return nextOptionValue(args, &i); };
+    if (arg == "--hand") {  // calibrate_hand's --hand has no "auto"
+      const std::string& hand = value();
+      options.hand_auto = hand == "auto";
+      if (!options.hand_auto && hand != "left" && hand != "right") {
+        throw UsageError("--hand expects left, right or auto, got '" + hand + "'");
+      }
+      if (!options.hand_auto) options.hand = parseHandOption(hand);
+      continue;
+    }
     if (parseBagToolOption(args, &i, &options)) continue;
     if (arg == "--iterations") {
       options.iterations = parseIntOption(arg, value(), 1);
@@ -153,6 +164,7 @@ std::string formatSummary(const TrackBagSummary& summary) {
   if (summary.dropped_images > 0) out << ", " << summary.dropped_images << " images dropped";
   out << "\n";
   out << "  cameras:   " << summary.cameras.size() << " (" << names << ")\n";
+  if (!summary.handedness.empty()) out << "  hand:      " << summary.handedness << "\n";
   if (!summary.skin_gate.empty()) out << "  skin gate: " << summary.skin_gate << "\n";
   out << "  speed:     " << fps << " frames/s (segmentation + optimisation over "
       << after_background << " frames, decode excluded); per frame: segmentation "
@@ -333,15 +345,15 @@ TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
   // Before anything is opened: --out must not be an input (the bag, the model file).
   checkOutputPath(options.out, {options.bag, model_path});
   checkOutputIsNew(options.out, options.overwrite);
-  const HandModel model = loadHandModel(model_path, options.hand);
+  HandModel model = loadHandModel(model_path, options.hand);
 
   BagReaderOptions reader_options;
   reader_options.cameras = options.cameras;
   reader_options.root_frame = options.root_frame;
   reader_options.stamp_tolerance = options.stamp_tolerance;
+  const PipelineParams params = trackBagPipelineParams(options);
   BagReader reader(options.bag, reader_options);
 
-  const PipelineParams params = trackBagPipelineParams(options);
   if (static_cast<int>(reader.cameras().size()) < params.tracker.min_cameras_for_start) {
     // Named here, where the bag is known: which cameras have images (or were chosen).
     throw InputError(
@@ -349,6 +361,18 @@ TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
         cameraNames(reader.cameras()) + (options.cameras.empty() ? "" : ", chosen by --cameras") +
         "); the tracker starts from at least " +
         std::to_string(params.tracker.min_cameras_for_start) + " cameras that see the hand");
+  }
+  std::string handedness;
+  if (options.hand_auto) {
+    // A first pass over the bag's first sets decides; the track below starts from the first set
+    // again, so it is the track that --hand with the chosen side gives.
+    BagReader probe(options.bag, reader_options);
+    if (progress) progress->update(0.0, "which hand: tracking the first second as both");
+    const HandednessDecision decision = decideHandedness(
+        model, probe.cameras(), params,
+        [&probe, stop](FrameSet* set) { return !(stop && *stop) && probe.next(set); });
+    if (decision.hand != model.handedness) model = mirrorHandModel(model);
+    handedness = handednessText(decision);
   }
   TrackingPipeline pipeline(model, reader.cameras(), params);
 
@@ -363,6 +387,7 @@ TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
       stop);
   summary.csv = options.out;
   summary.out_existed = out_existed;
+  summary.handedness = handedness;
   if (params.background_frames == 0) {
     const SkinParams& gate = pipeline.params().segmentation.skin;
     std::string source;

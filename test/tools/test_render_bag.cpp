@@ -244,6 +244,10 @@ TEST(RenderBagArguments, OutOfRangeNumbersRepeatedOptionsAndPreviewNamesAreUsage
   EXPECT_EQ(message({"--config-dir", ""}), "--config-dir needs a value, got an empty one");
   EXPECT_EQ(message({"--hand-scale", "3", "--palm-width", "0.3", "--preview", "p.png"}),
             "no error");
+  EXPECT_EQ(message({"--hand", "auto"}), "--hand expects left or right, got 'auto'");
+  EXPECT_EQ(
+      parseRenderBagArguments({"--sequence", "pinch", "--out", "x.bag", "--hand", "left"}).hand,
+      Handedness::kLeft);
 }
 
 TEST_F(RenderBagTool, RendersAStudioRoomWithTheHandsMasks) {

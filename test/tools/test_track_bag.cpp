@@ -12,10 +12,13 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iterator>
 #include <random>
 #include <sstream>
 
 #include "sag_hand_tracker/apps/csv.h"
+#include "sag_hand_tracker/apps/metrics.h"
+#include "sag_hand_tracker/apps/render_runner.h"
 #include "sag_hand_tracker/ros/bag_output.h"
 #include "sag_hand_tracker/ros/conversions.h"
 #include "sag_hand_tracker/segmentation/background_plate.h"
@@ -178,6 +181,75 @@ TEST_F(TrackBagTool, TrackBagSaysWhichSkinGateItUsed) {
                           "colours are skin-coloured"),
             std::string::npos)
       << desk.out << desk.err;
+}
+
+// A left hand rendered in the studio (render_bag --hand left; the surface, not the model's
+// ellipses) and a right one: --hand auto names each after the first second with the hand, and
+// tracks it as the explicit --hand of that side does, byte for byte. The other side is far off,
+// with every frame "tracked" (doc/studio.md, "Left hands").
+TEST_F(TrackBagTool, TrackBagTellsALeftHandFromARightOne) {
+  const std::string config = std::string(SAG_SOURCE_DIR) + "/config";
+  auto render = [&](Handedness hand, const std::string& name) {
+    RenderBagOptions options;
+    options.sequence = "pinch";
+    options.hand = hand;
+    options.out = path(name);
+    options.gt_csv = path(name + ".gt.csv");
+    options.config_dir = config;
+    options.frames = 50;  // 10 without the hand, then 40: 25 to decide, 15 more
+    renderStudioBag(options, nullptr);
+    return options.out;
+  };
+  auto run = [&](const std::string& bag, const std::string& hand, const std::string& out) {
+    const ToolRun result = trackBag("--bag '" + bag + "' --out '" + path(out) + "' --model '" +
+                                    sag_test::modelPath("sag") + "' --quiet --hand " + hand);
+    EXPECT_EQ(result.status, 0) << result.err;
+    return result;
+  };
+  auto contents = [&](const std::string& name) {
+    std::ifstream in(path(name));
+    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  };
+  // Mean fingertip error (mm) of a track against the bag's truth, matched by stamp.
+  auto fingertipError = [&](const std::string& track, const std::string& truth) {
+    const TrackingCsv tracked = readTrackingCsv(path(track));
+    const TrackingCsv true_rows = readTrackingCsv(path(truth));
+    double sum = 0.0;
+    int n = 0;
+    for (const TrackingCsvRow& row : tracked.rows) {
+      for (const TrackingCsvRow& t : true_rows.rows) {
+        if (std::abs(t.stamp - row.stamp) > 1e-4) continue;
+        sum += meanFingertipError(row.fingertips, t.fingertips);
+        ++n;
+      }
+    }
+    EXPECT_GT(n, 0);
+    return n > 0 ? 1000.0 * sum / n : 0.0;
+  };
+  const std::string left = render(Handedness::kLeft, "left.bag");
+  const ToolRun automatic = run(left, "auto", "left_auto.csv");
+  EXPECT_NE(automatic.out.find("hand:      left (higher than a right hand in "), std::string::npos)
+      << automatic.out;
+  EXPECT_NE(automatic.out.find(" of 25 sets, by "), std::string::npos) << automatic.out;
+  EXPECT_EQ(automatic.out.find("close"), std::string::npos) << automatic.out;
+  run(left, "left", "left_left.csv");
+  run(left, "right", "left_right.csv");
+  EXPECT_EQ(contents("left_auto.csv"), contents("left_left.csv"));
+  const double as_left = fingertipError("left_left.csv", "left.bag.gt.csv");
+  const double as_right = fingertipError("left_right.csv", "left.bag.gt.csv");
+  std::printf("a left hand tracked as a left hand: %.1f mm, as a right hand: %.1f mm\n", as_left,
+              as_right);
+  EXPECT_LT(as_left, 10.0);
+  EXPECT_GT(as_right, 2.0 * as_left);
+  // An explicit side is not second-guessed: no "hand:" line.
+  EXPECT_EQ(run(left, "left", "again.csv").out.find("hand:"), std::string::npos);
+
+  const std::string right = render(Handedness::kRight, "right.bag");
+  const ToolRun right_auto = run(right, "auto", "right_auto.csv");
+  EXPECT_NE(right_auto.out.find("hand:      right (higher than a left hand in "), std::string::npos)
+      << right_auto.out;
+  run(right, "right", "right_right.csv");
+  EXPECT_EQ(contents("right_auto.csv"), contents("right_right.csv"));
 }
 
 TEST_F(TrackBagTool, TrackBagReportsAnEmptyResult) {

@@ -133,6 +133,9 @@ TEST(TrackBagArguments, TrackBagParsesEveryOption) {
   EXPECT_EQ(defaults.iterations, OptimizerParams().iterations);
   EXPECT_EQ(defaults.background_frames, 10);
   EXPECT_EQ(defaults.hand, Handedness::kRight);
+  EXPECT_FALSE(defaults.hand_auto);
+  EXPECT_TRUE(
+      parseTrackBagArguments({"--out", "o.csv", "--bag", "b.bag", "--hand", "auto"}).hand_auto);
   EXPECT_TRUE(defaults.cameras.empty());
   EXPECT_FALSE(defaults.quiet);
   EXPECT_FALSE(defaults.room_cues.has_value());
@@ -171,7 +174,7 @@ TEST(TrackBagArguments, TrackBagRejectsBadArguments) {
   EXPECT_EQ(message(with({"--cameras", "1,1"})), "--cameras lists camera 1 twice");
   EXPECT_EQ(message(with({"--cameras", "1,"})),
             "--cameras expects camera numbers like 0,2,4, got '1,'");
-  EXPECT_EQ(message(with({"--hand", "both"})), "--hand expects left or right, got 'both'");
+  EXPECT_EQ(message(with({"--hand", "both"})), "--hand expects left, right or auto, got 'both'");
   EXPECT_EQ(message(with({"--step-control", "newton"})),
             "--step-control expects rprop or fixed, got 'newton'");
   EXPECT_EQ(message(with({"--background-frames", "-1"})),

@@ -20,22 +20,23 @@
 namespace sag_hand_tracker {
 
 struct RenderBagOptions {
-  std::string sequence;           // --sequence name|file (required)
-  std::string rig = "dexter5";    // --rig name|dir|file
-  std::string out;                // --out OUT.bag (required)
-  std::string gt_csv;             // --gt-csv FILE (default: OUT with .gt.csv)
-  std::string config_dir;         // --config-dir DIR (default: the package's config/)
-  std::string model = "sag";      // --model sag|FILE: the skeleton the hand is rendered on
-  double fps = 25.0;              // --fps
-  int frames = 0;                 // --frames N (0: the motion's duration)
-  std::uint64_t seed = 1;         // --seed S
-  int motion_blur = 1;            // --motion-blur N sub-frames (1: none)
-  double exposure = 0.010;        // --exposure SECONDS (motion blur)
-  double noise = 2.0;             // --noise SIGMA (8-bit levels)
-  double hand_scale = 1.0;        // --hand-scale S (on top of the shape's scale)
-  std::string shape = "default";  // --shape NAME|FILE (config/hand_shapes.yaml)
-  bool bare_forearm = false;      // --bare-forearm: no sleeve up to the elbow region
-  double palm_width = 1.0;        // --palm-width F (on top of the shape's)
+  std::string sequence;                  // --sequence name|file (required)
+  std::string rig = "dexter5";           // --rig name|dir|file
+  std::string out;                       // --out OUT.bag (required)
+  std::string gt_csv;                    // --gt-csv FILE (default: OUT with .gt.csv)
+  std::string config_dir;                // --config-dir DIR (default: the package's config/)
+  std::string model = "sag";             // --model sag|FILE: the skeleton the hand is rendered on
+  Handedness hand = Handedness::kRight;  // --hand left|right: the model mirrored if needed
+  double fps = 25.0;                     // --fps
+  int frames = 0;                        // --frames N (0: the motion's duration)
+  std::uint64_t seed = 1;                // --seed S
+  int motion_blur = 1;                   // --motion-blur N sub-frames (1: none)
+  double exposure = 0.010;               // --exposure SECONDS (motion blur)
+  double noise = 2.0;                    // --noise SIGMA (8-bit levels)
+  double hand_scale = 1.0;               // --hand-scale S (on top of the shape's scale)
+  std::string shape = "default";         // --shape NAME|FILE (config/hand_shapes.yaml)
+  bool bare_forearm = false;             // --bare-forearm: no sleeve up to the elbow region
+  double palm_width = 1.0;               // --palm-width F (on top of the shape's)
   std::array<double, kNumFingers> finger_length{{1, 1, 1, 1, 1}};  // --finger-length F[,F x4]
   double thickness = 1.0;             // --thickness F (on top of the shape's)
   std::string preview;                // --preview PNG: contact sheet of one frame

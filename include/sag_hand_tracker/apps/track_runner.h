@@ -33,6 +33,9 @@ struct TrackBagOptions {
   std::vector<int> cameras;                       // --cameras 0,2,4 (empty: all)
   int background_frames = 10;                     // --background-frames N (>= 0)
   Handedness hand = Handedness::kRight;           // --hand left|right
+  // --hand auto: the first second with the hand is tracked as a right and as a left hand, and the
+  // one the images prefer is kept (decideHandedness); then the bag is tracked from its start.
+  bool hand_auto = false;
   // --room-cues / --no-room-cues: SegmentationParams::room.enabled (doc/segmentation.md). Unset:
   // on exactly when there is no plate (background_frames 0): the skin gate alone keeps every
   // skin-coloured thing of a room (a face: 24-28 % of a real office image's pixels).
@@ -91,6 +94,8 @@ struct TrackBagSummary {
   // Without a plate: which skin gate segmented the images ("generic", or the user's from the
   // model's colours with its ranges); empty with a plate.
   std::string skin_gate;
+  // With --hand auto: the hand chosen and why (handednessText); empty otherwise.
+  std::string handedness;
 
   // Frames per second of the pipeline (segmentation + optimisation, decode excluded) over the
   // sets after the background phase; 0 when there were none.
