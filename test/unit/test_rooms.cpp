@@ -1170,6 +1170,19 @@ RoomRunConfig skinGateWithRoomCues() {
   return config;
 }
 
+// `rendered` held open and still for 20 frames in the office, seen by the first `views` cameras of
+// dexter5, no hand-free frames, tracked with each of `configs`.
+std::vector<RoomRunResult> stillHandInTheOffice(const HandModel& rendered, int views,
+                                                const std::vector<RoomRunConfig>& configs) {
+  RoomSequenceOptions options;
+  options.frames = 20;
+  options.empty_frames = 0;
+  const RoomParams office = builtinRoom("office");
+  const std::vector<Camera> cameras(dexter5().begin(), dexter5().begin() + views);
+  return evaluateRoomSequence(rendered, cameras, stillMotion(1.2), &office, kConfigDir, configs,
+                              options);
+}
+
 }  // namespace
 
 // A hand held still from the first frame, nothing moving (as a replayed stereo pair of
@@ -1181,14 +1194,8 @@ TEST(StudioRooms, AStillHandIsFoundWithoutMotion) {
   const Motion motion = stillMotion(1.2);
   std::vector<RoomRunConfig> configs{skinGateWithRoomCues(), skinGateWithRoomCues()};
   configs[1].pipeline.multi_view.still_hypotheses = 0;
-  RoomSequenceOptions options;
-  options.frames = 20;
-  options.empty_frames = 0;
-  const RoomParams office = builtinRoom("office");
   for (const int views : {5, 2}) {
-    const std::vector<Camera> cameras(dexter5().begin(), dexter5().begin() + views);
-    const auto results =
-        evaluateRoomSequence(model("sag"), cameras, motion, &office, kConfigDir, configs, options);
+    const auto results = stillHandInTheOffice(model("sag"), views, configs);
     for (const RoomRunResult& r : results) {
       std::printf(
           "still hand, office, %d cameras, %s: precision %.3f recall %.3f, error %.1f mm "
@@ -1207,7 +1214,9 @@ TEST(StudioRooms, AStillHandIsFoundWithoutMotion) {
   // a plate. Five: the drifting other hand took the still start over (352.6 mm) while a moving
   // choice needed fewer views than the track.
   const RoomParams daylight = builtinRoom("daylight");
+  RoomSequenceOptions options;
   options.frames = 12;
+  options.empty_frames = 0;
   configs.resize(1);
   for (const auto& [views, bound] : {std::pair<int, double>{2, 40.0}, {5, 15.0}}) {
     const std::vector<Camera> cameras(dexter5().begin(), dexter5().begin() + views);
@@ -1229,18 +1238,11 @@ TEST(StudioRooms, AStillHandIsFoundWithoutMotion) {
 // two views of a flat open hand do not tell it from its mirror image, so neither would --hand auto
 // (doc/studio.md, "Left hands").
 TEST(StudioRooms, AStillLeftHandIsFoundWithTwoCameras) {
-  const Motion motion = stillMotion(1.2);
   const HandModel left = mirrorHandModel(model("sag"));
   std::vector<RoomRunConfig> configs{skinGateWithRoomCues(), skinGateWithRoomCues()};
   configs[0].model = left;  // --hand left
-  RoomSequenceOptions options;
-  options.frames = 20;
-  options.empty_frames = 0;
-  const RoomParams office = builtinRoom("office");
   for (const int views : {5, 2}) {
-    const std::vector<Camera> cameras(dexter5().begin(), dexter5().begin() + views);
-    const auto results =
-        evaluateRoomSequence(left, cameras, motion, &office, kConfigDir, configs, options);
+    const auto results = stillHandInTheOffice(left, views, configs);
     for (const RoomRunResult& r : results) {
       std::printf(
           "still left hand, office, %d cameras, tracked as a %s hand: precision %.3f, error "
