@@ -263,6 +263,29 @@ HandCandidate candidateOfCells(std::vector<int> cell_indices, const std::vector<
   return candidate;
 }
 
+// Breadth first over the 8-neighbour cell grid from `distance`'s cells at 0 (queued in `queue`):
+// every cell that `admit` lets in gets its number of steps, up to `max_steps`; the others stay -1.
+// Steps are the shortest path through admitted cells, whatever the order of the seeds.
+template <typename Admit>
+void growCells(std::vector<int>* queue, std::vector<int>* distance, int cells_x, int cells_y,
+               int max_steps, const Admit& admit) {
+  for (size_t head = 0; head < queue->size(); ++head) {
+    const int cell = (*queue)[head];
+    if ((*distance)[cell] >= max_steps) continue;
+    const int cx = cell % cells_x, cy = cell / cells_x;
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int nx = cx + dx, ny = cy + dy;
+        if (nx < 0 || ny < 0 || nx >= cells_x || ny >= cells_y) continue;
+        const int n = ny * cells_x + nx;
+        if ((*distance)[n] >= 0 || !admit(n)) continue;
+        (*distance)[n] = (*distance)[cell] + 1;
+        queue->push_back(n);
+      }
+    }
+  }
+}
+
 // Cue 9: the cells of `group` (a candidate's cells) within `margin` cells (8-neighbour steps inside
 // the group) of one of its moving cells, as a candidate of its own; no cells when none moves.
 HandCandidate movingPart(const SegmentationParams& params, const std::vector<int>& group,
@@ -279,21 +302,7 @@ HandCandidate movingPart(const SegmentationParams& params, const std::vector<int
       queue.push_back(i);
     }
   }
-  for (size_t q = 0; q < queue.size(); ++q) {
-    const int i = queue[q];
-    if (distance[i] >= margin) continue;
-    const int cx = i % cells_x, cy = i / cells_x;
-    for (int dy = -1; dy <= 1; ++dy) {
-      for (int dx = -1; dx <= 1; ++dx) {
-        const int nx = cx + dx, ny = cy + dy;
-        if (nx < 0 || ny < 0 || nx >= cells_x || ny >= cells_y) continue;
-        const int n = ny * cells_x + nx;
-        if (distance[n] >= 0 || !in_group[n]) continue;
-        distance[n] = distance[i] + 1;
-        queue.push_back(n);
-      }
-    }
-  }
+  growCells(&queue, &distance, cells_x, cells_y, margin, [&](int n) { return in_group[n] != 0; });
   std::vector<int> near_moving;
   for (const int i : group) {
     if (distance[i] >= 0) near_moving.push_back(i);
@@ -685,27 +694,17 @@ void sleeveNextToForeground(const SegmentationParams& params, const std::vector<
     y1 = std::max(y1, cy);
   }
   if (foreground == 0) return;
-  // Breadth first from the foreground through dark cells, up to the band's width.
+  // Breadth first from the foreground through dark cells, up to the band's width: the cells
+  // reached (queued after the foreground) are the sleeve.
+  const size_t seeds = queue.size();
+  growCells(&queue, &distance, cells_x, cells_y, params.room.sleeve_band_cells, [&](int n) {
+    const float* m = &means[3 * n];
+    return isDarkNonSkin(Eigen::Vector3d(m[0], m[1], m[2]), params.background);
+  });
   Eigen::Vector2d sleeve_sum = Eigen::Vector2d::Zero();
-  int sleeve = 0;
-  for (size_t head = 0; head < queue.size(); ++head) {
-    const int cell = queue[head];
-    if (distance[cell] >= params.room.sleeve_band_cells) continue;
-    const int cx = cell % cells_x, cy = cell / cells_x;
-    for (int dy = -1; dy <= 1; ++dy) {
-      for (int dx = -1; dx <= 1; ++dx) {
-        const int nx = cx + dx, ny = cy + dy;
-        if (nx < 0 || ny < 0 || nx >= cells_x || ny >= cells_y) continue;
-        const int n = ny * cells_x + nx;
-        if (distance[n] >= 0) continue;
-        const float* m = &means[3 * n];
-        if (!isDarkNonSkin(Eigen::Vector3d(m[0], m[1], m[2]), params.background)) continue;
-        distance[n] = distance[cell] + 1;
-        queue.push_back(n);
-        sleeve_sum += Eigen::Vector2d(nx, ny);
-        ++sleeve;
-      }
-    }
+  const int sleeve = static_cast<int>(queue.size() - seeds);
+  for (size_t k = seeds; k < queue.size(); ++k) {
+    sleeve_sum += Eigen::Vector2d(queue[k] % cells_x, queue[k] / cells_x);
   }
   if (sleeve == 0) return;
   const Eigen::Vector2d sleeve_centre = sleeve_sum / sleeve;
