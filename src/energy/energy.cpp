@@ -79,6 +79,18 @@ PoseEnergy::PoseEnergy(const HandModel& model, const EnergyParams& params)
       if (model_.joints[dip].name == dip_name) pip_dip_pairs_.emplace_back(pip, dip);
     }
   }
+  auto jointNamed = [this](const std::string& name) {
+    for (int j = 0; j < kNumJointDof; ++j) {
+      if (model_.joints[j].name == name) return j;
+    }
+    return -1;
+  };
+  const char* fingers[] = {"index", "middle", "ring", "pinky"};
+  for (int f = 0; f + 1 < 4; ++f) {
+    const int radial = jointNamed(std::string(fingers[f]) + "_mcp_abd");
+    const int ulnar = jointNamed(std::string(fingers[f + 1]) + "_mcp_abd");
+    if (radial >= 0 && ulnar >= 0) abduction_neighbours_.emplace_back(radial, ulnar);
+  }
   // Which Gaussian may hide which (EnergyParams::occlusion_depth_scale): not on one bone, nor on
   // a bone and its parent; the forearm's (after the hand's, bone -1 here) only the palm's children
   // and beyond.
@@ -455,6 +467,19 @@ double PoseEnergy::evaluateIn(const Pose& pose, bool with_forearm,
       coupling_gradient[kFirstJointDof + pip] -= 2.0 * params_.dip_pip_ratio * residual;
     }
   }
+  // Finger order prior (EnergyParams::finger_order_weight).
+  double order = 0.0;
+  PoseVector order_gradient = PoseVector::Zero();
+  if (params_.finger_order_weight > 0.0) {
+    for (const auto& [radial, ulnar] : abduction_neighbours_) {
+      const double crossing =
+          pose.joints[ulnar] - pose.joints[radial] - params_.finger_order_margin;
+      if (!(crossing > 0.0)) continue;
+      order += crossing * crossing;
+      order_gradient[kFirstJointDof + ulnar] += 2.0 * crossing;
+      order_gradient[kFirstJointDof + radial] -= 2.0 * crossing;
+    }
+  }
   // Joint-range prior (EnergyParams::joint_range_weight).
   double range = 0.0;
   PoseVector range_gradient = PoseVector::Zero();
@@ -470,12 +495,14 @@ double PoseEnergy::evaluateIn(const Pose& pose, bool with_forearm,
   }
   const double total = similarity - params_.limit_weight * penalty -
                        params_.dip_pip_coupling_weight * coupling -
+                       params_.finger_order_weight * order -
                        params_.joint_range_weight * range;  // paper eq. 9 + priors
 
   if (terms) {
     terms->similarity = similarity;
     terms->limit_penalty = penalty;
     terms->coupling_penalty = coupling;
+    terms->order_penalty = order;
     terms->range_penalty = range;
     terms->total = total;
     for (double& value : terms->per_camera) value /= camera_count;
@@ -515,6 +542,7 @@ double PoseEnergy::evaluateIn(const Pose& pose, bool with_forearm,
   }
   *gradient -= params_.limit_weight * limit_gradient;
   *gradient -= params_.dip_pip_coupling_weight * coupling_gradient;
+  *gradient -= params_.finger_order_weight * order_gradient;
   *gradient -= params_.joint_range_weight * range_gradient;
   return total;
 }

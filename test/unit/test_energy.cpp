@@ -68,7 +68,8 @@ void checkGradient(const std::string& model_name,
                    double model_area_weight = EnergyParams().model_area_weight,
                    double joint_range_weight = EnergyParams().joint_range_weight,
                    double saturation_softness = EnergyParams().saturation_softness,
-                   double occlusion_depth_scale = EnergyParams().occlusion_depth_scale) {
+                   double occlusion_depth_scale = EnergyParams().occlusion_depth_scale,
+                   double finger_order_weight = EnergyParams().finger_order_weight) {
   const HandModel model = loadHandModel(modelPath(model_name));
   const std::vector<Camera> cameras = fiveCameraRig();
   std::mt19937 rng(42);
@@ -80,6 +81,7 @@ void checkGradient(const std::string& model_name,
   params.joint_range_weight = joint_range_weight;
   params.saturation_softness = saturation_softness;
   params.occlusion_depth_scale = occlusion_depth_scale;
+  params.finger_order_weight = finger_order_weight;
   PoseEnergy energy(model, params);
   // Image from one pose, gradient at others: many pairs unsaturated, many partially overlapping.
   energy.setFrame(modelObservations(model, typicalPose(model), cameras, 6.0));
@@ -89,6 +91,15 @@ void checkGradient(const std::string& model_name,
                                      model_name + " trial " + std::to_string(trial));
   }
   EXPECT_EQ(checked, 4 * kNumDof);
+}
+
+// The index of the model's joint `name` among the joint parameters (a test failure if none).
+int jointNamed(const HandModel& model, const std::string& name) {
+  const std::vector<std::string> names = model.parameterNames();
+  for (int j = 0; j < kNumJointDof; ++j)
+    if (names[kFirstJointDof + j] == name) return j;
+  ADD_FAILURE() << "no joint " << name;
+  return 0;
 }
 
 // The energy at `truth` is above its value with the hand moved 2 cm and with the pinky curled.
@@ -123,6 +134,14 @@ TEST(EnergyGradient, SogWithModelAreaNormalisationMatchesCentralDifferences) {
 TEST(EnergyGradient, SagWithStrongJointRangePriorMatchesCentralDifferences) {
   checkGradient("sag", EnergyParams().dip_pip_coupling_weight, EnergyParams().model_area_weight,
                 1.0);
+}
+
+// The same with a strong finger order prior (the random poses cross neighbouring fingers).
+TEST(EnergyGradient, SagWithStrongFingerOrderPriorMatchesCentralDifferences) {
+  const EnergyParams defaults;
+  checkGradient("sag", defaults.dip_pip_coupling_weight, defaults.model_area_weight,
+                defaults.joint_range_weight, defaults.saturation_softness,
+                defaults.occlusion_depth_scale, 5.0);
 }
 
 // The same with the soft saturation of eq. 8 (EnergyParams::saturation_softness 1 and 0.5).
@@ -212,8 +231,57 @@ TEST(Energy, JointRangePriorIsZeroMidRangeAndOnePerJointAtALimit) {
   EXPECT_NEAR(two.range_penalty, 2.0, 1e-9);
   EXPECT_NEAR(two.total,
               two.similarity - params.limit_weight * two.limit_penalty -
-                  params.dip_pip_coupling_weight * two.coupling_penalty - 0.25 * 2.0,
+                  params.dip_pip_coupling_weight * two.coupling_penalty -
+                  params.finger_order_weight * two.order_penalty - 0.25 * 2.0,
               1e-9);
+}
+
+// The finger order prior: nothing for a spread hand or fingers turned toward each other by less
+// than the margin; quadratic beyond it, per neighbouring pair; only the abductions matter.
+TEST(Energy, FingerOrderPriorChargesNeighboursTurnedAcrossEachOther) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  EnergyParams params;
+  PoseEnergy energy(model, params);
+  energy.setFrame(modelObservations(model, typicalPose(model), fiveCameraRig(), 6.0));
+  auto joint = [&model](const std::string& name) { return jointNamed(model, name); };
+  Pose pose = typicalPose(model);
+  // A spread hand, toward the thumb from the pinky to the index; then the index and middle
+  // turned toward each other by just the margin.
+  const double spread[] = {0.15, 0.05, -0.05, -0.15};
+  const char* fingers[] = {"index", "middle", "ring", "pinky"};
+  for (int f = 0; f < 4; ++f) pose.joints[joint(std::string(fingers[f]) + "_mcp_abd")] = spread[f];
+  EnergyTerms spread_terms;
+  energy.evaluate(pose, nullptr, &spread_terms);
+  EXPECT_EQ(spread_terms.order_penalty, 0.0);
+  pose.joints[joint("index_mcp_abd")] = 0.0;
+  pose.joints[joint("middle_mcp_abd")] = params.finger_order_margin;
+  EnergyTerms at_margin;
+  energy.evaluate(pose, nullptr, &at_margin);
+  EXPECT_EQ(at_margin.order_penalty, 0.0);
+  // The stacked state of fingercount: index at its limit toward the middle, the middle toward the
+  // index; and the ring across the middle as well. Curling a finger does not excuse it.
+  pose.joints[joint("index_mcp_abd")] = -0.3;
+  pose.joints[joint("middle_mcp_abd")] = 0.2;
+  pose.joints[joint("ring_mcp_abd")] = 0.3;
+  pose.joints[joint("ring_pip_flex")] = 1.5;
+  EnergyTerms crossed;
+  const double total = energy.evaluate(pose, nullptr, &crossed);
+  const double m = params.finger_order_margin;
+  const double expected = std::pow(0.5 - m, 2) + std::pow(0.1 - m, 2);  // ring-pinky: spread
+  EXPECT_NEAR(crossed.order_penalty, expected, 1e-12);
+  EXPECT_NEAR(total,
+              crossed.similarity - params.limit_weight * crossed.limit_penalty -
+                  params.dip_pip_coupling_weight * crossed.coupling_penalty -
+                  params.finger_order_weight * crossed.order_penalty,
+              1e-9);
+  // Switched off, it costs nothing.
+  const double weight = params.finger_order_weight;
+  params.finger_order_weight = 0.0;
+  PoseEnergy without(model, params);
+  without.setFrame(modelObservations(model, typicalPose(model), fiveCameraRig(), 6.0));
+  EnergyTerms unpriced;
+  EXPECT_NEAR(without.evaluate(pose, nullptr, &unpriced), total + weight * expected, 1e-9);
+  EXPECT_EQ(unpriced.order_penalty, 0.0);
 }
 
 // The coupling prior: zero when every DIP is k times its PIP, quadratic in the residual.
@@ -224,13 +292,7 @@ TEST(Energy, PipDipCouplingPenalisesUncoupledDistalJoints) {
   PoseEnergy energy(model, params);
   energy.setFrame(modelObservations(model, typicalPose(model), fiveCameraRig(), 6.0));
   Pose pose = typicalPose(model);
-  const std::vector<std::string> names = model.parameterNames();
-  auto joint = [&](const std::string& name) {
-    for (int j = 0; j < kNumJointDof; ++j)
-      if (names[kFirstJointDof + j] == name) return j;
-    ADD_FAILURE() << "no joint " << name;
-    return 0;
-  };
+  auto joint = [&model](const std::string& name) { return jointNamed(model, name); };
   for (const std::string finger : {"index", "middle", "ring", "pinky"}) {
     pose.joints[joint(finger + "_pip_flex")] = 0.9;
     pose.joints[joint(finger + "_dip_flex")] = params.dip_pip_ratio * 0.9;
