@@ -72,4 +72,13 @@ Handedness parseHandOption(const std::string& text) {
   throw UsageError("--hand expects left or right, got '" + text + "'");
 }
 
+bool parseHandOrAutoOption(const std::string& text, Handedness* hand) {
+  if (text == "auto") return true;
+  if (text != "left" && text != "right") {
+    throw UsageError("--hand expects left, right or auto, got '" + text + "'");
+  }
+  *hand = parseHandOption(text);
+  return false;
+}
+
 }  // namespace sag_hand_tracker

@@ -98,15 +98,6 @@ TrackBagOptions parseTrackBagArguments(const std::vector<std::string>& args) {
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string& arg = args[i];
     auto value = [&]() -> const std::string& { return nextOptionValue(args, &i); };
-    if (arg == "--hand") {  // calibrate_hand's --hand has no "auto"
-      const std::string& hand = value();
-      options.hand_auto = hand == "auto";
-      if (!options.hand_auto && hand != "left" && hand != "right") {
-        throw UsageError("--hand expects left, right or auto, got '" + hand + "'");
-      }
-      if (!options.hand_auto) options.hand = parseHandOption(hand);
-      continue;
-    }
     if (parseBagToolOption(args, &i, &options)) continue;
     if (arg == "--iterations") {
       options.iterations = parseIntOption(arg, value(), 1);

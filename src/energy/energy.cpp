@@ -74,21 +74,13 @@ PoseEnergy::PoseEnergy(const HandModel& model, const EnergyParams& params)
     const std::string& name = model_.joints[pip].name;
     const size_t at = name.rfind("_pip_flex");
     if (at == std::string::npos || at + 9 != name.size()) continue;
-    const std::string dip_name = name.substr(0, at) + "_dip_flex";
-    for (int dip = 0; dip < kNumJointDof; ++dip) {
-      if (model_.joints[dip].name == dip_name) pip_dip_pairs_.emplace_back(pip, dip);
-    }
+    const int dip = model_.jointIndex(name.substr(0, at) + "_dip_flex");
+    if (dip >= 0) pip_dip_pairs_.emplace_back(pip, dip);
   }
-  auto jointNamed = [this](const std::string& name) {
-    for (int j = 0; j < kNumJointDof; ++j) {
-      if (model_.joints[j].name == name) return j;
-    }
-    return -1;
-  };
   const char* fingers[] = {"index", "middle", "ring", "pinky"};
   for (int f = 0; f + 1 < 4; ++f) {
-    const int radial = jointNamed(std::string(fingers[f]) + "_mcp_abd");
-    const int ulnar = jointNamed(std::string(fingers[f + 1]) + "_mcp_abd");
+    const int radial = model_.jointIndex(std::string(fingers[f]) + "_mcp_abd");
+    const int ulnar = model_.jointIndex(std::string(fingers[f + 1]) + "_mcp_abd");
     if (radial >= 0 && ulnar >= 0) abduction_neighbours_.emplace_back(radial, ulnar);
   }
   // Which Gaussian may hide which (EnergyParams::occlusion_depth_scale): not on one bone, nor on

@@ -243,6 +243,13 @@ std::vector<std::string> HandModel::parameterNames() const {
   return names;
 }
 
+int HandModel::jointIndex(const std::string& name) const {
+  for (size_t j = 0; j < joints.size(); ++j) {
+    if (joints[j].name == name) return static_cast<int>(j);
+  }
+  return -1;
+}
+
 std::vector<std::vector<int>> HandModel::ancestorJointDofs() const {
   std::vector<std::vector<int>> result(bones.size());
   for (size_t b = 0; b < bones.size(); ++b) {

@@ -62,9 +62,8 @@ double meanFingerFlexion(const HandModel& model, const Pose& pose) {
                                     "pinky_mcp_flex",  "pinky_pip_flex"};
   double sum = 0.0;
   for (const char* name : kFlexions) {
-    for (size_t j = 0; j < model.joints.size() && j < static_cast<size_t>(kNumJointDof); ++j) {
-      if (model.joints[j].name == name) sum += pose.joints[static_cast<int>(j)];
-    }
+    const int j = model.jointIndex(name);
+    if (j >= 0 && j < kNumJointDof) sum += pose.joints[j];
   }
   return sum / 4.0;
 }

@@ -95,9 +95,8 @@ void checkGradient(const std::string& model_name,
 
 // The index of the model's joint `name` among the joint parameters (a test failure if none).
 int jointNamed(const HandModel& model, const std::string& name) {
-  const std::vector<std::string> names = model.parameterNames();
-  for (int j = 0; j < kNumJointDof; ++j)
-    if (names[kFirstJointDof + j] == name) return j;
+  const int j = model.jointIndex(name);
+  if (j >= 0) return j;
   ADD_FAILURE() << "no joint " << name;
   return 0;
 }

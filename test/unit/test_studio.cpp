@@ -52,10 +52,8 @@ Motion builtinMotion(const std::string& name, std::uint64_t seed) {
 }
 
 int jointIndex(const std::string& name) {
-  const auto names = handModel().parameterNames();
-  for (int j = 0; j < kNumJointDof; ++j) {
-    if (names[kFirstJointDof + j] == name) return j;
-  }
+  const int j = handModel().jointIndex(name);
+  if (j >= 0) return j;
   ADD_FAILURE() << "no joint " << name;
   return 0;
 }

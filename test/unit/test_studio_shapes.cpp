@@ -449,9 +449,8 @@ TEST(StudioHardMotions, DoWhatTheirNamesSay) {
   // MCP straight; flat: the reverse), unlike the open-to-fist keyframes of the other motions, where
   // the MCP is 0.85 x the PIP within 0.06 rad (rms; README "Session 21").
   auto joint = [&](const std::string& name) {
-    for (int j = 0; j < kNumJointDof; ++j) {
-      if (model.joints[j].name == name) return j;
-    }
+    const int j = model.jointIndex(name);
+    if (j >= 0) return j;
     ADD_FAILURE() << "no joint " << name;
     return 0;
   };

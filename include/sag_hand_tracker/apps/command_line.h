@@ -4,6 +4,8 @@
 
 #include <stdexcept>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "sag_hand_tracker/model/hand_model.h"
@@ -41,11 +43,21 @@ std::vector<std::string> parseListOption(const std::string& option, const std::s
 // `text` ("left" or "right") as the hand of option --hand; else UsageError
 // "--hand expects left or right, got '<text>'".
 Handedness parseHandOption(const std::string& text);
+// The same for a tool that also takes "auto" (track_bag): returns true for "auto" and leaves
+// *hand alone; else UsageError "--hand expects left, right or auto, got '<text>'".
+bool parseHandOrAutoOption(const std::string& text, Handedness* hand);
+
+// Whether a tool's options have `hand_auto`, i.e. take --hand auto (parseBagToolOption).
+template <typename Options, typename = void>
+struct TakesHandAuto : std::false_type {};
+template <typename Options>
+struct TakesHandAuto<Options, std::void_t<decltype(std::declval<Options&>().hand_auto)>>
+    : std::true_type {};
 
 // The options that the bag tools (track_bag, calibrate_hand) share: --help/-h, --bag, --out,
 // --model, --hand, --background-frames (>= 0) and --quiet, stored in the members of `options`
-// of the same names. Returns false when args[*i] is none of them; otherwise takes its value
-// (advancing *i) and returns true.
+// of the same names (--hand auto in `hand_auto` for the tools that have it). Returns false when
+// args[*i] is none of them; otherwise takes its value (advancing *i) and returns true.
 template <typename Options>
 bool parseBagToolOption(const std::vector<std::string>& args, size_t* i, Options* options) {
   const std::string& arg = args[*i];
@@ -58,7 +70,11 @@ bool parseBagToolOption(const std::vector<std::string>& args, size_t* i, Options
   } else if (arg == "--model") {
     options->model = nextOptionValue(args, i);
   } else if (arg == "--hand") {
-    options->hand = parseHandOption(nextOptionValue(args, i));
+    if constexpr (TakesHandAuto<Options>::value) {
+      options->hand_auto = parseHandOrAutoOption(nextOptionValue(args, i), &options->hand);
+    } else {
+      options->hand = parseHandOption(nextOptionValue(args, i));
+    }
   } else if (arg == "--background-frames") {
     options->background_frames = parseIntOption(arg, nextOptionValue(args, i), 0);
   } else if (arg == "--quiet") {

@@ -64,6 +64,8 @@ struct HandModel {
 
   // Names of all 26 parameters, in order.
   std::vector<std::string> parameterNames() const;
+  // The index (0..kNumJointDof-1) of the joint dof named `name`, or -1 if the model has none.
+  int jointIndex(const std::string& name) const;
   // Per bone: the joint dofs (0..kNumJointDof-1) of the bone and all its ancestors.
   std::vector<std::vector<int>> ancestorJointDofs() const;
 };
