@@ -56,6 +56,14 @@ Pose extrapolatePose(const Pose& previous, const Pose& current) {
   return predicted;
 }
 
+Pose poseBeforeMotion(const Pose& pose, const Pose& from, const Pose& to) {
+  Pose before = pose;
+  before.translation = pose.translation - (to.translation - from.translation);
+  before.rotation = (to.rotation * from.rotation.transpose()).transpose() * pose.rotation;
+  before.rotation = Eigen::Quaterniond(before.rotation).normalized().toRotationMatrix();
+  return before;
+}
+
 double meanFingerFlexion(const HandModel& model, const Pose& pose) {
   static const char* kFlexions[] = {"index_mcp_flex",  "index_pip_flex", "middle_mcp_flex",
                                     "middle_pip_flex", "ring_mcp_flex",  "ring_pip_flex",

@@ -935,6 +935,9 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
   EnergyTerms tracked_terms;
   bool started = false;
   bool flipped = false;
+  // A re-detection that replaced the track with a pose of about its orientation: the motion
+  // history that pose goes on from (see poseBeforeMotion).
+  std::optional<Pose> kept_motion;
   const bool tracking = current_ && !lost_;
   if (tracking) {
     optimized = trackFromPrediction(energy, previous_, *current_);
@@ -1013,6 +1016,15 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
         const RedetectionChoice choice =
             chooseRedetection(*optimized, restart, params_, alternative_.has_value());
         if (choice.adopt >= 0) {
+          // The adopted pose is of about the track's orientation: it goes on with the track's
+          // motion (a hand in a fast turn keeps turning; reset, the track stopped while the hand
+          // turned on and rolled over).
+          const Pose& adopted = restart[choice.adopt].pose;
+          if (params_.redetect_keeps_motion && previous_ &&
+              rotationAngle(adopted.rotation, optimized->pose.rotation) <
+                  params_.max_rotation_per_frame) {
+            kept_motion = poseBeforeMotion(adopted, *current_, optimized->pose);
+          }
           optimized = restart[choice.adopt];
           forearm = restart_forearms[choice.adopt];
           started = true;
@@ -1069,8 +1081,9 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
       lost_ ? TrackStatus::kLost : (started ? TrackStatus::kStarted : TrackStatus::kTracking);
 
   frames_since_start_ = started ? 0 : frames_since_start_ + 1;
-  // A (re)start or a flip breaks the motion history: do not extrapolate across it.
-  previous_ = (started || flipped) ? std::optional<Pose>() : current_;
+  // A (re)start or a flip breaks the motion history: do not extrapolate across it. A
+  // re-detection adopted in place of the track keeps the track's motion.
+  previous_ = kept_motion ? kept_motion : (started || flipped) ? std::optional<Pose>() : current_;
   current_ = optimized->pose;
   forearm_ = forearm;
   adaptColours(result, observations);

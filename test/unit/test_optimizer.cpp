@@ -145,6 +145,31 @@ TEST(Pose, ExtrapolationRepeatsTheLastMotion) {
   EXPECT_TRUE(round_trip.rotation.isApprox(c.rotation, 1e-12));
 }
 
+// An adopted re-detection's motion history (HandTracker): extrapolated from it, the adopted pose
+// makes the track's turn and wrist shift, with its own joints held still.
+TEST(Pose, ThePoseBeforeAMotionExtrapolatesThatMotion) {
+  Pose from, to, adopted;
+  from.rotation = rotationFromVector(Eigen::Vector3d(0.3, -0.2, 1.0));
+  to.rotation = rotationFromVector(Eigen::Vector3d(0.55, -0.1, 1.1));
+  from.translation << 0.01, -0.06, 0.16;
+  to.translation << 0.015, -0.05, 0.16;
+  to.joints.setConstant(0.4);
+  adopted.rotation = rotationFromVector(Eigen::Vector3d(0.7, 0.1, 1.2));
+  adopted.translation << 0.02, -0.055, 0.17;
+  adopted.joints.setConstant(0.8);
+  const Pose before = poseBeforeMotion(adopted, from, to);
+  const Pose next = extrapolatePose(before, adopted);
+  const Eigen::Matrix3d turn = to.rotation * from.rotation.transpose();
+  EXPECT_TRUE(next.rotation.isApprox(turn * adopted.rotation, 1e-12));
+  EXPECT_TRUE(
+      next.translation.isApprox(adopted.translation + to.translation - from.translation, 1e-12));
+  EXPECT_TRUE(next.joints.isApprox(adopted.joints, 1e-12));
+  // No motion: the pose itself.
+  const Pose still = poseBeforeMotion(adopted, to, to);
+  EXPECT_TRUE(still.rotation.isApprox(adopted.rotation, 1e-12));
+  EXPECT_TRUE(still.translation.isApprox(adopted.translation, 1e-12));
+}
+
 // The forearm's direction (issue 9): from straight on from the palm, the search finds a forearm
 // turned 20 degrees away, and never leaves the wrist's bound.
 TEST(Optimizer, RefinesTheForearmsDirectionWithinTheWristsBound) {

@@ -33,6 +33,11 @@ Eigen::Vector3d rotationToVector(const Eigen::Matrix3d& rotation);
 // orientation by repeating the last relative rotation.
 Pose extrapolatePose(const Pose& previous, const Pose& current);
 
+// The pose one frame before `pose` if it had made the rigid motion from `from` to `to` (the same
+// turn, applied in the root frame as extrapolatePose repeats it, and the same wrist shift; the
+// joints still), so that extrapolatePose(result, pose) goes on with that motion.
+Pose poseBeforeMotion(const Pose& pose, const Pose& from, const Pose& to);
+
 // Clamps the joint angles into their anatomical limits [l_min, l_max].
 void clampToLimits(const HandModel& model, Pose* pose);
 
