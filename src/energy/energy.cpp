@@ -83,6 +83,19 @@ PoseEnergy::PoseEnergy(const HandModel& model, const EnergyParams& params)
     const int ulnar = model_.jointIndex(std::string(fingers[f + 1]) + "_mcp_abd");
     if (radial >= 0 && ulnar >= 0) abduction_neighbours_.emplace_back(radial, ulnar);
   }
+  auto fingerOf = [&](const ModelGaussian& gaussian) {
+    const std::string& bone = model_.bones[gaussian.bone].name;
+    for (int f = 0; f < 4; ++f) {
+      if (bone.rfind(std::string(fingers[f]) + "_", 0) == 0) return f;
+    }
+    return -1;
+  };
+  for (size_t p = 0; p < model_.gaussians.size(); ++p) {
+    for (size_t q = 0; q < model_.gaussians.size(); ++q) {
+      const int a = fingerOf(model_.gaussians[p]), b = fingerOf(model_.gaussians[q]);
+      if (a >= 0 && b == a + 1) collision_pairs_.emplace_back(p, q);
+    }
+  }
   // Which Gaussian may hide which (EnergyParams::occlusion_depth_scale): not on one bone, nor on
   // a bone and its parent; the forearm's (after the hand's, bone -1 here) only the palm's children
   // and beyond.
@@ -472,6 +485,28 @@ double PoseEnergy::evaluateIn(const Pose& pose, bool with_forearm,
       order_gradient[kFirstJointDof + radial] -= 2.0 * crossing;
     }
   }
+  // Finger collision prior (EnergyParams::finger_collision_weight): dF/dmu_p = -2 h f x,
+  // dF/dSigma_p = dF/dSigma_q = h f x x^T with x = (Sigma_p + Sigma_q)^-1 d, h = f - f_0.
+  double collision = 0.0;
+  if (params_.finger_collision_weight > 0.0) {
+    const double scale = -params_.finger_collision_weight * camera_count;
+    for (const auto& [p, q] : collision_pairs_) {
+      const Eigen::Vector3d d = hand.gaussians[p].mean - hand.gaussians[q].mean;
+      const Eigen::Matrix3d sum = hand.gaussians[p].cov + hand.gaussians[q].cov;
+      const Eigen::Vector3d x = sum.ldlt().solve(d);
+      const double f = std::exp(-0.5 * d.dot(x));
+      const double h = f - params_.finger_collision_threshold;
+      if (!(h > 0.0)) continue;
+      collision += h * h;
+      if (!with_gradient) continue;
+      // g_mean and g_cov are divided by the camera count below.
+      g_mean[p] += scale * (-2.0 * h * f) * x;
+      g_mean[q] += scale * (2.0 * h * f) * x;
+      const Eigen::Matrix3d g = scale * h * f * x * x.transpose();
+      g_cov[p] += g;
+      g_cov[q] += g;
+    }
+  }
   // Joint-range prior (EnergyParams::joint_range_weight).
   double range = 0.0;
   PoseVector range_gradient = PoseVector::Zero();
@@ -485,16 +520,17 @@ double PoseEnergy::evaluateIn(const Pose& pose, bool with_forearm,
       range_gradient[kFirstJointDof + j] = 2.0 * residual / half_width;
     }
   }
-  const double total = similarity - params_.limit_weight * penalty -
-                       params_.dip_pip_coupling_weight * coupling -
-                       params_.finger_order_weight * order -
-                       params_.joint_range_weight * range;  // paper eq. 9 + priors
+  const double total =
+      similarity - params_.limit_weight * penalty - params_.dip_pip_coupling_weight * coupling -
+      params_.finger_order_weight * order - params_.finger_collision_weight * collision -
+      params_.joint_range_weight * range;  // paper eq. 9 + priors
 
   if (terms) {
     terms->similarity = similarity;
     terms->limit_penalty = penalty;
     terms->coupling_penalty = coupling;
     terms->order_penalty = order;
+    terms->collision_penalty = collision;
     terms->range_penalty = range;
     terms->total = total;
     for (double& value : terms->per_camera) value /= camera_count;

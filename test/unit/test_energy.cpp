@@ -69,7 +69,9 @@ void checkGradient(const std::string& model_name,
                    double joint_range_weight = EnergyParams().joint_range_weight,
                    double saturation_softness = EnergyParams().saturation_softness,
                    double occlusion_depth_scale = EnergyParams().occlusion_depth_scale,
-                   double finger_order_weight = EnergyParams().finger_order_weight) {
+                   double finger_order_weight = EnergyParams().finger_order_weight,
+                   double finger_collision_weight = EnergyParams().finger_collision_weight,
+                   double finger_collision_threshold = EnergyParams().finger_collision_threshold) {
   const HandModel model = loadHandModel(modelPath(model_name));
   const std::vector<Camera> cameras = fiveCameraRig();
   std::mt19937 rng(42);
@@ -82,6 +84,8 @@ void checkGradient(const std::string& model_name,
   params.saturation_softness = saturation_softness;
   params.occlusion_depth_scale = occlusion_depth_scale;
   params.finger_order_weight = finger_order_weight;
+  params.finger_collision_weight = finger_collision_weight;
+  params.finger_collision_threshold = finger_collision_threshold;
   PoseEnergy energy(model, params);
   // Image from one pose, gradient at others: many pairs unsaturated, many partially overlapping.
   energy.setFrame(modelObservations(model, typicalPose(model), cameras, 6.0));
@@ -141,6 +145,17 @@ TEST(EnergyGradient, SagWithStrongFingerOrderPriorMatchesCentralDifferences) {
   checkGradient("sag", defaults.dip_pip_coupling_weight, defaults.model_area_weight,
                 defaults.joint_range_weight, defaults.saturation_softness,
                 defaults.occlusion_depth_scale, 5.0);
+}
+
+// The same with a strong finger collision prior: every pair of neighbouring fingers' Gaussians
+// (threshold 0), and only the close ones (the default threshold).
+TEST(EnergyGradient, SagWithStrongFingerCollisionPriorMatchesCentralDifferences) {
+  const EnergyParams defaults;
+  for (const double threshold : {0.0, defaults.finger_collision_threshold}) {
+    checkGradient("sag", defaults.dip_pip_coupling_weight, defaults.model_area_weight,
+                  defaults.joint_range_weight, defaults.saturation_softness,
+                  defaults.occlusion_depth_scale, defaults.finger_order_weight, 5.0, threshold);
+  }
 }
 
 // The same with the soft saturation of eq. 8 (EnergyParams::saturation_softness 1 and 0.5).
@@ -281,6 +296,48 @@ TEST(Energy, FingerOrderPriorChargesNeighboursTurnedAcrossEachOther) {
   EnergyTerms unpriced;
   EXPECT_NEAR(without.evaluate(pose, nullptr, &unpriced), total + weight * expected, 1e-9);
   EXPECT_EQ(unpriced.order_penalty, 0.0);
+}
+
+// The finger collision prior (opt-in) charges a straight finger laid along its straight neighbour,
+// not an open hand's fingers side by side, nor the same abductions with the finger curled.
+TEST(Energy, FingerCollisionPriorChargesStackedStraightFingersOnly) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  EnergyParams params;
+  ASSERT_EQ(params.finger_collision_weight, 0.0);  // opt-in
+  params.finger_collision_weight = 0.1;
+  PoseEnergy energy(model, params);
+  energy.setFrame(modelObservations(model, typicalPose(model), fiveCameraRig(), 6.0));
+  auto joint = [&model](const std::string& name) { return jointNamed(model, name); };
+  const char* fingers[] = {"index", "middle", "ring", "pinky"};
+  Pose pose = typicalPose(model);
+  // Straight fingers side by side, not spread.
+  for (const char* finger : fingers) {
+    pose.joints[joint(std::string(finger) + "_mcp_abd")] = 0.0;
+    pose.joints[joint(std::string(finger) + "_mcp_flex")] = 0.0;
+    pose.joints[joint(std::string(finger) + "_pip_flex")] = 0.0;
+    pose.joints[joint(std::string(finger) + "_dip_flex")] = 0.0;
+  }
+  EnergyTerms side_by_side;
+  energy.evaluate(pose, nullptr, &side_by_side);
+  EXPECT_EQ(side_by_side.collision_penalty, 0.0);
+  // The middle finger turned onto the index, both straight (fingercount's stacked finger).
+  pose.joints[joint("index_mcp_abd")] = -0.1;
+  pose.joints[joint("middle_mcp_abd")] = 0.25;
+  EnergyTerms stacked;
+  const double total = energy.evaluate(pose, nullptr, &stacked);
+  EXPECT_GT(stacked.collision_penalty, 0.05);  // measured 0.50
+  EXPECT_NEAR(total,
+              stacked.similarity - params.limit_weight * stacked.limit_penalty -
+                  params.dip_pip_coupling_weight * stacked.coupling_penalty -
+                  params.finger_order_weight * stacked.order_penalty -
+                  params.finger_collision_weight * stacked.collision_penalty,
+              1e-9);
+  // The same abductions with the middle finger curled: nothing.
+  pose.joints[joint("middle_mcp_flex")] = 1.4;
+  pose.joints[joint("middle_pip_flex")] = 1.6;
+  EnergyTerms curled;
+  energy.evaluate(pose, nullptr, &curled);
+  EXPECT_LT(curled.collision_penalty, 0.1 * stacked.collision_penalty);  // measured 0
 }
 
 // The coupling prior: zero when every DIP is k times its PIP, quadratic in the residual.

@@ -60,6 +60,18 @@ struct EnergyParams {
   // 19.0; fitted models 10.8 -> 10.4 (README "Session 24"). 0 disables it.
   double finger_order_weight = 0.25;
   double finger_order_margin = 0.08;
+  // Finger collision (opt-in): two fingers cannot lie in one place. A soft prior
+  // -w_k sum max(0, f_pq - f_0)^2 over the model Gaussians p, q of neighbouring long fingers
+  // (index-middle, middle-ring, ring-pinky), f_pq = exp(-1/2 d^T (Sigma_p + Sigma_q)^-1 d) with
+  // d = mu_p - mu_q: 1 where two Gaussians coincide, about 0.15-0.35 for fingers side by side
+  // in an open hand. Unlike the order prior it charges only fingers that are close in 3D, i.e. a
+  // straight model finger laid along its straight neighbour (fingercount's stacked finger).
+  // Benchmark, 84 + 84 runs (README "Session 25: finger collision"): w_k 0.1, f_0 0.4 took
+  // fingercount from 26.9 to 25.3 mm and the fitted models from 10.6 to 10.2 mm pooled, but the
+  // default model's pooled error from 13.6 to 13.9 (random 19.0 -> 21.6); 0.2 / 0.55 made
+  // fingercount worse (28.3). 0 disables it.
+  double finger_collision_weight = 0.0;
+  double finger_collision_threshold = 0.4;
   // Joint-range prior (issue 9): -w_r sum_j ((theta_j - m_j) / h_j)^2 with m_j the middle and h_j
   // half the width of joint j's limits. Where the images say little about a finger (a model
   // larger than the hand, a finger hidden behind the palm) the capped overlap of eq. 8 has no
@@ -119,8 +131,9 @@ struct EnergyTerms {
   double limit_penalty = 0.0;     // E_lim
   double coupling_penalty = 0.0;  // sum_f (theta_dip - k theta_pip)^2 (EnergyParams)
   double order_penalty = 0.0;     // sum max(0, abd_ulnar - abd_radial - m_o)^2 (EnergyParams)
-  double range_penalty = 0.0;     // sum_j ((theta_j - m_j) / h_j)^2 (EnergyParams)
-  double total = 0.0;             // E_sim - w_l E_lim - w_c coupling - w_o order - w_r range
+  double collision_penalty = 0.0;  // sum max(0, f_pq - f_0)^2 (EnergyParams)
+  double range_penalty = 0.0;      // sum_j ((theta_j - m_j) / h_j)^2 (EnergyParams)
+  double total = 0.0;              // E_sim - w_l E_lim - w_c coupling - w_o order - w_r range
   std::vector<double> per_camera;
   // Model Gaussians that could not be projected into a camera that sees foreground (behind it,
   // containing its centre, closer than 1 cm to its plane), summed over those cameras. Each counts
@@ -203,6 +216,8 @@ class PoseEnergy {
   std::vector<std::pair<int, int>> pip_dip_pairs_;  // joint indices of coupled PIP, DIP
   // Joint indices of neighbouring fingers' MCP abductions (radial, ulnar): the finger order prior.
   std::vector<std::pair<int, int>> abduction_neighbours_;
+  // Model Gaussian pairs of neighbouring long fingers: the finger collision prior.
+  std::vector<std::pair<int, int>> collision_pairs_;
   // occluding_pairs_[p * numGaussians() + r]: whether r may hide p (visibility.h).
   std::vector<char> occluding_pairs_;
   std::vector<FrameCamera> cameras_;
