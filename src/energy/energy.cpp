@@ -77,23 +77,25 @@ PoseEnergy::PoseEnergy(const HandModel& model, const EnergyParams& params)
     const int dip = model_.jointIndex(name.substr(0, at) + "_dip_flex");
     if (dip >= 0) pip_dip_pairs_.emplace_back(pip, dip);
   }
-  const char* fingers[] = {"index", "middle", "ring", "pinky"};
-  for (int f = 0; f + 1 < 4; ++f) {
-    const int radial = model_.jointIndex(std::string(fingers[f]) + "_mcp_abd");
-    const int ulnar = model_.jointIndex(std::string(fingers[f + 1]) + "_mcp_abd");
+  // The long fingers are fingerNames()[1..4], index to pinky.
+  for (int f = 1; f + 1 < kNumFingers; ++f) {
+    const int radial = model_.jointIndex(std::string(fingerNames()[f]) + "_mcp_abd");
+    const int ulnar = model_.jointIndex(std::string(fingerNames()[f + 1]) + "_mcp_abd");
     if (radial >= 0 && ulnar >= 0) abduction_neighbours_.emplace_back(radial, ulnar);
   }
-  auto fingerOf = [&](const ModelGaussian& gaussian) {
-    const std::string& bone = model_.bones[gaussian.bone].name;
-    for (int f = 0; f < 4; ++f) {
-      if (bone.rfind(std::string(fingers[f]) + "_", 0) == 0) return f;
+  // Each bone's finger, from the model's fingertip Gaussians up to the palm (-1: the palm's).
+  std::vector<int> finger_of_bone(model_.bones.size(), -1);
+  for (int f = 0; f < kNumFingers; ++f) {
+    const int tip = model_.fingertip_gaussians[f];
+    for (int b = model_.gaussians[tip].bone; b > 0; b = model_.bones[b].parent) {
+      finger_of_bone[b] = f;
     }
-    return -1;
-  };
+  }
   for (size_t p = 0; p < model_.gaussians.size(); ++p) {
     for (size_t q = 0; q < model_.gaussians.size(); ++q) {
-      const int a = fingerOf(model_.gaussians[p]), b = fingerOf(model_.gaussians[q]);
-      if (a >= 0 && b == a + 1) collision_pairs_.emplace_back(p, q);
+      const int a = finger_of_bone[model_.gaussians[p].bone];
+      const int b = finger_of_bone[model_.gaussians[q].bone];
+      if (a >= 1 && b == a + 1) collision_pairs_.emplace_back(p, q);
     }
   }
   // Which Gaussian may hide which (EnergyParams::occlusion_depth_scale): not on one bone, nor on

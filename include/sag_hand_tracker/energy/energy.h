@@ -133,7 +133,7 @@ struct EnergyTerms {
   double order_penalty = 0.0;     // sum max(0, abd_ulnar - abd_radial - m_o)^2 (EnergyParams)
   double collision_penalty = 0.0;  // sum max(0, f_pq - f_0)^2 (EnergyParams)
   double range_penalty = 0.0;      // sum_j ((theta_j - m_j) / h_j)^2 (EnergyParams)
-  double total = 0.0;              // E_sim - w_l E_lim - w_c coupling - w_o order - w_r range
+  double total = 0.0;  // E_sim - w_l E_lim - w_c coupling - w_o order - w_k collision - w_r range
   std::vector<double> per_camera;
   // Model Gaussians that could not be projected into a camera that sees foreground (behind it,
   // containing its centre, closer than 1 cm to its plane), summed over those cameras. Each counts
