@@ -224,6 +224,7 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
   // "Session 17").
   pipeline_params.tracker.counter_turn_race_share = 0.0;
   pipeline_params.tracker.redetect_race_iterations = 0;
+  pipeline_params.tracker.energy = calibrationEnergyParams();
   TrackingPipeline pipeline(start, reader.cameras(), pipeline_params);
   std::vector<CalibrationFrame> frames;
   FrameSet set;

@@ -152,6 +152,15 @@ PoseEnergy::PoseEnergy(const HandModel& model, const EnergyParams& params)
     throw InputError("energy: model_area_weight must be a finite number >= 0, got " +
                      std::to_string(params_.model_area_weight));
   }
+  if (!(params_.wrist_weight >= 0.0 && std::isfinite(params_.wrist_weight) &&
+        params_.wrist_tolerance >= 0.0 && std::isfinite(params_.wrist_tolerance) &&
+        params_.wrist_scale > 0.0 && std::isfinite(params_.wrist_scale))) {
+    throw InputError(
+        "energy: the wrist prior needs a finite weight >= 0, tolerance >= 0 (m) and scale > 0 "
+        "(m); got weight " +
+        std::to_string(params_.wrist_weight) + ", tolerance " +
+        std::to_string(params_.wrist_tolerance) + ", scale " + std::to_string(params_.wrist_scale));
+  }
   if (!(params_.occlusion_depth_scale >= 0.0) || !std::isfinite(params_.occlusion_depth_scale)) {
     throw InputError("energy: occlusion_depth_scale must be a finite number >= 0 (m), got " +
                      std::to_string(params_.occlusion_depth_scale));
@@ -197,6 +206,7 @@ bool isInFrontOfCameras(const Eigen::Vector3d& point,
 
 void PoseEnergy::setFrame(const std::vector<CameraObservation>& observations) {
   cameras_.clear();
+  wrist_rays_.clear();
   const size_t num_gaussians = numGaussians();
   std::vector<std::vector<const ImageGaussian*>> kept_per_camera;
   std::vector<Hsv> foreground_colours;
@@ -207,6 +217,11 @@ void PoseEnergy::setFrame(const std::vector<CameraObservation>& observations) {
     camera.rotation = observation.camera.world_to_camera.linear();
     camera.translation = observation.camera.world_to_camera.translation();
     camera.K = observation.camera.K;
+    const ImageSoG& sog = observation.sog;
+    if (params_.wrist_weight > 0.0 && sog.arm_cells >= std::max(params_.wrist_min_cells, 1) &&
+        sog.arm_centroid.allFinite()) {
+      wrist_rays_.push_back(pixelRay(observation.camera, sog.arm_centroid));
+    }
     std::vector<const ImageGaussian*> kept;
     double self_overlap_sum = 0.0;
     for (const ImageGaussian& g : observation.sog.gaussians) {
@@ -522,10 +537,29 @@ double PoseEnergy::evaluateIn(const Pose& pose, bool with_forearm,
       range_gradient[kFirstJointDof + j] = 2.0 * residual / half_width;
     }
   }
+  // Wrist prior (EnergyParams::wrist_weight): rho = 1 - exp(-h^2 / 2), h = (d - tolerance) /
+  // scale beyond the tolerance; drho/dt = exp(-h^2 / 2) h / scale * p / d, p the wrist's offset
+  // from the ray across it.
+  double wrist = 0.0;
+  Eigen::Vector3d wrist_gradient = Eigen::Vector3d::Zero();
+  if (params_.wrist_weight > 0.0 && !wrist_rays_.empty() && !forearm_present_) {
+    for (const Ray& ray : wrist_rays_) {
+      const Eigen::Vector3d offset = pose.translation - ray.origin;
+      const Eigen::Vector3d across = offset - offset.dot(ray.direction) * ray.direction;
+      const double distance = across.norm();
+      if (!(distance > params_.wrist_tolerance)) continue;
+      const double h = (distance - params_.wrist_tolerance) / params_.wrist_scale;
+      const double e = std::exp(-0.5 * h * h);
+      wrist += 1.0 - e;
+      wrist_gradient += (e * h / (params_.wrist_scale * distance)) * across;
+    }
+    wrist /= static_cast<double>(wrist_rays_.size());
+    wrist_gradient /= static_cast<double>(wrist_rays_.size());
+  }
   const double total =
       similarity - params_.limit_weight * penalty - params_.dip_pip_coupling_weight * coupling -
       params_.finger_order_weight * order - params_.finger_collision_weight * collision -
-      params_.joint_range_weight * range;  // paper eq. 9 + priors
+      params_.joint_range_weight * range - params_.wrist_weight * wrist;  // paper eq. 9 + priors
 
   if (terms) {
     terms->similarity = similarity;
@@ -534,6 +568,7 @@ double PoseEnergy::evaluateIn(const Pose& pose, bool with_forearm,
     terms->order_penalty = order;
     terms->collision_penalty = collision;
     terms->range_penalty = range;
+    terms->wrist_penalty = wrist;
     terms->total = total;
     for (double& value : terms->per_camera) value /= camera_count;
   }
@@ -574,6 +609,9 @@ double PoseEnergy::evaluateIn(const Pose& pose, bool with_forearm,
   *gradient -= params_.dip_pip_coupling_weight * coupling_gradient;
   *gradient -= params_.finger_order_weight * order_gradient;
   *gradient -= params_.joint_range_weight * range_gradient;
+  for (int i = 0; i < 3; ++i) {
+    (*gradient)[kRootTranslation + i] -= params_.wrist_weight * wrist_gradient[i];
+  }
   return total;
 }
 

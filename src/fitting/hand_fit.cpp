@@ -94,6 +94,12 @@ double meanEnergy(const HandModel& model, const EnergyParams& params,
 
 }  // namespace
 
+EnergyParams calibrationEnergyParams() {
+  EnergyParams params;
+  params.wrist_weight = 0.0;
+  return params;
+}
+
 HandShapeParameters HandShapeParameters::identity(const HandModel& model) {
   HandShapeParameters shape;
   shape.bone_length.assign(model.bones.size(), 1.0);

@@ -105,7 +105,9 @@ struct Workspace {
   std::vector<int> mask_integral;
   std::vector<unsigned char> border;  // refine_border_pixels: the border cells of `mask`
   std::vector<int> border_integral;
-  int arm_cells = 0;  // sleeve cells of the last prepare() (see ImageSoG::arm_cells)
+  // With the plate: the cells that differ from it but are too dark for skin (the sleeve).
+  std::vector<unsigned char> sleeve;
+  int arm_cells = 0;  // the forearm evidence of the last image (see ImageSoG::arm_cells)
   Eigen::Vector2d arm_sum = Eigen::Vector2d::Zero();
 };
 
@@ -527,6 +529,7 @@ bool prepare(const cv::Mat& rgb, const SegmentationParams& params, SegmentationM
   ws.mask.resize(cells);
   ws.arm_cells = 0;
   ws.arm_sum.setZero();
+  ws.sleeve.assign(use_plate ? cells : 0, 0);
   for (int i = 0; i < cells; ++i) {
     const float* c = &ws.cell_means[3 * i];
     bool foreground = true;
@@ -535,11 +538,7 @@ bool prepare(const cv::Mat& rgb, const SegmentationParams& params, SegmentationM
       const bool dark =
           differs && isDarkNonSkin(Eigen::Vector3d(c[0], c[1], c[2]), params.background);
       foreground = differs && !dark;
-      if (dark) {  // the sleeve: evidence of where the forearm is (ImageSoG::arm_cells)
-        ++ws.arm_cells;
-        ws.arm_sum +=
-            Eigen::Vector2d((i % cells_x + 0.5) * cell_size, (i / cells_x + 0.5) * cell_size);
-      }
+      ws.sleeve[i] = dark ? 1 : 0;  // the forearm's evidence (addArmEvidence)
     }
     if (foreground && use_skin) {
       foreground = isSkinColour(Eigen::Vector3d(c[0], c[1], c[2]), params.skin);
@@ -575,8 +574,20 @@ void finishMask(Workspace& ws, int cells_x, int cells_y, int cell_size, CellMask
   mask.cell_size = cell_size;
 }
 
-// The sleeve cells that prepare() counted, as the forearm evidence of the image SoG.
-void addArmEvidence(const Workspace& ws, bool masked, ImageSoG* sog) {
+// The forearm evidence of the image SoG (ImageSoG::arm_cells): with the plate, the sleeve cells
+// prepare() marked that lie next to the kept foreground (RoomCueParams::sleeve_band_cells), i.e.
+// where the sleeve meets the hand; without it, what the room cues found (segmentFrame).
+void addArmEvidence(const SegmentationParams& params, Workspace& ws, const CellMask& mask,
+                    bool masked, ImageSoG* sog) {
+  if (masked && !ws.sleeve.empty()) {
+    ws.arm_cells = 0;
+    if (params.room.sleeve_band_cells > 0) {
+      Eigen::Vector2d centroid;
+      detail::sleeveNextToForeground(params, ws.sleeve, mask.cells_x, mask.cells_y, mask.cell_size,
+                                     ws.mask, &ws.arm_cells, &centroid);
+      ws.arm_sum = centroid * ws.arm_cells;
+    }
+  }
   if (!masked || ws.arm_cells <= 0) return;
   sog->arm_cells = ws.arm_cells;
   sog->arm_centroid = ws.arm_sum / ws.arm_cells;
@@ -655,7 +666,7 @@ ImageSoG ImageSegmenter::segment(const cv::Mat& rgb, std::vector<QuadtreeLeaf>* 
     mask.rgb = &rgb;
   }
   ImageSoG sog = runQuadtree(ws.integral, params_.quadtree, masked ? &mask : nullptr, leaves);
-  addArmEvidence(ws, masked, &sog);
+  addArmEvidence(params_, ws, mask, masked, &sog);
   return sog;
 }
 
@@ -802,7 +813,7 @@ ImageSoG ImageSegmenter::segmentFrame(const cv::Mat& rgb, std::vector<QuadtreeLe
     mask.rgb = &rgb;
   }
   ImageSoG sog = runQuadtree(ws.integral, params_.quadtree, masked ? &mask : nullptr, leaves);
-  addArmEvidence(ws, masked, &sog);
+  addArmEvidence(params_, ws, mask, masked, &sog);
   return sog;
 }
 

@@ -674,6 +674,19 @@ void sleeveNextToForeground(const SegmentationParams& params, const std::vector<
                             int cells_x, int cells_y, int cell_size,
                             const std::vector<unsigned char>& mask, int* arm_cells,
                             Eigen::Vector2d* arm_centroid) {
+  std::vector<unsigned char> sleeve(static_cast<size_t>(cells_x) * cells_y);
+  for (size_t i = 0; i < sleeve.size(); ++i) {
+    const float* m = &means[3 * i];
+    sleeve[i] = isDarkNonSkin(Eigen::Vector3d(m[0], m[1], m[2]), params.background) ? 1 : 0;
+  }
+  sleeveNextToForeground(params, sleeve, cells_x, cells_y, cell_size, mask, arm_cells,
+                         arm_centroid);
+}
+
+void sleeveNextToForeground(const SegmentationParams& params,
+                            const std::vector<unsigned char>& sleeve, int cells_x, int cells_y,
+                            int cell_size, const std::vector<unsigned char>& mask, int* arm_cells,
+                            Eigen::Vector2d* arm_centroid) {
   *arm_cells = 0;
   *arm_centroid = Eigen::Vector2d::Zero();
   const int cells = cells_x * cells_y;
@@ -697,22 +710,20 @@ void sleeveNextToForeground(const SegmentationParams& params, const std::vector<
   // Breadth first from the foreground through dark cells, up to the band's width: the cells
   // reached (queued after the foreground) are the sleeve.
   const size_t seeds = queue.size();
-  growCells(&queue, &distance, cells_x, cells_y, params.room.sleeve_band_cells, [&](int n) {
-    const float* m = &means[3 * n];
-    return isDarkNonSkin(Eigen::Vector3d(m[0], m[1], m[2]), params.background);
-  });
+  growCells(&queue, &distance, cells_x, cells_y, params.room.sleeve_band_cells,
+            [&](int n) { return sleeve[n] != 0; });
   Eigen::Vector2d sleeve_sum = Eigen::Vector2d::Zero();
-  const int sleeve = static_cast<int>(queue.size() - seeds);
+  const int band = static_cast<int>(queue.size() - seeds);
   for (size_t k = seeds; k < queue.size(); ++k) {
     sleeve_sum += Eigen::Vector2d(queue[k] % cells_x, queue[k] / cells_x);
   }
-  if (sleeve == 0) return;
-  const Eigen::Vector2d sleeve_centre = sleeve_sum / sleeve;
+  if (band == 0) return;
+  const Eigen::Vector2d sleeve_centre = sleeve_sum / band;
   const Eigen::Vector2d foreground_centre = foreground_sum / foreground;
   const double diagonal = std::hypot(x1 - x0 + 1.0, y1 - y0 + 1.0);
   // Dark cells all around the hand (shadows, a dark table) say nothing about the wrist.
   if ((sleeve_centre - foreground_centre).norm() < params.room.sleeve_min_offset * diagonal) return;
-  *arm_cells = sleeve;
+  *arm_cells = band;
   *arm_centroid = (sleeve_centre + Eigen::Vector2d(0.5, 0.5)) * cell_size;
 }
 

@@ -78,6 +78,12 @@ void sleeveNextToForeground(const SegmentationParams& params, const std::vector<
                             int cells_x, int cells_y, int cell_size,
                             const std::vector<unsigned char>& mask, int* arm_cells,
                             Eigen::Vector2d* arm_centroid);
+// The same with the sleeve's cells given (`sleeve`: 1 where a cell may be sleeve; with the plate,
+// the cells that differ from it and are too dark to be skin).
+void sleeveNextToForeground(const SegmentationParams& params,
+                            const std::vector<unsigned char>& sleeve, int cells_x, int cells_y,
+                            int cell_size, const std::vector<unsigned char>& mask, int* arm_cells,
+                            Eigen::Vector2d* arm_centroid);
 
 // The groups that applyRoomCues would choose from without a region of interest (cue 3), best
 // score first, at most max_candidates; `state` is only read (motion and learned skin colour).

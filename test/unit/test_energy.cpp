@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <optional>
 #include <random>
 
@@ -63,6 +64,30 @@ int expectGradientMatches(const PoseEnergy& energy, const HandModel& model, cons
   return kNumDof;
 }
 
+// The analytic gradient against central differences at 4 random poses, with `params` (no cut-off
+// and double pair kernels added), on the images of the typical pose, edited by `edit` when given.
+void checkGradientWith(
+    const std::string& model_name, EnergyParams params,
+    const std::function<void(const Pose&, std::vector<CameraObservation>&)>& edit = {}) {
+  const HandModel model = loadHandModel(modelPath(model_name));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  std::mt19937 rng(42);
+  params.max_mahalanobis_sq = 1e9;  // no cut-off: the energy is then smooth everywhere
+  params.float_pairs = false;       // float rounding would swamp the differences
+  PoseEnergy energy(model, params);
+  // Image from one pose, gradient at others: many pairs unsaturated, many partially overlapping.
+  std::vector<CameraObservation> observations =
+      modelObservations(model, typicalPose(model), cameras, 6.0);
+  if (edit) edit(typicalPose(model), observations);
+  energy.setFrame(observations);
+  int checked = 0;
+  for (int trial = 0; trial < 4; ++trial) {
+    checked += expectGradientMatches(energy, model, randomPose(model, rng),
+                                     model_name + " trial " + std::to_string(trial));
+  }
+  EXPECT_EQ(checked, 4 * kNumDof);
+}
+
 void checkGradient(const std::string& model_name,
                    double coupling = EnergyParams().dip_pip_coupling_weight,
                    double model_area_weight = EnergyParams().model_area_weight,
@@ -72,12 +97,7 @@ void checkGradient(const std::string& model_name,
                    double finger_order_weight = EnergyParams().finger_order_weight,
                    double finger_collision_weight = EnergyParams().finger_collision_weight,
                    double finger_collision_threshold = EnergyParams().finger_collision_threshold) {
-  const HandModel model = loadHandModel(modelPath(model_name));
-  const std::vector<Camera> cameras = fiveCameraRig();
-  std::mt19937 rng(42);
   EnergyParams params;
-  params.max_mahalanobis_sq = 1e9;  // no cut-off: the energy is then smooth everywhere
-  params.float_pairs = false;       // float rounding would swamp the differences
   params.dip_pip_coupling_weight = coupling;
   params.model_area_weight = model_area_weight;
   params.joint_range_weight = joint_range_weight;
@@ -86,15 +106,33 @@ void checkGradient(const std::string& model_name,
   params.finger_order_weight = finger_order_weight;
   params.finger_collision_weight = finger_collision_weight;
   params.finger_collision_threshold = finger_collision_threshold;
-  PoseEnergy energy(model, params);
-  // Image from one pose, gradient at others: many pairs unsaturated, many partially overlapping.
-  energy.setFrame(modelObservations(model, typicalPose(model), cameras, 6.0));
-  int checked = 0;
-  for (int trial = 0; trial < 4; ++trial) {
-    checked += expectGradientMatches(energy, model, randomPose(model, rng),
-                                     model_name + " trial " + std::to_string(trial));
+  checkGradientWith(model_name, params);
+}
+
+// E_sim less every prior of `params` at its weight: what EnergyTerms::total must be.
+double weightedTotal(const EnergyParams& params, const EnergyTerms& terms) {
+  return terms.similarity - params.limit_weight * terms.limit_penalty -
+         params.dip_pip_coupling_weight * terms.coupling_penalty -
+         params.finger_order_weight * terms.order_penalty -
+         params.finger_collision_weight * terms.collision_penalty -
+         params.joint_range_weight * terms.range_penalty -
+         params.wrist_weight * terms.wrist_penalty;
+}
+
+// Forearm evidence (ImageSoG::arm_cells) in every camera at the image of `point`, as the
+// segmentation reports the sleeve's end.
+void addArmEvidenceAt(const Eigen::Vector3d& point, std::vector<CameraObservation>& observations) {
+  for (CameraObservation& observation : observations) {
+    Eigen::Vector2d pixel;
+    ASSERT_TRUE(observation.camera.project(point, &pixel));
+    observation.sog.arm_cells = 30;
+    observation.sog.arm_centroid = pixel;
   }
-  EXPECT_EQ(checked, 4 * kNumDof);
+}
+
+// A point `distance` up the forearm from the wrist of `pose` (the root's -x axis).
+Eigen::Vector3d upTheArm(const Pose& pose, double distance) {
+  return pose.translation - distance * pose.rotation.col(0);
 }
 
 // The index of the model's joint `name` among the joint parameters (a test failure if none).
@@ -156,6 +194,18 @@ TEST(EnergyGradient, SagWithStrongFingerCollisionPriorMatchesCentralDifferences)
                   defaults.joint_range_weight, defaults.saturation_softness,
                   defaults.occlusion_depth_scale, defaults.finger_order_weight, 5.0, threshold);
   }
+}
+
+// The same with a strong wrist prior: evidence 1 cm up the arm of the typical pose, the random
+// poses' wrists up to a few cm from its rays, charged beyond a small tolerance.
+TEST(EnergyGradient, SagWithStrongWristPriorMatchesCentralDifferences) {
+  EnergyParams params;
+  params.wrist_weight = 5.0;
+  params.wrist_tolerance = 0.003;
+  params.wrist_scale = 0.01;
+  checkGradientWith("sag", params, [](const Pose& truth, std::vector<CameraObservation>& obs) {
+    addArmEvidenceAt(upTheArm(truth, 0.01), obs);
+  });
 }
 
 // The same with the soft saturation of eq. 8 (EnergyParams::saturation_softness 1 and 0.5).
@@ -283,11 +333,7 @@ TEST(Energy, FingerOrderPriorChargesNeighboursTurnedAcrossEachOther) {
   const double m = params.finger_order_margin;
   const double expected = std::pow(0.5 - m, 2) + std::pow(0.1 - m, 2);  // ring-pinky: spread
   EXPECT_NEAR(crossed.order_penalty, expected, 1e-12);
-  EXPECT_NEAR(total,
-              crossed.similarity - params.limit_weight * crossed.limit_penalty -
-                  params.dip_pip_coupling_weight * crossed.coupling_penalty -
-                  params.finger_order_weight * crossed.order_penalty,
-              1e-9);
+  EXPECT_NEAR(total, weightedTotal(params, crossed), 1e-9);
   // Switched off, it costs nothing.
   const double weight = params.finger_order_weight;
   params.finger_order_weight = 0.0;
@@ -326,18 +372,56 @@ TEST(Energy, FingerCollisionPriorChargesStackedStraightFingersOnly) {
   EnergyTerms stacked;
   const double total = energy.evaluate(pose, nullptr, &stacked);
   EXPECT_GT(stacked.collision_penalty, 0.05);  // measured 0.50
-  EXPECT_NEAR(total,
-              stacked.similarity - params.limit_weight * stacked.limit_penalty -
-                  params.dip_pip_coupling_weight * stacked.coupling_penalty -
-                  params.finger_order_weight * stacked.order_penalty -
-                  params.finger_collision_weight * stacked.collision_penalty,
-              1e-9);
+  EXPECT_NEAR(total, weightedTotal(params, stacked), 1e-9);
   // The same abductions with the middle finger curled: nothing.
   pose.joints[joint("middle_mcp_flex")] = 1.4;
   pose.joints[joint("middle_pip_flex")] = 1.6;
   EnergyTerms curled;
   energy.evaluate(pose, nullptr, &curled);
   EXPECT_LT(curled.collision_penalty, 0.1 * stacked.collision_penalty);  // measured 0
+}
+
+// The wrist prior charges a wrist away from where the sleeve meets the hand in the images: nothing
+// within its tolerance, more the farther off, at most its weight (a far-off camera pulls
+// little), nothing without evidence or with the forearm in the energy (a bare forearm).
+TEST(Energy, WristPriorChargesAWristAwayFromTheSleevesEnd) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const EnergyParams params;
+  ASSERT_GT(params.wrist_weight, 0.0);  // on by default
+  PoseEnergy energy(model, params);
+  const Pose truth = typicalPose(model);
+  std::vector<CameraObservation> observations =
+      modelObservations(model, truth, fiveCameraRig(), 6.0);
+  addArmEvidenceAt(upTheArm(truth, 0.015), observations);
+  energy.setFrame(observations);
+  auto wristPenalty = [&](double along_the_hand) {
+    Pose pose = truth;
+    pose.translation += along_the_hand * truth.rotation.col(0);
+    EnergyTerms terms;
+    const double total = energy.evaluate(pose, nullptr, &terms);
+    EXPECT_NEAR(total, weightedTotal(params, terms), 1e-9);
+    return terms.wrist_penalty;
+  };
+  EXPECT_EQ(wristPenalty(0.0), 0.0);  // 1.5 cm off the rays at most: within the tolerance
+  const double near = wristPenalty(0.03), off = wristPenalty(0.06), far = wristPenalty(0.3);
+  EXPECT_GT(near, 0.0);
+  EXPECT_GT(off, near);
+  EXPECT_GT(far, off);
+  EXPECT_LE(far, 1.0);
+  EXPECT_GT(far, 0.99);  // bounded: a camera whose evidence lies far off adds a constant
+  // The hand sliding 5 cm toward its fingers (the slide of a model smaller than the hand) now
+  // costs more than a small share of the similarity.
+  EXPECT_GT(params.wrist_weight * wristPenalty(0.05), 0.002);
+  // No evidence (too few cells), or the forearm in the energy: nothing.
+  for (CameraObservation& observation : observations) {
+    observation.sog.arm_cells = params.wrist_min_cells - 1;
+  }
+  energy.setFrame(observations);
+  EXPECT_EQ(wristPenalty(0.06), 0.0);
+  addArmEvidenceAt(upTheArm(truth, 0.015), observations);
+  energy.setFrame(observations);
+  energy.setForearmPresent(true);
+  EXPECT_EQ(wristPenalty(0.06), 0.0);
 }
 
 // The coupling prior: zero when every DIP is k times its PIP, quadratic in the residual.

@@ -57,7 +57,7 @@ constexpr double kOpenHandFlexionDeg = 40.0;
 
 // What the routine needs, and whether the recording followed it.
 struct RoutineRequirements {
-  int min_frames = 40;               // frames with the hand tracked
+  int min_frames = 40;  // frames with the hand tracked
   // Seconds between the first and the last of them. 2.0 (2.5 until session 16): the first 3 s of
   // a recording, less its 0.4 s of background frames and a start that takes a few frames.
   double min_duration = 2.0;
@@ -93,8 +93,15 @@ RoutineCheck checkCalibrationRoutine(const HandModel& model,
                                      int cameras_in_recording,
                                      const RoutineRequirements& requirements = {});
 
+// The energy calibration tracks and fits with: the tracker's, without the wrist prior
+// (EnergyParams::wrist_weight). The start model's palm is not the user's, and holding its wrist at
+// the sleeve's end moves its knuckles and fingers off the user's, so the poses the fit starts from
+// are biased by the start model: with the prior, the studio's long_thin hand (palm 15 % shorter,
+// fingers 15 % longer) was fitted with every finger bone 6 % short (README "Session 26").
+EnergyParams calibrationEnergyParams();
+
 struct HandFitParams {
-  EnergyParams energy;
+  EnergyParams energy = calibrationEnergyParams();
   // Pose re-optimisation after each shape change, warm-started from the frame's current pose.
   OptimizerParams pose_optimizer{6};
   int initial_pose_iterations = 30;  // refining the tracked poses once before the search

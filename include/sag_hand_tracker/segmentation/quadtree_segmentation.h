@@ -87,10 +87,11 @@ struct RoomCueParams {
   double motion_decay = 0.9;
   double motion_weight = 4.0;
   double sleeve_weight = 2.0;
-  // Without a plate the sleeve is the forearm evidence (ImageSoG::arm_cells) the plate would give:
-  // the dark, unsaturated cells within this many cells of the kept foreground, when they lie to
-  // one side of it (centroid at least sleeve_min_offset of its box diagonal from its centroid).
-  // 0 cells: no evidence without a plate.
+  // The forearm evidence (ImageSoG::arm_cells), with or without a plate (this applies whether or
+  // not the room cues are enabled): the sleeve's cells (dark and unsaturated; with the plate, also
+  // differing from it) within this many cells of the kept foreground, i.e. where the sleeve meets
+  // the hand, when they lie to one side of it (centroid at least sleeve_min_offset of its box
+  // diagonal from its centroid). 0 cells: no evidence.
   int sleeve_band_cells = 4;
   double sleeve_min_offset = 0.25;
   double plate_adaptation_rate = 0.05;

@@ -24,9 +24,11 @@ struct ImageSoG {
   int width = 0;
   int height = 0;
   std::vector<ImageGaussian> gaussians;
-  // Where the forearm is: the cells that differ from the background plate but are too dark to be
-  // skin (the sleeve), counted and averaged (pixels). The forearm joins the hand at the wrist, so
-  // this tells the tracker which end of the hand is the wrist. 0 cells: no such evidence.
+  // Where the forearm joins the hand: the sleeve's cells (too dark to be skin; with a plate, also
+  // differing from it) next to the foreground (RoomCueParams::sleeve_band_cells), counted and
+  // averaged (pixels). The forearm joins the hand at the wrist, so this tells the tracker which
+  // end of the hand is the wrist, and about where the wrist is (EnergyParams::wrist_weight).
+  // 0 cells: no such evidence.
   int arm_cells = 0;
   Eigen::Vector2d arm_centroid = Eigen::Vector2d::Zero();
 };
