@@ -49,12 +49,13 @@
 //
 // Live calibration (~calibrate, srv/Calibrate.srv, doc/calibration.md "Live"): the call collects
 // the sets of the next `duration` seconds (image stamps) as CalibrationFrames (the observations
-// the tracker gets and its pose, for sets with a tracked hand) while tracking goes on, checks the
-// routine (checkCalibrationRoutine), fits (fitHandModel: the same fit as calibrate_hand, colours
-// sampled from the image SoGs, which carry them) on a thread of its own, optionally writes the
-// model file (atomic; never replaces a file), then rebuilds the HandTracker with the fitted model
-// under mutex_. The service has its own callback queue and two threads: a call waiting for its
-// frames or its fit takes none of the manager's worker threads, and a second call is answered
+// the tracker gets and its pose, for sets with a tracked hand) while tracking goes on (with the
+// wrist prior off meanwhile, as calibrate_hand tracks a routine: calibrationEnergyParams), checks
+// the routine (checkCalibrationRoutine), fits (fitHandModel: the same fit as calibrate_hand,
+// colours sampled from the image SoGs, which carry them) on a thread of its own, optionally writes
+// the model file (atomic; never replaces a file), then rebuilds the HandTracker with the fitted
+// model under mutex_. The service has its own callback queue and two threads: a call waiting for
+// its frames or its fit takes none of the manager's worker threads, and a second call is answered
 // (refused) at once.
 //
 // Synchronization: CameraSetSynchronizer (tracking/camera_set_synchronizer.h; message_filters'
@@ -701,6 +702,15 @@ class TrackerNodelet : public nodelet::Nodelet {
     return finish(success, message);
   }
 
+  // The tracker's wrist prior (EnergyParams::wrist_weight), its other parameters as they are (a
+  // reconfigure may have changed them meanwhile). Caller holds mutex_.
+  void setWristWeight(double weight) {
+    TrackerParams params = tracker_->params();
+    if (params.energy.wrist_weight == weight) return;
+    params.energy.wrist_weight = weight;
+    tracker_->setParams(params);
+  }
+
   // save_path must be absolute (the manager's working directory is nobody's business), name no
   // existing file, and lie in an existing folder. Fills `problem` when it does not.
   static bool checkSavePath(const std::string& path, std::string* problem) {
@@ -733,6 +743,10 @@ class TrackerNodelet : public nodelet::Nodelet {
       start_model = model_;
       recording_.emplace();
       recording_->duration = request.duration;
+      // The routine is tracked as calibrate_hand tracks it: without the wrist prior
+      // (calibrationEnergyParams, doc/calibration.md "Session 26"); the prior is back after it.
+      const double wrist_weight = tracker_->params().energy.wrist_weight;
+      setWristWeight(calibrationEnergyParams().wrist_weight);
       setCalibrationState("collecting");
       NODELET_INFO("calibrate: collecting %.1f s of camera sets", request.duration);
       // Sets come at the camera rate; a replay may run slower than real time, so the wall-clock
@@ -744,6 +758,7 @@ class TrackerNodelet : public nodelet::Nodelet {
       recording = std::move(*recording_);
       recording_.reset();
       awaiting_late_.clear();
+      setWristWeight(wrist_weight);
     }
     response->sets = recording.sets;
     response->tracked_frames = static_cast<int>(recording.frames.size());
