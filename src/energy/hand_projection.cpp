@@ -51,10 +51,11 @@ bool ellipseBox(const ProjectedGaussian& g, double sigmas, double margin_pixels,
   return true;
 }
 
-cv::Mat projectedModelSilhouette(const PosedHand& hand, const Camera& camera, double sigmas,
-                                 int margin_pixels) {
-  cv::Mat mask(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
-  if (!handInFrontOf(hand, camera)) return mask;
+cv::Rect drawModelSilhouette(const PosedHand& hand, const Camera& camera, double sigmas,
+                             int margin_pixels, cv::Mat* mask) {
+  cv::Rect drawn;
+  if (!handInFrontOf(hand, camera)) return drawn;
+  const cv::Rect image(0, 0, mask->cols, mask->rows);
   for (const CameraGaussian& g : projectHand(hand, camera)) {
     cv::RotatedRect box;
     if (!ellipseBox(g.projected, sigmas, margin_pixels, &box)) continue;
@@ -63,8 +64,18 @@ cv::Mat projectedModelSilhouette(const PosedHand& hand, const Camera& camera, do
         std::fabs(box.center.y) > 4.0f * camera.height) {
       continue;
     }
-    cv::ellipse(mask, box, cv::Scalar(255), cv::FILLED);
+    cv::ellipse(*mask, box, cv::Scalar(255), cv::FILLED);
+    // Two pixels beyond the box, for the rounding of cv::ellipse's polygon.
+    const cv::Rect reach = (box.boundingRect() + cv::Size(4, 4) - cv::Point(2, 2)) & image;
+    if (!reach.empty()) drawn = drawn.empty() ? reach : (drawn | reach);
   }
+  return drawn;
+}
+
+cv::Mat projectedModelSilhouette(const PosedHand& hand, const Camera& camera, double sigmas,
+                                 int margin_pixels) {
+  cv::Mat mask(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
+  drawModelSilhouette(hand, camera, sigmas, margin_pixels, &mask);
   return mask;
 }
 

@@ -28,20 +28,15 @@ double fingerFlexionDeg(const HandModel& model, const Pose& pose) {
   return meanFingerFlexion(model, pose) * kRadToDeg;
 }
 
-// Per frame, per observation, its foreground (foregroundOfSoG, an empty mask for a camera without
-// foreground): the silhouette score's part that does not depend on the shape, made once.
+// Per frame, per observation, its foreground (foregroundsOf): the silhouette score's part that does
+// not depend on the shape, made once.
 using FrameForegrounds = std::vector<std::vector<cv::Mat>>;
 
 FrameForegrounds foregroundsOf(const std::vector<const CalibrationFrame*>& frames) {
-  FrameForegrounds foregrounds(frames.size());
-  for (size_t f = 0; f < frames.size(); ++f) {
-    for (const CameraObservation& observation : frames[f]->observations) {
-      foregrounds[f].push_back(observation.sog.gaussians.empty()
-                                   ? cv::Mat()
-                                   : foregroundOfSoG(observation.sog, observation.camera.width,
-                                                     observation.camera.height));
-    }
-  }
+  FrameForegrounds foregrounds;
+  foregrounds.reserve(frames.size());
+  for (const CalibrationFrame* frame : frames)
+    foregrounds.push_back(foregroundsOf(frame->observations));
   return foregrounds;
 }
 
@@ -204,47 +199,6 @@ double shapeScore(const HandModel& model, const EnergyParams& params,
     score += 2.0 * overlap / (image_mass + model_mass);
   }
   return kept > 0 ? score / kept : 0.0;
-}
-
-cv::Mat foregroundOfSoG(const ImageSoG& sog, int width, int height) {
-  cv::Mat mask(height, width, CV_8UC1, cv::Scalar(0));
-  const double side_per_sigma = std::sqrt(2.0 * M_PI);
-  for (const ImageGaussian& g : sog.gaussians) {
-    if (!g.mean.allFinite() || !(g.sigma > 0.0) || !std::isfinite(g.sigma)) continue;
-    const double half = 0.5 * side_per_sigma * g.sigma;
-    const cv::Rect leaf(cv::Point(static_cast<int>(std::lround(g.mean.x() - half)),
-                                  static_cast<int>(std::lround(g.mean.y() - half))),
-                        cv::Point(static_cast<int>(std::lround(g.mean.x() + half)),
-                                  static_cast<int>(std::lround(g.mean.y() + half))));
-    mask(leaf & cv::Rect(0, 0, width, height)).setTo(255);
-  }
-  return mask;
-}
-
-double silhouetteScore(const HandModel& model, const std::vector<CameraObservation>& observations,
-                       const std::vector<cv::Mat>& foregrounds, const Pose& pose, double sigmas) {
-  if (foregrounds.size() != observations.size()) {
-    throw InputError("silhouetteScore: " + std::to_string(observations.size()) +
-                     " observations but " + std::to_string(foregrounds.size()) + " foregrounds");
-  }
-  const PosedHand hand = forwardKinematics(model, pose);
-  double score = 0.0;
-  int cameras = 0;
-  for (size_t c = 0; c < observations.size(); ++c) {
-    const cv::Mat& foreground = foregrounds[c];
-    if (foreground.empty()) continue;
-    const cv::Mat silhouette = projectedModelSilhouette(hand, observations[c].camera, sigmas, 0);
-    if (silhouette.size() != foreground.size()) {
-      throw InputError("silhouetteScore: camera '" + observations[c].camera.name +
-                       "': the foreground is not of the camera's size");
-    }
-    const double both = cv::countNonZero(foreground & silhouette);
-    const double sizes = cv::countNonZero(foreground) + cv::countNonZero(silhouette);
-    if (sizes <= 0.0) continue;
-    score += 2.0 * both / sizes;
-    ++cameras;
-  }
-  return cameras > 0 ? score / cameras : 0.0;
 }
 
 void sampleGaussianColours(const std::vector<CalibrationFrame>& frames,

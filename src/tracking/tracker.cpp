@@ -11,6 +11,7 @@
 #include <optional>
 #include <utility>
 
+#include "sag_hand_tracker/energy/silhouette.h"
 #include "sag_hand_tracker/util/parallel_for.h"
 #include "sag_hand_tracker/util/thread_priority.h"
 
@@ -918,6 +919,55 @@ OptimizationResult HandTracker::trackFromPrediction(const PoseEnergy& energy,
   return result;
 }
 
+bool HandTracker::toggleFingers(const PoseEnergy& energy,
+                                const std::vector<CameraObservation>& observations,
+                                OptimizationResult* result) const {
+  const double weight = params_.toggle_silhouette_weight;
+  if (!(weight > 0.0) || frames_since_start_ < params_.toggle_min_track_frames) return false;
+  // Only a track that holds: a lost one is the start's to replace, and a toggle must not make it
+  // look held.
+  EnergyTerms terms;
+  energy.evaluate(result->pose, nullptr, &terms);
+  if (looksLost(terms.similarity)) return false;
+  const HandModel& model = energy.model();
+  SilhouetteScorer silhouette(observations, params_.toggle_silhouette_sigmas);
+  const double tracked_silhouette = silhouette.score(model, result->pose);
+  const double tracked_score = result->energy + weight * tracked_silhouette;
+  OptimizerParams optimizer = params_.optimizer;
+  optimizer.iterations = params_.toggle_iterations;
+  std::optional<OptimizationResult> best;
+  double best_score = tracked_score + params_.toggle_min_gain;
+  const double dip_ratio = energy.params().dip_pip_ratio;
+  for (int f = 1; f < kNumFingers; ++f) {
+    const std::string finger = fingerNames()[f];
+    const int mcp = model.jointIndex(finger + "_mcp_flex");
+    const int abd = model.jointIndex(finger + "_mcp_abd");
+    const int pip = model.jointIndex(finger + "_pip_flex");
+    const int dip = model.jointIndex(finger + "_dip_flex");
+    if (mcp < 0 || pip < 0) continue;
+    Pose toggled = result->pose;
+    if (!(toggled.joints[mcp] + toggled.joints[pip] < params_.toggle_straight_flexion)) continue;
+    toggled.joints[mcp] = params_.toggle_mcp;
+    toggled.joints[pip] = params_.toggle_pip;
+    if (dip >= 0) toggled.joints[dip] = dip_ratio * params_.toggle_pip;
+    if (abd >= 0) toggled.joints[abd] = 0.0;
+    clampToLimits(model, &toggled);
+    if (silhouette.score(model, toggled) <
+        tracked_silhouette - params_.toggle_max_silhouette_loss) {
+      continue;
+    }
+    OptimizationResult refined = optimizePose(energy, toggled, optimizer);
+    const double score = refined.energy + weight * silhouette.score(model, refined.pose);
+    if (score > best_score) {
+      best_score = score;
+      best = refined;
+    }
+  }
+  if (!best) return false;
+  *result = *best;
+  return true;
+}
+
 FrameResult HandTracker::step(const std::vector<CameraObservation>& observations, double stamp) {
   FrameResult result;
   result.stamp = stamp;
@@ -941,6 +991,7 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
   const bool tracking = current_ && !lost_;
   if (tracking) {
     optimized = trackFromPrediction(energy, previous_, *current_);
+    toggleFingers(energy, observations, &*optimized);
     forearm = fitForearm(energy, &*optimized, forearm);
     energy.setForearmDirection(forearm);
     energy.evaluate(optimized->pose, nullptr, &tracked_terms);

@@ -5,9 +5,11 @@
 
 #include <cmath>
 #include <map>
+#include <random>
 #include <tuple>
 
 #include "sag_hand_tracker/camera/calibration.h"
+#include "sag_hand_tracker/energy/hand_projection.h"
 #include "sag_hand_tracker/fitting/hand_fit.h"
 #include "sag_hand_tracker/model/hand_model.h"
 #include "sag_hand_tracker/model/kinematics.h"
@@ -16,6 +18,7 @@
 #include "sag_hand_tracker/studio/renderer.h"
 #include "sag_hand_tracker/studio/sequence.h"
 #include "sag_hand_tracker/tracking/tracking_pipeline.h"
+#include "test_support/synthetic_scene.h"
 #include "test_support/temp_files.h"
 
 using namespace sag_hand_tracker;
@@ -425,6 +428,39 @@ TEST(HandFitScore, TheSilhouetteScorePeaksAtTheRenderedThickness) {
   EXPECT_THROW(
       silhouetteScore(handModel(), pinch.frames[0].observations, {}, pinch.frames[0].pose, sigmas),
       InputError);
+}
+
+// The silhouette score counts within the silhouette's bounding box; it must be the Dice of the
+// whole images: the model's silhouette as projectedModelSilhouette draws it. SilhouetteScorer
+// (the tracker's finger toggles) gives the same value.
+TEST(HandFitScore, TheSilhouetteScoreIsTheDiceOfTheWholeImages) {
+  const HandModel model = handModel();
+  const std::vector<Camera> cameras = sag_test::fiveCameraRig();
+  const Pose truth = sag_test::typicalPose(model);
+  const std::vector<CameraObservation> observations =
+      sag_test::modelObservations(model, truth, cameras, 4.0);
+  const std::vector<cv::Mat> foregrounds = foregroundsOf(observations);
+  const double sigmas = HandFitParams().silhouette_sigmas;
+  SilhouetteScorer scorer(observations, sigmas);
+  std::mt19937 random(7);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  for (int trial = 0; trial < 8; ++trial) {
+    Pose pose = truth;
+    pose.translation += 0.01 * trial * Eigen::Vector3d(noise(random), noise(random), noise(random));
+    for (int j = 0; j < kNumJointDof; ++j) pose.joints[j] += 0.1 * trial * noise(random);
+    clampToLimits(model, &pose);
+    const PosedHand hand = forwardKinematics(model, pose);
+    double whole = 0.0;
+    for (size_t c = 0; c < cameras.size(); ++c) {
+      const cv::Mat silhouette = projectedModelSilhouette(hand, cameras[c], sigmas, 0);
+      whole += 2.0 * cv::countNonZero(foregrounds[c] & silhouette) /
+               (cv::countNonZero(foregrounds[c]) + cv::countNonZero(silhouette));
+    }
+    whole /= static_cast<double>(cameras.size());
+    EXPECT_DOUBLE_EQ(silhouetteScore(model, observations, foregrounds, pose, sigmas), whole)
+        << "trial " << trial;
+    EXPECT_DOUBLE_EQ(scorer.score(model, pose), whole) << "trial " << trial;
+  }
 }
 
 TEST(HandFitScore, TheForegroundOfASoGIsItsLeaves) {

@@ -619,6 +619,62 @@ TEST(Tracker, AsynchronousStartReturnsAtOnceAndStartsOnALaterFrame) {
 
 // The live calibration switches to the fitted model: tracking goes on from the current pose,
 // with the new model's limits, instead of starting again.
+// Finger toggles (TrackerParams::toggle_silhouette_weight): a track whose middle finger lies
+// straight beside the straight index, where the images show it curled into the palm, gets the
+// curled finger back in one frame; while the images show it straight it stays straight.
+TEST(Tracker, FingerTogglesCurlAFingerTheImagesShowCurled) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  auto joint = [&](const std::string& name) { return model.jointIndex(name); };
+  Pose one = neutralPose(
+      model, Eigen::Vector3d(-0.06, 0.0, 0.15),
+      Eigen::Matrix3d::Identity());  // the index straight, the others curled: counting "one"
+  for (const std::string finger : {"middle", "ring", "pinky"}) {
+    one.joints[joint(finger + "_mcp_flex")] = 1.3;
+    one.joints[joint(finger + "_pip_flex")] = 1.6;
+    one.joints[joint(finger + "_dip_flex")] = 1.0;
+  }
+  Pose stacked = one;  // the middle straight and turned onto the index
+  stacked.joints[joint("middle_mcp_flex")] = 0.0;
+  stacked.joints[joint("middle_pip_flex")] = 0.0;
+  stacked.joints[joint("middle_dip_flex")] = 0.0;
+  stacked.joints[joint("middle_mcp_abd")] = 0.3;
+  auto middleFlexion = [&](const Pose& pose) {
+    return pose.joints[joint("middle_mcp_flex")] + pose.joints[joint("middle_pip_flex")];
+  };
+  // Ten frames of images that show the stack (the tracker starts on it and keeps the middle
+  // straight; toggles only after toggle_min_track_frames), then one that shows the middle curled.
+  auto track = [&](double toggle_weight) {
+    TrackerParams params;
+    params.toggle_silhouette_weight = toggle_weight;
+    HandTracker tracker(model, params);
+    for (int frame = 0; frame < 10; ++frame) {
+      const FrameResult result =
+          tracker.update(modelObservations(model, stacked, cameras, 3.0), frame);
+      EXPECT_TRUE(result.has_pose);
+      if (frame == 9) {
+        EXPECT_LT(middleFlexion(result.pose), 0.7);
+      }
+    }
+    return tracker.update(modelObservations(model, one, cameras, 3.0), 10.0);
+  };
+  const FrameResult toggled = track(TrackerParams().toggle_silhouette_weight);
+  ASSERT_TRUE(toggled.has_pose);
+  EXPECT_GT(middleFlexion(toggled.pose), 2.0);
+  const FrameResult without = track(0.0);
+  ASSERT_TRUE(without.has_pose);
+  EXPECT_LT(middleFlexion(without.pose), 0.7);  // the energy's ascent alone keeps the stack
+  const Fingertips truth = fingertips(model, one);
+  for (int f = 0; f < kNumFingers; ++f) {
+    std::printf("%s: toggled %.1f mm, without %.1f mm\n", fingerNames()[f],
+                1000 * (toggled.fingertips[f] - truth[f]).norm(),
+                1000 * (without.fingertips[f] - truth[f]).norm());
+  }
+  // The middle's tip (the curled ring and pinky under the palm are left as the start found them).
+  EXPECT_LT((toggled.fingertips[2] - truth[2]).norm(), 0.015);
+  EXPECT_GT((without.fingertips[2] - truth[2]).norm(), 0.08);
+}
+
 TEST(Tracker, SwitchingTheModelKeepsTracking) {
   const HandModel model = loadHandModel(modelPath("sag"));
   const std::vector<Camera> cameras = fiveCameraRig();

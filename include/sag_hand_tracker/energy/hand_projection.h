@@ -44,6 +44,11 @@ bool ellipseBox(const ProjectedGaussian& g, double sigmas, double margin_pixels,
 // (hand_fit.h).
 cv::Mat projectedModelSilhouette(const PosedHand& hand, const Camera& camera, double sigmas = 1.0,
                                  int margin_pixels = 3);
+// The same drawn (255) on `mask` (CV_8UC1 of the camera's size), which it does not clear; returns
+// a rectangle that holds every pixel drawn (empty: none), for work counted within it only
+// (SilhouetteScorer).
+cv::Rect drawModelSilhouette(const PosedHand& hand, const Camera& camera, double sigmas,
+                             int margin_pixels, cv::Mat* mask);
 
 // Draws each projected Gaussian's 1-sigma ellipse (1 px, anti-aliased) in `colour` on `image`
 // (the overlays of the live graph and of calibrate_hand's contact sheet).

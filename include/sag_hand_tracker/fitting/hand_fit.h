@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "sag_hand_tracker/energy/energy.h"
+#include "sag_hand_tracker/energy/silhouette.h"
 #include "sag_hand_tracker/model/hand_model.h"
 #include "sag_hand_tracker/model/pose.h"
 #include "sag_hand_tracker/optimization/optimizer.h"
@@ -176,18 +177,6 @@ std::vector<int> selectCalibrationFrames(int frame_count, int max_frames);
 double shapeScore(const HandModel& model, const EnergyParams& params,
                   const std::vector<CameraObservation>& observations, const Pose& pose,
                   double model_mass_weight = 0.25);
-
-// The foreground an image SoG stands for (CV_8UC1, width x height, 255 inside): each image
-// Gaussian's square leaf (side sigma sqrt(2 pi), QuadtreeParams::sigma_per_leaf_size).
-cv::Mat foregroundOfSoG(const ImageSoG& sog, int width, int height);
-
-// The silhouette score of a model at a pose in a frame: per camera with a foreground, the Dice
-// coefficient 2 |F and M| / (|F| + |M|) of the foreground F (`foregrounds[c]`, foregroundOfSoG of
-// observation c's SoG; empty: the camera is left out) and the model's silhouette M
-// (projectedModelSilhouette at `sigmas`, no margin); averaged over those cameras. Overlapping
-// Gaussians count once, and the model's mass over the background costs what it covers.
-double silhouetteScore(const HandModel& model, const std::vector<CameraObservation>& observations,
-                       const std::vector<cv::Mat>& foregrounds, const Pose& pose, double sigmas);
 
 // Each Gaussian's HSV colour: the area-weighted mean colour of the image Gaussians whose centres
 // fall inside its projected 1-sigma ellipse, where it is the nearest model Gaussian to the

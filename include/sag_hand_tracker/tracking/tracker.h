@@ -126,6 +126,28 @@ struct TrackerParams {
   // (frames/s 215 -> 241, medians of an interleaved run); a quarter gave 14.5 mm, 0.4 gave
   // 14.6 mm and 0.28 % rolled (README "Session 17"). calibrate_hand tracks without it.
   double counter_turn_race_share = 0.5;
+  // Finger toggles judged by the silhouette (issue 9, README "Session 27"). The energy scores a
+  // long finger tracked straight over its opened neighbour, or out where the truth has it curled,
+  // as well as the curled truth (eq. 8 never charges model over background), and the frame's
+  // ascent does not leave that state. After each tracked frame every long finger tracked straight
+  // (MCP + PIP flexion below toggle_straight_flexion) is tried curled (MCP toggle_mcp, PIP
+  // toggle_pip, DIP by the coupling's ratio, abduction 0) and refined for toggle_iterations; the
+  // best one replaces the track when E + toggle_silhouette_weight * D rises by more than
+  // toggle_min_gain, D the silhouette score (silhouette.h) at toggle_silhouette_sigmas. A toggle
+  // whose unrefined silhouette score falls by more than toggle_max_silhouette_loss (an open
+  // finger seen in the images) is not refined. Not on a track that looks lost (lost_similarity,
+  // lost_ratio), nor in the first toggle_min_track_frames frames after a start, whose fingers are
+  // the search's (toggled there, the studio kitchen's track on the other arm held 4 frames longer
+  // against the user's hand). toggle_silhouette_weight 0 disables it.
+  double toggle_silhouette_weight = 0.5;
+  double toggle_straight_flexion = 0.7;
+  double toggle_mcp = 1.3;
+  double toggle_pip = 1.6;
+  int toggle_iterations = 10;
+  double toggle_min_gain = 0.001;
+  double toggle_silhouette_sigmas = 1.3;
+  double toggle_max_silhouette_loss = 0.01;
+  int toggle_min_track_frames = 8;
   // Forearm cue: a camera whose segmentation found at least `min_arm_cells` sleeve cells
   // (ImageSoG::arm_cells) votes on which end of the hand is the wrist. Start hypotheses and
   // re-detections that point the wrist away from the arm (mean vote below `-arm_vote_threshold`)
@@ -375,6 +397,11 @@ class HandTracker {
   OptimizationResult trackFromPrediction(const PoseEnergy& energy,
                                          const std::optional<Pose>& previous,
                                          const Pose& current) const;
+  // TrackerParams::toggle_silhouette_weight: tries each straight long finger curled and keeps the
+  // best toggle that raises E + w D, on a track that does not look lost. Returns whether
+  // result->pose was replaced.
+  bool toggleFingers(const PoseEnergy& energy, const std::vector<CameraObservation>& observations,
+                     OptimizationResult* result) const;
   // Refines the forearm's direction for result->pose from `from` (empty: straight on from the
   // palm) and scores the result with it; returns the direction.
   Eigen::Vector3d fitForearm(const PoseEnergy& energy, OptimizationResult* result,

@@ -1,0 +1,119 @@
+#include "sag_hand_tracker/energy/silhouette.h"
+
+#include <cmath>
+#include <string>
+
+#include "sag_hand_tracker/energy/hand_projection.h"
+#include "sag_hand_tracker/model/kinematics.h"
+
+namespace sag_hand_tracker {
+
+cv::Mat foregroundOfSoG(const ImageSoG& sog, int width, int height) {
+  cv::Mat mask(height, width, CV_8UC1, cv::Scalar(0));
+  const double side_per_sigma = std::sqrt(2.0 * M_PI);
+  for (const ImageGaussian& g : sog.gaussians) {
+    if (!g.mean.allFinite() || !(g.sigma > 0.0) || !std::isfinite(g.sigma)) continue;
+    const double half = 0.5 * side_per_sigma * g.sigma;
+    const cv::Rect leaf(cv::Point(static_cast<int>(std::lround(g.mean.x() - half)),
+                                  static_cast<int>(std::lround(g.mean.y() - half))),
+                        cv::Point(static_cast<int>(std::lround(g.mean.x() + half)),
+                                  static_cast<int>(std::lround(g.mean.y() + half))));
+    mask(leaf & cv::Rect(0, 0, width, height)).setTo(255);
+  }
+  return mask;
+}
+
+std::vector<cv::Mat> foregroundsOf(const std::vector<CameraObservation>& observations) {
+  std::vector<cv::Mat> foregrounds;
+  foregrounds.reserve(observations.size());
+  for (const CameraObservation& observation : observations) {
+    foregrounds.push_back(observation.sog.gaussians.empty()
+                              ? cv::Mat()
+                              : foregroundOfSoG(observation.sog, observation.camera.width,
+                                                observation.camera.height));
+  }
+  return foregrounds;
+}
+
+namespace {
+
+// Camera c's Dice coefficient 2 |F and M| / (|F| + |M|) of `foreground` (|F| = foreground_size) and
+// the model's silhouette M (drawModelSilhouette at `sigmas`, no margin) on `canvas` (a zero mask of
+// the camera's size, zero again on return), counted within the drawn rectangle only.
+// False when both are empty.
+bool cameraDice(const PosedHand& hand, const Camera& camera, const cv::Mat& foreground,
+                int foreground_size, double sigmas, cv::Mat* canvas, double* dice) {
+  if (canvas->rows != camera.height || canvas->cols != camera.width) {
+    *canvas = cv::Mat(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
+  }
+  const cv::Rect drawn = drawModelSilhouette(hand, camera, sigmas, 0, canvas);
+  int model_size = 0, both = 0;
+  if (!drawn.empty()) {
+    cv::Mat silhouette = (*canvas)(drawn);
+    model_size = cv::countNonZero(silhouette);
+    both = cv::countNonZero(foreground(drawn) & silhouette);
+    silhouette.setTo(0);
+  }
+  const int sizes = foreground_size + model_size;
+  if (sizes <= 0) return false;
+  *dice = 2.0 * both / sizes;
+  return true;
+}
+
+}  // namespace
+
+double silhouetteScore(const HandModel& model, const std::vector<CameraObservation>& observations,
+                       const std::vector<cv::Mat>& foregrounds, const Pose& pose, double sigmas) {
+  if (foregrounds.size() != observations.size()) {
+    throw InputError("silhouetteScore: " + std::to_string(observations.size()) +
+                     " observations but " + std::to_string(foregrounds.size()) + " foregrounds");
+  }
+  const PosedHand hand = forwardKinematics(model, pose);
+  double score = 0.0;
+  int cameras = 0;
+  cv::Mat canvas;
+  for (size_t c = 0; c < observations.size(); ++c) {
+    const cv::Mat& foreground = foregrounds[c];
+    if (foreground.empty()) continue;
+    const Camera& camera = observations[c].camera;
+    if (foreground.rows != camera.height || foreground.cols != camera.width) {
+      throw InputError("silhouetteScore: camera '" + camera.name +
+                       "': the foreground is not of the camera's size");
+    }
+    double dice = 0.0;
+    if (!cameraDice(hand, camera, foreground, cv::countNonZero(foreground), sigmas, &canvas,
+                    &dice)) {
+      continue;
+    }
+    score += dice;
+    ++cameras;
+  }
+  return cameras > 0 ? score / cameras : 0.0;
+}
+
+SilhouetteScorer::SilhouetteScorer(const std::vector<CameraObservation>& observations,
+                                   double sigmas)
+    : observations_(&observations), sigmas_(sigmas), foregrounds_(foregroundsOf(observations)) {
+  for (const cv::Mat& foreground : foregrounds_) {
+    foreground_sizes_.push_back(foreground.empty() ? 0 : cv::countNonZero(foreground));
+  }
+}
+
+double SilhouetteScorer::score(const HandModel& model, const Pose& pose) {
+  const PosedHand hand = forwardKinematics(model, pose);
+  double score = 0.0;
+  int cameras = 0;
+  for (size_t c = 0; c < observations_->size(); ++c) {
+    if (foregrounds_[c].empty()) continue;
+    double dice = 0.0;
+    if (!cameraDice(hand, (*observations_)[c].camera, foregrounds_[c], foreground_sizes_[c],
+                    sigmas_, &canvas_, &dice)) {
+      continue;
+    }
+    score += dice;
+    ++cameras;
+  }
+  return cameras > 0 ? score / cameras : 0.0;
+}
+
+}  // namespace sag_hand_tracker
