@@ -60,18 +60,15 @@ bool cameraDice(const PosedHand& hand, const Camera& camera, const cv::Mat& fore
   return true;
 }
 
-}  // namespace
-
-double silhouetteScore(const HandModel& model, const std::vector<CameraObservation>& observations,
-                       const std::vector<cv::Mat>& foregrounds, const Pose& pose, double sigmas) {
-  if (foregrounds.size() != observations.size()) {
-    throw InputError("silhouetteScore: " + std::to_string(observations.size()) +
-                     " observations but " + std::to_string(foregrounds.size()) + " foregrounds");
-  }
+// The mean over the cameras with a foreground of cameraDice; `foreground_sizes` (|F| per camera)
+// counted here when null.
+double meanDice(const HandModel& model, const Pose& pose,
+                const std::vector<CameraObservation>& observations,
+                const std::vector<cv::Mat>& foregrounds, const std::vector<int>* foreground_sizes,
+                double sigmas, cv::Mat* canvas) {
   const PosedHand hand = forwardKinematics(model, pose);
   double score = 0.0;
   int cameras = 0;
-  cv::Mat canvas;
   for (size_t c = 0; c < observations.size(); ++c) {
     const cv::Mat& foreground = foregrounds[c];
     if (foreground.empty()) continue;
@@ -80,15 +77,25 @@ double silhouetteScore(const HandModel& model, const std::vector<CameraObservati
       throw InputError("silhouetteScore: camera '" + camera.name +
                        "': the foreground is not of the camera's size");
     }
+    const int size = foreground_sizes ? (*foreground_sizes)[c] : cv::countNonZero(foreground);
     double dice = 0.0;
-    if (!cameraDice(hand, camera, foreground, cv::countNonZero(foreground), sigmas, &canvas,
-                    &dice)) {
-      continue;
-    }
+    if (!cameraDice(hand, camera, foreground, size, sigmas, canvas, &dice)) continue;
     score += dice;
     ++cameras;
   }
   return cameras > 0 ? score / cameras : 0.0;
+}
+
+}  // namespace
+
+double silhouetteScore(const HandModel& model, const std::vector<CameraObservation>& observations,
+                       const std::vector<cv::Mat>& foregrounds, const Pose& pose, double sigmas) {
+  if (foregrounds.size() != observations.size()) {
+    throw InputError("silhouetteScore: " + std::to_string(observations.size()) +
+                     " observations but " + std::to_string(foregrounds.size()) + " foregrounds");
+  }
+  cv::Mat canvas;
+  return meanDice(model, pose, observations, foregrounds, nullptr, sigmas, &canvas);
 }
 
 SilhouetteScorer::SilhouetteScorer(const std::vector<CameraObservation>& observations,
@@ -100,20 +107,7 @@ SilhouetteScorer::SilhouetteScorer(const std::vector<CameraObservation>& observa
 }
 
 double SilhouetteScorer::score(const HandModel& model, const Pose& pose) {
-  const PosedHand hand = forwardKinematics(model, pose);
-  double score = 0.0;
-  int cameras = 0;
-  for (size_t c = 0; c < observations_->size(); ++c) {
-    if (foregrounds_[c].empty()) continue;
-    double dice = 0.0;
-    if (!cameraDice(hand, (*observations_)[c].camera, foregrounds_[c], foreground_sizes_[c],
-                    sigmas_, &canvas_, &dice)) {
-      continue;
-    }
-    score += dice;
-    ++cameras;
-  }
-  return cameras > 0 ? score / cameras : 0.0;
+  return meanDice(model, pose, *observations_, foregrounds_, &foreground_sizes_, sigmas_, &canvas_);
 }
 
 }  // namespace sag_hand_tracker

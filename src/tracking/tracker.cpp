@@ -924,19 +924,14 @@ bool HandTracker::toggleFingers(const PoseEnergy& energy,
                                 OptimizationResult* result) const {
   const double weight = params_.toggle_silhouette_weight;
   if (!(weight > 0.0) || frames_since_start_ < params_.toggle_min_track_frames) return false;
-  // Only a track that holds: a lost one is the start's to replace, and a toggle must not make it
-  // look held.
-  EnergyTerms terms;
-  energy.evaluate(result->pose, nullptr, &terms);
-  if (looksLost(terms.similarity)) return false;
   const HandModel& model = energy.model();
-  SilhouetteScorer silhouette(observations, params_.toggle_silhouette_sigmas);
-  const double tracked_silhouette = silhouette.score(model, result->pose);
-  const double tracked_score = result->energy + weight * tracked_silhouette;
+  // Made at the first straight finger: a fist's frame pays nothing.
+  std::optional<SilhouetteScorer> silhouette;
+  double tracked_silhouette = 0.0;
   OptimizerParams optimizer = params_.optimizer;
   optimizer.iterations = params_.toggle_iterations;
   std::optional<OptimizationResult> best;
-  double best_score = tracked_score + params_.toggle_min_gain;
+  double best_score = 0.0;
   const double dip_ratio = energy.params().dip_pip_ratio;
   for (int f = 1; f < kNumFingers; ++f) {
     const std::string finger = fingerNames()[f];
@@ -952,18 +947,28 @@ bool HandTracker::toggleFingers(const PoseEnergy& energy,
     if (dip >= 0) toggled.joints[dip] = dip_ratio * params_.toggle_pip;
     if (abd >= 0) toggled.joints[abd] = 0.0;
     clampToLimits(model, &toggled);
-    if (silhouette.score(model, toggled) <
+    if (!silhouette) {
+      silhouette.emplace(observations, params_.toggle_silhouette_sigmas);
+      tracked_silhouette = silhouette->score(model, result->pose);
+      best_score = result->energy + weight * tracked_silhouette + params_.toggle_min_gain;
+    }
+    if (silhouette->score(model, toggled) <
         tracked_silhouette - params_.toggle_max_silhouette_loss) {
       continue;
     }
     OptimizationResult refined = optimizePose(energy, toggled, optimizer);
-    const double score = refined.energy + weight * silhouette.score(model, refined.pose);
+    const double score = refined.energy + weight * silhouette->score(model, refined.pose);
     if (score > best_score) {
       best_score = score;
       best = refined;
     }
   }
   if (!best) return false;
+  // Only a track that holds: a lost one is the start's to replace, and a toggle must not make it
+  // look held. Asked only here, for the few frames with a toggle to take.
+  EnergyTerms terms;
+  energy.evaluate(result->pose, nullptr, &terms);
+  if (looksLost(terms.similarity)) return false;
   *result = *best;
   return true;
 }
