@@ -70,6 +70,10 @@ EvaluationScratch& evaluationScratch() {
 PoseEnergy::PoseEnergy(const HandModel& model, const EnergyParams& params)
     : model_(model), params_(params), ancestor_dofs_(model.ancestorJointDofs()) {
   validateHandModel(model_);
+  for (int j = 0; j < kNumJointDof; ++j) {
+    const bool thumb = model_.joints[j].name.rfind("thumb_", 0) == 0;
+    range_weights_[j] = thumb ? params_.thumb_range_weight : params_.joint_range_weight;
+  }
   for (int pip = 0; pip < kNumJointDof; ++pip) {
     const std::string& name = model_.joints[pip].name;
     const size_t at = name.rfind("_pip_flex");
@@ -524,17 +528,18 @@ double PoseEnergy::evaluateIn(const Pose& pose, bool with_forearm,
       g_cov[q] += g;
     }
   }
-  // Joint-range prior (EnergyParams::joint_range_weight).
+  // Joint-range prior (EnergyParams::joint_range_weight, thumb_range_weight).
   double range = 0.0;
   PoseVector range_gradient = PoseVector::Zero();
-  if (params_.joint_range_weight > 0.0) {
+  if (params_.joint_range_weight > 0.0 || params_.thumb_range_weight > 0.0) {
     for (int j = 0; j < kNumJointDof; ++j) {
       const JointDof& limits = model_.joints[j];
       const double half_width = 0.5 * (limits.max - limits.min);
-      if (!(half_width > 0.0)) continue;
+      const double weight = range_weights_[j];
+      if (!(half_width > 0.0) || !(weight > 0.0)) continue;
       const double residual = (pose.joints[j] - 0.5 * (limits.max + limits.min)) / half_width;
-      range += residual * residual;
-      range_gradient[kFirstJointDof + j] = 2.0 * residual / half_width;
+      range += weight * residual * residual;
+      range_gradient[kFirstJointDof + j] = weight * 2.0 * residual / half_width;
     }
   }
   // Wrist prior (EnergyParams::wrist_weight): rho = 1 - exp(-h^2 / 2), h = (d - tolerance) /
@@ -558,8 +563,8 @@ double PoseEnergy::evaluateIn(const Pose& pose, bool with_forearm,
   }
   const double total =
       similarity - params_.limit_weight * penalty - params_.dip_pip_coupling_weight * coupling -
-      params_.finger_order_weight * order - params_.finger_collision_weight * collision -
-      params_.joint_range_weight * range - params_.wrist_weight * wrist;  // paper eq. 9 + priors
+      params_.finger_order_weight * order - params_.finger_collision_weight * collision - range -
+      params_.wrist_weight * wrist;  // paper eq. 9 + priors
 
   if (terms) {
     terms->similarity = similarity;
@@ -608,7 +613,7 @@ double PoseEnergy::evaluateIn(const Pose& pose, bool with_forearm,
   *gradient -= params_.limit_weight * limit_gradient;
   *gradient -= params_.dip_pip_coupling_weight * coupling_gradient;
   *gradient -= params_.finger_order_weight * order_gradient;
-  *gradient -= params_.joint_range_weight * range_gradient;
+  *gradient -= range_gradient;
   for (int i = 0; i < 3; ++i) {
     (*gradient)[kRootTranslation + i] -= params_.wrist_weight * wrist_gradient[i];
   }

@@ -115,7 +115,7 @@ double weightedTotal(const EnergyParams& params, const EnergyTerms& terms) {
          params.dip_pip_coupling_weight * terms.coupling_penalty -
          params.finger_order_weight * terms.order_penalty -
          params.finger_collision_weight * terms.collision_penalty -
-         params.joint_range_weight * terms.range_penalty -
+         terms.range_penalty -  // weighted per joint (EnergyParams::thumb_range_weight)
          params.wrist_weight * terms.wrist_penalty;
 }
 
@@ -175,6 +175,9 @@ TEST(EnergyGradient, SogWithModelAreaNormalisationMatchesCentralDifferences) {
 TEST(EnergyGradient, SagWithStrongJointRangePriorMatchesCentralDifferences) {
   checkGradient("sag", EnergyParams().dip_pip_coupling_weight, EnergyParams().model_area_weight,
                 1.0);
+  EnergyParams thumb;
+  thumb.thumb_range_weight = 2.0;
+  checkGradientWith("sag", thumb);
 }
 
 // The same with a strong finger order prior (the random poses cross neighbouring fingers).
@@ -273,12 +276,13 @@ TEST(Energy, SoftSaturationIsBelowTheCapAndPeaksAtTheTruth) {
   }
 }
 
-// The joint-range prior: zero with every joint in the middle of its limits, one per joint at a
-// limit, and it lowers the energy by its weight times that.
-TEST(Energy, JointRangePriorIsZeroMidRangeAndOnePerJointAtALimit) {
+// The joint-range prior: zero with every joint in the middle of its limits, its weight per joint
+// at a limit (the thumb's own weight for the thumb's joints), and it lowers the energy by that.
+TEST(Energy, JointRangePriorIsZeroMidRangeAndItsWeightPerJointAtALimit) {
   const HandModel model = loadHandModel(modelPath("sag"));
   EnergyParams params;
   params.joint_range_weight = 0.25;
+  params.thumb_range_weight = 0.5;
   PoseEnergy energy(model, params);
   energy.setFrame(modelObservations(model, typicalPose(model), fiveCameraRig(), 6.0));
   Pose pose = typicalPose(model);
@@ -288,16 +292,46 @@ TEST(Energy, JointRangePriorIsZeroMidRangeAndOnePerJointAtALimit) {
   EnergyTerms mid;
   energy.evaluate(pose, nullptr, &mid);
   EXPECT_NEAR(mid.range_penalty, 0.0, 1e-12);
-  pose.joints[3] = model.joints[3].max;  // one joint at its upper limit, one at its lower
-  pose.joints[9] = model.joints[9].min;
+  const int thumb_ip = model.jointIndex("thumb_ip_flex");
+  const int index_pip = model.jointIndex("index_pip_flex");
+  ASSERT_GE(thumb_ip, 0);
+  ASSERT_GE(index_pip, 0);
+  pose.joints[thumb_ip] = model.joints[thumb_ip].max;  // one at its upper limit, one at its lower
+  pose.joints[index_pip] = model.joints[index_pip].min;
   EnergyTerms two;
   energy.evaluate(pose, nullptr, &two);
-  EXPECT_NEAR(two.range_penalty, 2.0, 1e-9);
-  EXPECT_NEAR(two.total,
-              two.similarity - params.limit_weight * two.limit_penalty -
-                  params.dip_pip_coupling_weight * two.coupling_penalty -
-                  params.finger_order_weight * two.order_penalty - 0.25 * 2.0,
-              1e-9);
+  EXPECT_NEAR(two.range_penalty, 0.5 + 0.25, 1e-9);
+  EXPECT_NEAR(two.total, weightedTotal(params, two), 1e-9);
+}
+
+// The thumb's own weight (EnergyParams::thumb_range_weight) with the other joints' at 0: a long
+// finger at its limit costs nothing, the thumb at its limit costs the thumb's weight.
+TEST(Energy, TheThumbRangePriorHoldsOnlyTheThumb) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  EnergyParams params;
+  ASSERT_EQ(params.joint_range_weight, 0.0);
+  params.thumb_range_weight = 0.003;
+  PoseEnergy energy(model, params);
+  energy.setFrame(modelObservations(model, typicalPose(model), fiveCameraRig(), 6.0));
+  Pose pose = typicalPose(model);
+  for (int j = 0; j < kNumJointDof; ++j) {
+    pose.joints[j] = 0.5 * (model.joints[j].min + model.joints[j].max);
+  }
+  for (const char* finger : {"index", "middle", "ring", "pinky"}) {
+    const int pip = model.jointIndex(std::string(finger) + "_pip_flex");
+    ASSERT_GE(pip, 0);
+    pose.joints[pip] = model.joints[pip].max;
+  }
+  EnergyTerms fingers;
+  energy.evaluate(pose, nullptr, &fingers);
+  EXPECT_NEAR(fingers.range_penalty, 0.0, 1e-12);
+  const int thumb_mcp = model.jointIndex("thumb_mcp_flex");
+  ASSERT_GE(thumb_mcp, 0);
+  pose.joints[thumb_mcp] = model.joints[thumb_mcp].min;
+  EnergyTerms thumb;
+  energy.evaluate(pose, nullptr, &thumb);
+  EXPECT_NEAR(thumb.range_penalty, params.thumb_range_weight, 1e-12);
+  EXPECT_NEAR(thumb.total, weightedTotal(params, thumb), 1e-9);
 }
 
 // The finger order prior: nothing for a spread hand or fingers turned toward each other by less
@@ -445,7 +479,8 @@ TEST(Energy, PipDipCouplingPenalisesUncoupledDistalJoints) {
   energy.evaluate(pose, nullptr, &uncoupled);
   EXPECT_NEAR(uncoupled.coupling_penalty, 0.09, 1e-12);
   EXPECT_NEAR(uncoupled.total,
-              uncoupled.similarity - params.limit_weight * uncoupled.limit_penalty - 0.5 * 0.09,
+              uncoupled.similarity - params.limit_weight * uncoupled.limit_penalty - 0.5 * 0.09 -
+                  uncoupled.range_penalty,
               1e-12);
 }
 
@@ -510,11 +545,13 @@ TEST(Energy, EmptyFramesAndBadCamerasAreHandled) {
   energy.setFrame({});
   PoseVector gradient;
   EnergyTerms terms;
-  // Without cameras the similarity is 0 and only the priors (limits, PIP-DIP coupling) remain.
+  // Without cameras the similarity is 0 and only the priors (limits, PIP-DIP coupling, the
+  // joint ranges') remain.
   const double value = energy.evaluate(typicalPose(model), &gradient, &terms);
   EXPECT_EQ(terms.similarity, 0.0);
   EXPECT_DOUBLE_EQ(value, -EnergyParams().limit_weight * terms.limit_penalty -
-                              EnergyParams().dip_pip_coupling_weight * terms.coupling_penalty);
+                              EnergyParams().dip_pip_coupling_weight * terms.coupling_penalty -
+                              terms.range_penalty);
   EXPECT_TRUE(gradient.allFinite());
 
   std::vector<Camera> cameras = fiveCameraRig();

@@ -1,6 +1,7 @@
 // The pose fitting energy E(Theta) = E_sim - w_l E_lim (paper eqs. 6-9) and its exact gradient.
 #pragma once
 
+#include <array>
 #include <optional>
 #include <tuple>
 #include <vector>
@@ -94,6 +95,14 @@ struct EnergyParams {
   // to the middle of their range. Off by default: at 0.003 it helped curled and small hands a
   // little and cost the open default hand more (adbadd 6.2 -> 12.7 mm; README).
   double joint_range_weight = 0.0;
+  // The same prior on the thumb's four joints alone, with this weight in place of
+  // joint_range_weight. Cameras above a table do not see the thumb of a palm-down fist (tucked
+  // under the fingers: the truth's and the track's silhouettes within 0.004 Dice), and it drifts
+  // to its limits (40 mm off on fingercount's default hand). At 0.003 the benchmark went 13.09 ->
+  // 12.94 mm pooled and fingercount 25.6 -> 22.6, but a thumb pulled off a visible pose turns
+  // the palm: the counter-turn start's roll that turns back went from 0.04 to 0.09-0.21 rad
+  // (TrackerOrientation.CounterTurn*). Off by default; README "Session 28".
+  double thumb_range_weight = 0.0;
   // lambda of the per-camera normalisation E_c = (1 + lambda) O_c / (I_c + lambda M_c), with O_c
   // the capped overlap of eq. 8, I_c = sum_q E_qq the image's foreground area and M_c the projected
   // model's area (sum_p w_p 2 pi sqrt|Sigma_p|, the mass a model Gaussian would cover on a
@@ -146,9 +155,10 @@ struct EnergyTerms {
   double coupling_penalty = 0.0;  // sum_f (theta_dip - k theta_pip)^2 (EnergyParams)
   double order_penalty = 0.0;     // sum max(0, abd_ulnar - abd_radial - m_o)^2 (EnergyParams)
   double collision_penalty = 0.0;  // sum max(0, f_pq - f_0)^2 (EnergyParams)
-  double range_penalty = 0.0;      // sum_j ((theta_j - m_j) / h_j)^2 (EnergyParams)
+  double range_penalty = 0.0;      // sum_j w_j ((theta_j - m_j) / h_j)^2, w_j its weight
+                                   // (joint_range_weight, or thumb_range_weight for the thumb)
   double wrist_penalty = 0.0;      // mean_c rho(d_c), the wrist's distance from the sleeve's end
-  // E_sim - w_l E_lim - w_c coupling - w_o order - w_k collision - w_r range - w_s wrist
+  // E_sim - w_l E_lim - w_c coupling - w_o order - w_k collision - range - w_s wrist
   double total = 0.0;
   std::vector<double> per_camera;
   // Model Gaussians that could not be projected into a camera that sees foreground (behind it,
@@ -228,8 +238,9 @@ class PoseEnergy {
 
   HandModel model_;
   EnergyParams params_;
-  std::vector<std::vector<int>> ancestor_dofs_;     // per bone
-  std::vector<std::pair<int, int>> pip_dip_pairs_;  // joint indices of coupled PIP, DIP
+  std::vector<std::vector<int>> ancestor_dofs_;       // per bone
+  std::array<double, kNumJointDof> range_weights_{};  // w_j of the joint-range prior
+  std::vector<std::pair<int, int>> pip_dip_pairs_;    // joint indices of coupled PIP, DIP
   // Joint indices of neighbouring fingers' MCP abductions (radial, ulnar): the finger order prior.
   std::vector<std::pair<int, int>> abduction_neighbours_;
   // Model Gaussian pairs of neighbouring long fingers: the finger collision prior.
