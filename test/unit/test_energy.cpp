@@ -276,6 +276,19 @@ TEST(Energy, SoftSaturationIsBelowTheCapAndPeaksAtTheTruth) {
   }
 }
 
+namespace {
+
+// typicalPose with every joint in the middle of its limits.
+Pose midRangePose(const HandModel& model) {
+  Pose pose = typicalPose(model);
+  for (int j = 0; j < kNumJointDof; ++j) {
+    pose.joints[j] = 0.5 * (model.joints[j].min + model.joints[j].max);
+  }
+  return pose;
+}
+
+}  // namespace
+
 // The joint-range prior: zero with every joint in the middle of its limits, its weight per joint
 // at a limit (the thumb's own weight for the thumb's joints), and it lowers the energy by that.
 TEST(Energy, JointRangePriorIsZeroMidRangeAndItsWeightPerJointAtALimit) {
@@ -285,10 +298,7 @@ TEST(Energy, JointRangePriorIsZeroMidRangeAndItsWeightPerJointAtALimit) {
   params.thumb_range_weight = 0.5;
   PoseEnergy energy(model, params);
   energy.setFrame(modelObservations(model, typicalPose(model), fiveCameraRig(), 6.0));
-  Pose pose = typicalPose(model);
-  for (int j = 0; j < kNumJointDof; ++j) {
-    pose.joints[j] = 0.5 * (model.joints[j].min + model.joints[j].max);
-  }
+  Pose pose = midRangePose(model);
   EnergyTerms mid;
   energy.evaluate(pose, nullptr, &mid);
   EXPECT_NEAR(mid.range_penalty, 0.0, 1e-12);
@@ -313,10 +323,7 @@ TEST(Energy, TheThumbRangePriorHoldsOnlyTheThumb) {
   params.thumb_range_weight = 0.003;
   PoseEnergy energy(model, params);
   energy.setFrame(modelObservations(model, typicalPose(model), fiveCameraRig(), 6.0));
-  Pose pose = typicalPose(model);
-  for (int j = 0; j < kNumJointDof; ++j) {
-    pose.joints[j] = 0.5 * (model.joints[j].min + model.joints[j].max);
-  }
+  Pose pose = midRangePose(model);
   for (const char* finger : {"index", "middle", "ring", "pinky"}) {
     const int pip = model.jointIndex(std::string(finger) + "_pip_flex");
     ASSERT_GE(pip, 0);
