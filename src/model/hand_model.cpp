@@ -250,6 +250,19 @@ int HandModel::jointIndex(const std::string& name) const {
   return -1;
 }
 
+std::array<LongFingerJoints, kNumFingers - 1> longFingerJoints(const HandModel& model) {
+  std::array<LongFingerJoints, kNumFingers - 1> joints;
+  for (int f = 1; f < kNumFingers; ++f) {
+    const std::string finger = fingerNames()[f];
+    LongFingerJoints& j = joints[f - 1];
+    j.mcp_flex = model.jointIndex(finger + "_mcp_flex");
+    j.mcp_abd = model.jointIndex(finger + "_mcp_abd");
+    j.pip_flex = model.jointIndex(finger + "_pip_flex");
+    j.dip_flex = model.jointIndex(finger + "_dip_flex");
+  }
+  return joints;
+}
+
 std::vector<std::vector<int>> HandModel::ancestorJointDofs() const {
   std::vector<std::vector<int>> result(bones.size());
   for (size_t b = 0; b < bones.size(); ++b) {

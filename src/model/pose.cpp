@@ -65,13 +65,11 @@ Pose poseBeforeMotion(const Pose& pose, const Pose& from, const Pose& to) {
 }
 
 double meanFingerFlexion(const HandModel& model, const Pose& pose) {
-  static const char* kFlexions[] = {"index_mcp_flex",  "index_pip_flex", "middle_mcp_flex",
-                                    "middle_pip_flex", "ring_mcp_flex",  "ring_pip_flex",
-                                    "pinky_mcp_flex",  "pinky_pip_flex"};
   double sum = 0.0;
-  for (const char* name : kFlexions) {
-    const int j = model.jointIndex(name);
-    if (j >= 0 && j < kNumJointDof) sum += pose.joints[j];
+  for (const LongFingerJoints& finger : longFingerJoints(model)) {
+    for (const int j : {finger.mcp_flex, finger.pip_flex}) {
+      if (j >= 0 && j < kNumJointDof) sum += pose.joints[j];
+    }
   }
   return sum / 4.0;
 }

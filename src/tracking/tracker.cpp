@@ -401,6 +401,7 @@ HandTracker::HandTracker(const HandModel& model, const TrackerParams& params)
     : model_(model),
       params_(params),
       energy_(model, params.energy),
+      finger_joints_(longFingerJoints(model)),
       start_colours_(modelColours(model)) {}
 
 HandTracker::~HandTracker() = default;
@@ -497,6 +498,7 @@ void HandTracker::setModel(const HandModel& model) {
   stopWorker();
   model_ = model;
   energy_ = PoseEnergy(model_, params_.energy);
+  finger_joints_ = longFingerJoints(model_);
   start_colours_ = modelColours(model_);
   forgetLearntColours();
   if (current_) clampToLimits(model_, &*current_);
@@ -933,19 +935,17 @@ bool HandTracker::toggleFingers(const PoseEnergy& energy,
   std::optional<OptimizationResult> best;
   double best_score = 0.0;
   const double dip_ratio = energy.params().dip_pip_ratio;
-  for (int f = 1; f < kNumFingers; ++f) {
-    const std::string finger = fingerNames()[f];
-    const int mcp = model.jointIndex(finger + "_mcp_flex");
-    const int abd = model.jointIndex(finger + "_mcp_abd");
-    const int pip = model.jointIndex(finger + "_pip_flex");
-    const int dip = model.jointIndex(finger + "_dip_flex");
-    if (mcp < 0 || pip < 0) continue;
+  for (const LongFingerJoints& finger : finger_joints_) {
+    if (finger.mcp_flex < 0 || finger.pip_flex < 0) continue;
     Pose toggled = result->pose;
-    if (!(toggled.joints[mcp] + toggled.joints[pip] < params_.toggle_straight_flexion)) continue;
-    toggled.joints[mcp] = params_.toggle_mcp;
-    toggled.joints[pip] = params_.toggle_pip;
-    if (dip >= 0) toggled.joints[dip] = dip_ratio * params_.toggle_pip;
-    if (abd >= 0) toggled.joints[abd] = 0.0;
+    if (!(toggled.joints[finger.mcp_flex] + toggled.joints[finger.pip_flex] <
+          params_.toggle_straight_flexion)) {
+      continue;
+    }
+    toggled.joints[finger.mcp_flex] = params_.toggle_mcp;
+    toggled.joints[finger.pip_flex] = params_.toggle_pip;
+    if (finger.dip_flex >= 0) toggled.joints[finger.dip_flex] = dip_ratio * params_.toggle_pip;
+    if (finger.mcp_abd >= 0) toggled.joints[finger.mcp_abd] = 0.0;
     clampToLimits(model, &toggled);
     if (!silhouette) {
       silhouette.emplace(observations, params_.toggle_silhouette_sigmas);

@@ -50,6 +50,24 @@ TEST(HandModel, LoadsTheBuiltInModels) {
 }
 
 // The fingertip (doc/design.md section 4) is the end of the distal bone in both models.
+// longFingerJoints: index to pinky, each joint the one of that name; -1 for a joint a model lacks.
+TEST(HandModel, LongFingerJointsAreTheNamedJoints) {
+  HandModel model = loadHandModel(modelPath("sag"));
+  const auto joints = longFingerJoints(model);
+  for (int f = 1; f < kNumFingers; ++f) {
+    const std::string finger = fingerNames()[f];
+    const LongFingerJoints& j = joints[f - 1];
+    EXPECT_EQ(j.mcp_flex, model.jointIndex(finger + "_mcp_flex")) << finger;
+    EXPECT_EQ(j.mcp_abd, model.jointIndex(finger + "_mcp_abd")) << finger;
+    EXPECT_EQ(j.pip_flex, model.jointIndex(finger + "_pip_flex")) << finger;
+    EXPECT_EQ(j.dip_flex, model.jointIndex(finger + "_dip_flex")) << finger;
+    EXPECT_GE(j.mcp_flex, 0) << finger;
+    EXPECT_GE(j.dip_flex, 0) << finger;
+  }
+  model.joints[model.jointIndex("ring_dip_flex")].name = "ring_distal";
+  EXPECT_EQ(longFingerJoints(model)[2].dip_flex, -1);
+}
+
 TEST(HandModel, FingertipsAreTheDistalBoneEnds) {
   for (const std::string name : {"sag", "sog"}) {
     const HandModel model = loadHandModel(modelPath(name));

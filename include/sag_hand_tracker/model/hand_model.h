@@ -4,6 +4,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <array>
 #include <string>
 #include <vector>
 
@@ -69,6 +70,16 @@ struct HandModel {
   // Per bone: the joint dofs (0..kNumJointDof-1) of the bone and all its ancestors.
   std::vector<std::vector<int>> ancestorJointDofs() const;
 };
+
+// The joint indices of a long finger (HandModel::jointIndex; -1: the model has no such joint).
+struct LongFingerJoints {
+  int mcp_flex = -1;
+  int mcp_abd = -1;
+  int pip_flex = -1;
+  int dip_flex = -1;
+};
+// Index to pinky (fingerNames()[1..4]), looked up by name once for work done per frame.
+std::array<LongFingerJoints, kNumFingers - 1> longFingerJoints(const HandModel& model);
 
 // Loads a model from YAML. Throws InputError naming the file, the key and the line. The file is
 // at most kMaxYamlFileBytes, with at most kMaxModelGaussians Gaussians (input_limits.h).

@@ -472,6 +472,7 @@ class HandTracker {
   HandModel model_;
   TrackerParams params_;
   PoseEnergy energy_;  // the frame's energy; rebuilt only when the parameters change
+  std::array<LongFingerJoints, kNumFingers - 1> finger_joints_;  // of model_ (toggleFingers)
   std::optional<Pose> previous_;
   std::optional<Pose> current_;
   bool lost_ = false;
