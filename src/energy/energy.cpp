@@ -361,6 +361,7 @@ double PoseEnergy::evaluateIn(const Pose& pose, bool with_forearm,
                                            &depths,
                                            &valid,
                                            &occluding_pairs_,
+                                           numGaussians(),
                                            params_.occlusion_depth_scale,
                                            params_.max_mahalanobis_sq};
   for (size_t c = 0; c < cameras_.size(); ++c) {

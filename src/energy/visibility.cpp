@@ -16,7 +16,7 @@ struct Occlusion {
 };
 
 std::optional<Occlusion> occlusion(const VisibilityInputs& in, size_t p, size_t r) {
-  if (r == p || !(*in.valid)[r] || !(*in.may_hide)[p * in.terms->size() + r]) return std::nullopt;
+  if (r == p || !(*in.valid)[r] || !(*in.may_hide)[p * in.may_hide_stride + r]) return std::nullopt;
   const OverlapTerm& tp = (*in.terms)[p];
   const OverlapTerm& tr = (*in.terms)[r];
   const double t_xx = tp.cov_xx + tr.cov_xx, t_xy = tp.cov_xy + tr.cov_xy;

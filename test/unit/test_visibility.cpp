@@ -21,7 +21,7 @@ struct Scene {
   std::vector<double> depths;
   std::vector<char> valid, may_hide;
   VisibilityInputs inputs(double depth_scale) const {
-    return {&terms, &depths, &valid, &may_hide, depth_scale, 1e9};
+    return {&terms, &depths, &valid, &may_hide, terms.size(), depth_scale, 1e9};
   }
 };
 
@@ -61,6 +61,29 @@ TEST(Visibility, HidesWhatIsBehindAndOnTop) {
   softVisibility(scene.inputs(0.005), &v);
   EXPECT_EQ(v[0], 1.0);
   EXPECT_EQ(v[1], 0.0);
+}
+
+// The energy keeps one table for the hand's Gaussians with and without the forearm's after them:
+// its rows are longer than the Gaussians projected. Read with the table's own row length, the
+// hand alone sees the pairs the table gives it (until session 29 it was read with the number of
+// Gaussians projected, and the hand without its forearm got another pair's entries).
+TEST(Visibility, ReadsTheTableWithItsOwnRowLength) {
+  Scene scene = twoGaussians(0.3, 0.5, 0.0);  // 0 in front of 1, on top of it
+  // A table of three Gaussians (the third not projected this time) in which 0 may not hide 1
+  // ([1 * 3 + 0] = 0) and 2 may hide 0 ([0 * 3 + 2] = 1): read with rows of 2, [1 * 2 + 0]
+  // would be that 1.
+  scene.may_hide = {0, 0, 1, 0, 0, 0, 0, 0, 0};
+  VisibilityInputs inputs = scene.inputs(0.005);
+  inputs.may_hide_stride = 3;
+  std::vector<double> v;
+  softVisibility(inputs, &v);
+  EXPECT_EQ(v[0], 1.0);
+  EXPECT_EQ(v[1], 1.0) << "0 may not hide 1 in this table";
+  scene.may_hide = {0, 0, 0, 1, 0, 0, 0, 0, 0};  // 0 may hide 1
+  inputs = scene.inputs(0.005);
+  inputs.may_hide_stride = 3;
+  softVisibility(inputs, &v);
+  EXPECT_NEAR(v[1], 0.5, 1e-6);
 }
 
 // accumulateVisibilityGradient's derivatives of sum_p g_p v_p equal central differences in every

@@ -101,7 +101,9 @@ struct EnergyParams {
   // to its limits (40 mm off on fingercount's default hand). At 0.003 the benchmark went 13.09 ->
   // 12.94 mm pooled and fingercount 25.6 -> 22.6, but a thumb pulled off a visible pose turns
   // the palm: the counter-turn start's roll that turns back went from 0.04 to 0.09-0.21 rad
-  // (TrackerOrientation.CounterTurn*). Off by default; README "Session 28".
+  // (TrackerOrientation.CounterTurn*). Off by default; README "Session 28". Held only while no
+  // camera saw the thumb (its phalanges' visible share, visibility.h) or only in a fist, it lost
+  // the gain (README "Session 29").
   double thumb_range_weight = 0.0;
   // lambda of the per-camera normalisation E_c = (1 + lambda) O_c / (I_c + lambda M_c), with O_c
   // the capped overlap of eq. 8, I_c = sum_q E_qq the image's foreground area and M_c the projected

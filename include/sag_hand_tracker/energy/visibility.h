@@ -25,8 +25,11 @@ struct VisibilityInputs {
   const std::vector<OverlapTerm>* terms;
   const std::vector<double>* depths;
   const std::vector<char>* valid;
-  const std::vector<char>* may_hide;  // [p * n + r]: whether r may hide p at all
-  double depth_scale;                 // > 0
+  const std::vector<char>* may_hide;  // [p * may_hide_stride + r]: whether r may hide p at all
+  // The row length of may_hide: at least terms->size(), so that one table serves the hand with
+  // and without the forearm's Gaussians after it.
+  size_t may_hide_stride;
+  double depth_scale;  // > 0
   double max_mahalanobis_sq;
 };
 void softVisibility(const VisibilityInputs& inputs, std::vector<double>* visibility);
