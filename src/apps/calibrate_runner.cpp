@@ -10,6 +10,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
@@ -64,22 +65,6 @@ void requireWritable(const std::string& path, const std::string& extension,
   ::close(fd);
   ::unlink(probe.c_str());
 }
-
-// Removes the temporary files it was given unless released (on every error path).
-class TemporaryFiles {
- public:
-  void add(const std::string& path) { paths_.push_back(path); }
-  void release() { paths_.clear(); }
-  ~TemporaryFiles() {
-    for (const std::string& path : paths_) {
-      std::error_code ignored;
-      std::filesystem::remove(path, ignored);
-    }
-  }
-
- private:
-  std::vector<std::string> paths_;
-};
 
 // The contact sheet: rows of frames (up to 4 of the fit's frames), one column per camera, the
 // fitted model drawn over each image. Reads the bag a second time for the images.
@@ -318,48 +303,46 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
   summary.tips_on_foreground_after =
       fingertipsOnForeground(summary.fit.model, used, summary.fit.poses);
 
-  // 4. Write through temporary files; check that the model file loads back before it is renamed.
-  TemporaryFiles temporaries;
-  const std::string model_tmp = temporaryPath(options.out, ".yaml");
-  temporaries.add(model_tmp);
+  // 4. Write through temporary files (atomic_output.h); check that the model file loads back
+  // before it is committed. The commits replace nothing: a file created at --out while the
+  // recording was fitted stays, and the fitted model is kept under a name the error gives.
+  AtomicOutputFile model_file(options.out, /*overwrite=*/false, "--out");
   {
-    std::ofstream file(model_tmp);
+    std::ofstream file(model_file.tempPath());
     file << formatHandModel(summary.fit.model, "Fitted by calibrate_hand from " + options.bag +
                                                    " (start model " + options.model +
                                                    ").\nFormat: README.md, 'Hand models'.");
     if (!file) throw InputError("--out " + options.out + ": cannot write the file");
   }
   try {
-    loadHandModel(model_tmp);
+    loadHandModel(model_file.tempPath());
   } catch (const InputError& error) {
     throw InputError(std::string("internal error: the fitted model does not load back: ") +
                      error.what());
   }
-  std::string sheet_tmp;
+  std::unique_ptr<AtomicOutputFile> sheet_file;
   if (!options.contact_sheet.empty()) {
-    sheet_tmp = temporaryPath(options.contact_sheet, ".png");
-    temporaries.add(sheet_tmp);
+    sheet_file =
+        std::make_unique<AtomicOutputFile>(options.contact_sheet, false, "--contact-sheet");
     const cv::Mat sheet = fittedContactSheet(options, reader_options, frames, summary.fit);
     cv::Mat bgr;
     cv::cvtColor(sheet, bgr, cv::COLOR_RGB2BGR);
     bool written = false;
     try {
-      written = cv::imwrite(sheet_tmp, bgr);
+      written = cv::imwrite(sheet_file->tempPath(), bgr);
     } catch (const cv::Exception& error) {
       written = false;
     }
     if (!written)
       throw InputError("--contact-sheet " + options.contact_sheet + ": cannot write the PNG");
   }
-  // Renamed last, after every check: no file on failure.
-  refuseExisting(options.out, "--out");
-  std::filesystem::rename(model_tmp, options.out);
+  // Committed last, after every check, the model first: it is the work worth keeping.
+  model_file.commit();
   summary.out = options.out;
-  if (!sheet_tmp.empty()) {
-    std::filesystem::rename(sheet_tmp, options.contact_sheet);
+  if (sheet_file) {
+    sheet_file->commit();
     summary.contact_sheet = options.contact_sheet;
   }
-  temporaries.release();
   if (progress) progress->finish("fitted");
   summary.seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();

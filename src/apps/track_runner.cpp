@@ -86,7 +86,7 @@ Options:
                            colours are the user's (default: a model from calibrate_hand gives
                            the gate around its colours, which drops wood and cardboard)
   --overwrite              replace a file already at --out (default: refused before the bag is
-                           read)
+                           read, and a file that appears there during the run is kept too)
   --quiet                  no progress bar
   --help                   this text
 )";
@@ -371,7 +371,8 @@ TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
   // that fails half way, or tracks nothing, leaves no CSV and whatever was at --out untouched.
   std::error_code ignored;
   const bool out_existed = std::filesystem::exists(options.out, ignored);
-  AtomicOutputFile out(options.out);
+  // Without --overwrite the commit replaces nothing: a file created at --out during the run stays.
+  AtomicOutputFile out(options.out, options.overwrite, "--out");
   TrackingCsvWriter csv(out.tempPath(), model.parameterNames(), /*status_column=*/true);
   TrackBagSummary summary = runTrackBag(
       reader, [&pipeline](const FrameSet& set) { return pipeline.process(set); }, csv, progress,

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <iterator>
 
+#include "sag_hand_tracker/apps/calibrate_runner.h"
 #include "sag_hand_tracker/apps/render_runner.h"
 #include "sag_hand_tracker/model/hand_model.h"
 #include "test_support/temp_files.h"
@@ -220,4 +221,27 @@ TEST_F(CalibrateHandTool, RefusesToReplaceFilesAndChecksTheCommandLine) {
   run = calibrateHand("--help");
   EXPECT_EQ(run.status, 0);
   EXPECT_NE(run.out.find("Usage: calibrate_hand"), std::string::npos);
+}
+
+// The fitted model is committed without replacing anything: a file created at --out during the
+// run stays, and the model is kept under the name the error gives (before, a check just before
+// the rename left a window, and its refusal threw the fitted model away).
+TEST_F(CalibrateHandTool, ReplacesNoFileCreatedAtOutDuringTheRun) {
+  CalibrateHandOptions options;
+  options.bag = routineBag("pinch.bag", 75, "dexter5", "pinch");
+  options.out = path("hand.yaml");
+  options.config_dir = kConfig;
+  sag_test::CreateOnWrite creator(options.out);
+  std::ostream stream(&creator);
+  ProgressBar progress(stream, /*interactive=*/false);
+  const std::string message =
+      sag_test::inputErrorOf([&] { sag_hand_tracker::calibrateHand(options, &progress); });
+  EXPECT_EQ(readAll(options.out), "mine\n");
+  const std::string prefix = "--out " + options.out +
+                             ": a file was created there while the output was written; it is not "
+                             "replaced; the new output is kept in ";
+  ASSERT_EQ(message.rfind(prefix, 0), 0u) << message;
+  const std::string kept = message.substr(prefix.size());
+  EXPECT_EQ(fs::path(kept).parent_path(), dir_);
+  EXPECT_TRUE(loadHandModel(kept).colours_fitted) << "the fitted model is kept";
 }

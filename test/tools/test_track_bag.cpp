@@ -19,6 +19,7 @@
 #include "sag_hand_tracker/apps/csv.h"
 #include "sag_hand_tracker/apps/metrics.h"
 #include "sag_hand_tracker/apps/render_runner.h"
+#include "sag_hand_tracker/apps/track_runner.h"
 #include "sag_hand_tracker/ros/bag_output.h"
 #include "sag_hand_tracker/ros/conversions.h"
 #include "sag_hand_tracker/segmentation/background_plate.h"
@@ -564,4 +565,46 @@ TEST_F(TrackBagTool, TrackBagUsageErrors) {
   run = trackBag("--bag a.bag --out '" + path("x.csv") + "' --model '" + path("nope.yaml") + "'");
   EXPECT_EQ(run.status, 1);
   EXPECT_NE(run.err.find("nope.yaml"), std::string::npos) << run.err;
+}
+
+// --out was checked only before the run: a file created there during the run was replaced by the
+// CSV. The commit replaces nothing without --overwrite; the error names --out and the file the
+// finished CSV was kept in. A dangling symlink at --out is something there too.
+TEST_F(TrackBagTool, TrackBagReplacesNoFileCreatedAtOutDuringTheRun) {
+  const std::string bag = writeSceneBag("scene.bag");
+  TrackBagOptions options;
+  options.bag = bag;
+  options.out = path("race.csv");
+  options.model = sag_test::modelPath("sag");
+  options.background_frames = kBackgroundFrames;
+  sag_test::CreateOnWrite creator(options.out);
+  std::ostream stream(&creator);
+  ProgressBar progress(stream, /*interactive=*/false);
+  const std::string message =
+      sag_test::inputErrorOf([&] { sag_hand_tracker::trackBag(options, &progress); });
+  EXPECT_EQ(readAll(options.out), "mine\n");
+  const std::string prefix = "--out " + options.out +
+                             ": a file was created there while the output was written; it is not "
+                             "replaced; the new output is kept in ";
+  ASSERT_EQ(message.rfind(prefix, 0), 0u) << message;
+  const std::string kept = message.substr(prefix.size());
+  EXPECT_EQ(fs::path(kept).parent_path(), dir_);
+  EXPECT_EQ(readTrackingCsv(kept).rows.size(), static_cast<std::size_t>(kHandFrames));
+
+  // With --overwrite the file created meanwhile is replaced, as asked.
+  options.overwrite = true;
+  std::ostringstream quiet;
+  ProgressBar plain(quiet, false);
+  sag_hand_tracker::trackBag(options, &plain);
+  EXPECT_EQ(readTrackingCsv(options.out).rows.size(), static_cast<std::size_t>(kHandFrames));
+
+  fs::create_symlink("nothere.csv", path("dangling.csv"));
+  const ToolRun run = trackBag("--bag '" + bag + "' --out '" + path("dangling.csv") + "' " +
+                               modelArgument() + " --quiet");
+  EXPECT_EQ(run.status, 1);
+  EXPECT_EQ(run.err, "track_bag: error: --out " + path("dangling.csv") +
+                         " exists; it is not replaced (--overwrite replaces it, or choose another "
+                         "name)\n");
+  EXPECT_TRUE(fs::is_symlink(path("dangling.csv")));
+  EXPECT_FALSE(fs::exists(path("nothere.csv")));
 }

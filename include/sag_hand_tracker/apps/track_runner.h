@@ -135,10 +135,11 @@ PipelineParams trackBagPipelineParams(const TrackBagOptions& options);
 // The whole of track_bag: loads the model, opens the bag (options.cameras, options.root_frame),
 // builds the TrackingPipeline and runs runTrackBag into the CSV options.out. `progress` and
 // `stop` may be null. --out equal to an input is refused before anything is opened; the CSV is
-// written to a temporary file and renamed to options.out only when a frame was tracked
-// (summary.csv_written, commitsTrackCsv), so a failure (rethrown), a run without a tracked frame
-// or an interrupted run leaves whatever was at options.out untouched. The caller decides what no
-// tracked frame means.
+// written to a temporary file and moved to options.out only when a frame was tracked
+// (summary.csv_written, commitsTrackCsv; without options.overwrite the move replaces nothing, not
+// even a file created there during the run: InputError naming where the CSV was kept), so a failure
+// (rethrown), a run without a tracked frame or an interrupted run leaves whatever was at
+// options.out untouched. The caller decides what no tracked frame means.
 TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
                          const std::atomic<bool>* stop = nullptr);
 
