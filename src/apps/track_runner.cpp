@@ -196,8 +196,8 @@ std::string formatSummary(const TrackBagSummary& summary) {
         << " apart (the cameras are not stamped together; --stamp-tolerance)\n";
   }
   if (summary.csv_written) {
-    out << "  output:    " << summary.tracked_frames + summary.lost_frames << " rows ("
-        << summary.tracked_frames << " tracked or started, " << summary.lost_frames << " lost) in "
+    out << "  output:    " << summary.tracked_frames + summary.lost_rows << " rows ("
+        << summary.tracked_frames << " tracked or started, " << summary.lost_rows << " lost) in "
         << summary.csv << "\n";
   } else if (summary.interrupted && summary.out_existed) {
     out << "  output:    none (interrupted; the existing " << summary.csv
@@ -266,8 +266,12 @@ TrackBagSummary runTrackBag(BagReader& reader, const TrackFrameFunction& track,
       summary.tracking_seconds += processed.tracking_seconds;
       summary.image_gaussians += processed.image_gaussians;
       const FrameResult& result = processed.result;
-      // A lost frame's pose is written with its status, never counted as tracked.
-      if (result.has_pose) csv.write(toCsvRow(result));
+      // A lost frame's pose is written with its status, never counted as tracked. A lost frame
+      // without a pose (after a clock jump back) has no row: the rows are counted as written.
+      if (result.has_pose) {
+        csv.write(toCsvRow(result));
+        if (result.status == TrackStatus::kLost) ++summary.lost_rows;
+      }
       if (result.status == TrackStatus::kLost) {
         ++summary.lost_frames;
       } else if (result.has_pose) {

@@ -327,3 +327,34 @@ TEST_F(TrackBagRun, TrackBagPassesTrackingErrorsOn) {
           reader, [](const FrameSet&) -> ProcessedFrame { throw InputError("bad"); }, csv, nullptr),
       InputError);
 }
+
+// A lost frame without a pose (after a clock jump back in bag time and stamps) has no CSV row:
+// the summary counted it among the rows ("29 rows ... 12 lost" for a CSV of 28 rows, 11 lost).
+TEST_F(TrackBagRun, TheSummaryCountsTheRowsTheCsvHas) {
+  BagReader reader(path("in.bag"));
+  TrackBagSummary summary;
+  {
+    TrackingCsvWriter csv(path("out.csv"), names26(), /*status_column=*/true);
+    summary = runTrackBag(
+        reader,
+        [](const FrameSet& set) {
+          ProcessedFrame processed = standIn(set);
+          // The incomplete set (frame 4): lost, and no pose to write.
+          if (processed.result.status == TrackStatus::kWaiting) {
+            processed.result.status = TrackStatus::kLost;
+          }
+          return processed;
+        },
+        csv, nullptr);
+  }
+  EXPECT_EQ(summary.lost_frames, 2);
+  EXPECT_EQ(summary.lost_rows, 1);
+  const TrackingCsv csv = readTrackingCsv(path("out.csv"));
+  ASSERT_EQ(csv.rows.size(), 3u);
+  const std::string report = formatSummary(summary);
+  EXPECT_NE(report.find("frames:    6 (2 background, 2 tracked, 2 lost, 0 without a hand pose)"),
+            std::string::npos)
+      << report;
+  EXPECT_NE(report.find("output:    3 rows (2 tracked or started, 1 lost) in "), std::string::npos)
+      << report;
+}

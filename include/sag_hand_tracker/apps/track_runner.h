@@ -68,7 +68,8 @@ struct TrackBagSummary {
   int background_frames = 0;          // sets learned as background
   int tracked_frames = 0;             // sets with an accepted pose (status started or tracked)
   int waiting_frames = 0;             // sets after the background without a pose
-  int lost_frames = 0;                // status lost (a CSV row with status "lost", not tracked)
+  int lost_frames = 0;                // status lost (not tracked)
+  int lost_rows = 0;                  // lost with a pose: a CSV row with status "lost"
   int restarted_frames = 0;           // the track was started again after being lost
   int incomplete_sets = 0;            // sets where a camera was missing
   int dropped_images = 0;             // late or duplicate images (see BagReaderStatistics)
