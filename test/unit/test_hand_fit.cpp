@@ -264,7 +264,7 @@ TEST(CalibrationRoutine, SaysWhatIsMissing) {
   EXPECT_NE(joined(check.missing).find("only 15 frames with the hand, the fit needs 40"),
             std::string::npos)
       << joined(check.missing);
-  EXPECT_NE(joined(check.missing).find("in view for 0.6 s, the fit needs 2.0 s"),
+  EXPECT_NE(joined(check.missing).find("in view for 0.56 s, the fit needs 2.0 s"),
             std::string::npos);
 
   // One view; and no hand at all.
