@@ -214,7 +214,9 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
   std::vector<CalibrationFrame> frames;
   FrameSet set;
   std::vector<CameraObservation> observations;
-  const RoutineRequirements requirements;
+  RoutineRequirements requirements;
+  // A clock set forward (the reader's forward_jumps) is no time in view.
+  requirements.max_frame_gap = kStampJumpSeconds;
   // Frames taken as background, and of the others those with some foreground: a recording where
   // none has any shows no hand, which "the hand was never found" did not tell from a failed start.
   int background_frames = 0, foreground_frames = 0;
@@ -242,6 +244,19 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
     }
   }
   summary.tracked_frames = static_cast<int>(frames.size());
+  // The stamp checks of track_bag (the reader's), in the same words: images dropped for stamps
+  // going backwards or repeated, clocks set forward, cameras not stamped together.
+  const BagReaderStatistics& stamps = reader.statistics();
+  summary.stamp_warnings = stampWarnings(stamps);
+  std::string stamp_notes;
+  for (const std::string& line : summary.stamp_warnings) stamp_notes += "\nwarning: " + line;
+  // Sets of cameras not stamped together lack cameras, and the tracker's poses and the fit's
+  // views mix moments: a camera 30 ms late gave a hand of size x0.88 with exit status 0.
+  if (camerasOutOfStep(stamps, summary.frames)) {
+    throw InputError(options.bag + ": " + stampFailure(stamps, summary.frames) +
+                     "; calibrate_hand fits no hand from cameras that are not stamped together "
+                     "(their sets lack cameras and mix moments)");
+  }
 
   // 2. Was the routine followed?
   summary.routine = checkCalibrationRoutine(start, frames, summary.cameras, requirements);
@@ -252,8 +267,10 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
                                (after_background == 1 ? "" : "s") + " after the " +
                                std::to_string(background_frames) + " background frame" +
                                (background_frames == 1 ? "" : "s");
-    std::string why;
-    if (after_background == 0) {
+    std::string why = stampFailure(stamps, summary.frames);
+    if (!why.empty()) {
+      // The stamps explain it (as in track_bag): not "all 1 frames were background frames".
+    } else if (after_background == 0) {
       why = "all " + std::to_string(summary.frames) +
             " frames of the recording were background frames (--background-frames " +
             std::to_string(options.background_frames) + "): none could show the hand";
@@ -276,7 +293,7 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
     throw InputError(options.bag +
                      ": the recording does not show the calibration routine (open hand, palm and "
                      "back turned to the cameras, a fist; doc/calibration.md):" +
-                     missing);
+                     missing + stamp_notes);
   }
 
   // 3. Fit.
@@ -360,6 +377,7 @@ std::string formatCalibrateHandSummary(const CalibrateHandSummary& s) {
   out << "  routine:      open hand " << s.routine.open_frames << ", palm to a camera "
       << s.routine.palm_frames << ", back to a camera " << s.routine.back_frames << ", fist "
       << s.routine.fist_frames << " frames\n";
+  for (const std::string& line : s.stamp_warnings) out << "  warning:      " << line << "\n";
   if (!s.routine.complete) {
     out << "  warning:      the recording does not show the whole routine; fitted from what it "
            "shows:\n";

@@ -219,7 +219,10 @@ RoutineCheck checkCalibrationRoutine(const HandModel& model,
                                      const RoutineRequirements& requirements) {
   RoutineCheck check;
   check.frames = static_cast<int>(frames.size());
-  if (!frames.empty()) check.duration = frames.back().stamp - frames.front().stamp;
+  for (std::size_t f = 1; f < frames.size(); ++f) {
+    const double gap = frames[f].stamp - frames[f - 1].stamp;
+    if (gap <= requirements.max_frame_gap) check.duration += gap;
+  }
 
   // Views: cameras (by name) that see the hand in at least a third of the frames.
   std::vector<std::pair<std::string, int>> seen;

@@ -295,7 +295,7 @@ TEST_F(TrackBagTool, TrackBagNamesAStampMismatchInsteadOfAMissingHand) {
                           0),
             0u)
       << run.err;
-  EXPECT_NE(run.err.find("first: /cam1/image_raw at 1000.000005 vs cam0 at 1000.000000"),
+  EXPECT_NE(run.err.find("first: /cam1/image_raw frame 1 at 1000.000005 vs cam0 at 1000.000000"),
             std::string::npos)
       << run.err;
   EXPECT_NE(run.out.find("warning:"), std::string::npos) << run.out;
@@ -361,8 +361,8 @@ TEST_F(TrackBagTool, TrackBagNamesImagesWhoseStampsGoBackwards) {
             std::string::npos)
       << run.out;
   EXPECT_NE(run.out.find("  warning:   2 images with stamps going backwards (first: "
-                         "/cam0/image_raw at 1000.160000 after 1000.400000); images whose set was "
-                         "already tracked are dropped\n"),
+                         "/cam0/image_raw frame 12 at 1000.160000 after 1000.400000); images whose "
+                         "set was already read are dropped\n"),
             std::string::npos)
       << run.out;
   // One row per set, in the order of the stamps: the late images made no second frame 4 or 6.
@@ -393,7 +393,7 @@ TEST_F(TrackBagTool, TrackBagNamesImagesWhoseStampsGoBackwards) {
   EXPECT_EQ(
       run.err,
       "track_bag: error: no frame was tracked: 20 images were dropped because their stamps go "
-      "backwards (first: /cam0/image_raw at 1000.000000 after 1000.120000), against 4 sets "
+      "backwards (first: /cam0/image_raw frame 5 at 1000.000000 after 1000.120000), against 4 sets "
       "kept; the bag's images must come in the order of their stamps; " +
           path("mostly_backward.csv") + " was not written\n");
   EXPECT_FALSE(fs::exists(path("mostly_backward.csv")));

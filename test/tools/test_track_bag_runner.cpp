@@ -277,19 +277,19 @@ TEST(TrackBagOutput, TheSummaryNamesRepeatedStampsAndForwardLeaps) {
   TrackBagSummary summary;
   summary.frames = 4;
   summary.tracked_frames = 4;
-  summary.duplicate_stamps = 2;
-  summary.first_duplicate_stamp = "/cam1/image_raw at 100.000000";
-  summary.forward_jumps = 3;
-  summary.first_forward_jump = "/cam0/image_raw at 7300.080000 after 100.040000";
+  summary.reading.duplicate_stamps = 2;
+  summary.reading.first_duplicate_stamp = "/cam1/image_raw frame 2 at 100.000000";
+  summary.reading.forward_jumps = 3;
+  summary.reading.first_forward_jump = "/cam0/image_raw frame 3 at 7300.080000 after 100.040000";
   const std::string report = formatSummary(summary);
   EXPECT_NE(report.find("  warning:   2 images with the stamp of an earlier image of their camera "
-                        "(first: /cam1/image_raw at 100.000000); only the first image of a stamp "
-                        "is tracked\n"),
+                        "(first: /cam1/image_raw frame 2 at 100.000000); only the first image of a "
+                        "stamp is used\n"),
             std::string::npos)
       << report;
   EXPECT_NE(report.find("  warning:   3 images with stamps more than 10 s after their camera's "
-                        "previous image (first: /cam0/image_raw at 7300.080000 after "
-                        "100.040000); a clock set forward or a paused recording, tracked as the "
+                        "previous image (first: /cam0/image_raw frame 3 at 7300.080000 after "
+                        "100.040000); a clock set forward or a paused recording, read as the "
                         "next frame\n"),
             std::string::npos)
       << report;

@@ -82,16 +82,9 @@ struct TrackBagSummary {
   bool interrupted = false;
   bool csv_written = false;  // trackBag: the CSV was renamed into place
   bool out_existed = false;  // trackBag: a file was at --out before the run
-  int backward_stamps = 0;   // see BagReaderStatistics
-  std::string first_backward_stamp;
-  int duplicate_stamps = 0;  // see BagReaderStatistics
-  std::string first_duplicate_stamp;
-  int forward_jumps = 0;  // see BagReaderStatistics
-  std::string first_forward_jump;
-  int near_stamp_mismatches = 0;  // see BagReaderStatistics
-  std::string first_near_stamp_mismatch;
-  int tolerated_stamps = 0;  // see BagReaderStatistics
-  double largest_stamp_difference = 0.0;
+  // The reader's statistics at the end: its stamp checks (stampWarnings, stampFailure; the same
+  // words as calibrate_hand's) and the stamps it joined within the tolerance.
+  BagReaderStatistics reading;
   // Without a plate: which skin gate segmented the images ("generic", or the user's from the
   // model's colours with its ranges); empty with a plate.
   std::string skin_gate;
