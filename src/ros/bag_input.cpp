@@ -7,7 +7,9 @@
 #include <rosbag/view.h>
 #include <roslz4/lz4s.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
+#include <std_msgs/String.h>
 #include <tf2_msgs/TFMessage.h>
 
 #include <algorithm>
@@ -65,6 +67,29 @@ std::string joinIds(const std::vector<int>& ids) {
   std::string text;
   for (int id : ids) text += (text.empty() ? "" : " ") + std::to_string(id);
   return text;
+}
+
+template <class M>
+bool bytesAre(const std::vector<std::uint8_t>& bytes) {
+  return checkSerializedMessage(ros::message_traits::datatype<M>(),
+                                ros::message_traits::definition<M>(), bytes.data(), bytes.size())
+      .empty();
+}
+
+// The type, among those a camera bag holds, whose layout the bytes of `message` fit exactly; ""
+// when none does. For the error about a message that is not its connection's type: rosbag (C++
+// and Python) keeps a topic's first connection, so a std_msgs/String written on an image topic is
+// stored as a sensor_msgs/Image, and "malformed sensor_msgs/Image" did not say what it was.
+std::string typeOfBytes(const rosbag::MessageInstance& message) {
+  std::vector<std::uint8_t> bytes(message.size());
+  ros::serialization::OStream out(bytes.data(), static_cast<std::uint32_t>(bytes.size()));
+  message.write(out);
+  if (bytesAre<std_msgs::String>(bytes)) return "std_msgs/String";
+  if (bytesAre<sensor_msgs::CompressedImage>(bytes)) return "sensor_msgs/CompressedImage";
+  if (bytesAre<sensor_msgs::CameraInfo>(bytes)) return "sensor_msgs/CameraInfo";
+  if (bytesAre<sensor_msgs::Image>(bytes)) return "sensor_msgs/Image";
+  if (bytesAre<tf2_msgs::TFMessage>(bytes)) return "tf2_msgs/TFMessage";
+  return "";
 }
 
 struct ParentLink {
@@ -149,8 +174,14 @@ struct BagReader::Impl {
     try {
       return instantiateChecked<M>(message);
     } catch (const std::runtime_error& error) {
+      const std::string found = typeOfBytes(message);
+      const std::string expected = ros::message_traits::datatype<M>();
       fail(message.getTopic() + " at " + formatStamp(message.getTime().toNSec()) + ": " +
-           error.what());
+           error.what() +
+           (found.empty() || found == expected
+                ? std::string()
+                : "; its bytes are a " + found + ", not a " + expected +
+                      " (another type written on the topic under its first connection)"));
     }
   }
 

@@ -608,3 +608,22 @@ TEST_F(TrackBagTool, TrackBagReplacesNoFileCreatedAtOutDuringTheRun) {
   EXPECT_TRUE(fs::is_symlink(path("dangling.csv")));
   EXPECT_FALSE(fs::exists(path("nothere.csv")));
 }
+
+// A std_msgs/String written on an image topic is stored under the topic's sensor_msgs/Image
+// connection (rosbag keeps a topic's first one): the error said "malformed sensor_msgs/Image" only.
+TEST_F(TrackBagTool, TrackBagNamesTheTypeOfAStringOnAnImageTopic) {
+  const std::string bag = writeSceneBag("string.bag", 0.0, [](BagWriter* writer) {
+    std_msgs::String text;
+    text.data = "hello";
+    writer->write("/cam1/image_raw", frameTime(20), text);
+  });
+  const ToolRun run = trackBag("--bag '" + bag + "' --out '" + path("string.csv") + "' " +
+                               modelArgument() + " --quiet");
+  EXPECT_EQ(run.status, 1);
+  EXPECT_EQ(run.err.rfind("track_bag: error: " + bag + ": /cam1/image_raw at 1000.800000: ", 0), 0u)
+      << run.err;
+  EXPECT_NE(run.err.find("; its bytes are a std_msgs/String, not a sensor_msgs/Image"),
+            std::string::npos)
+      << run.err;
+  EXPECT_FALSE(fs::exists(path("string.csv")));
+}
