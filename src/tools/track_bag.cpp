@@ -38,6 +38,11 @@ int run(const TrackBagOptions& options) {
     const std::string stamps = stampFailure(summary.reading, summary.frames, "--stamp-tolerance");
     if (!stamps.empty()) {
       std::cerr << stamps;
+    } else if (summary.frames == summary.background_frames) {
+      // Not "not found in the 0 frames after the N background frames": the bag is that short.
+      std::cerr << "the bag has " << summary.frames << " frame" << (summary.frames == 1 ? "" : "s")
+                << ", all taken as background frames (--background-frames "
+                << options.background_frames << "): none could show the hand";
     } else {
       std::cerr << "the hand was not found in the " << summary.frames - summary.background_frames
                 << " frames after the " << summary.background_frames << " background frames";

@@ -627,3 +627,18 @@ TEST_F(TrackBagTool, TrackBagNamesTheTypeOfAStringOnAnImageTopic) {
       << run.err;
   EXPECT_FALSE(fs::exists(path("string.csv")));
 }
+
+// --background-frames beyond the bag: "the hand was not found in the 0 frames after the 3
+// background frames" did not say that the bag has only those.
+TEST_F(TrackBagTool, TrackBagSaysHowManyFramesABagOfBackgroundHas) {
+  const std::string bag = writeSceneBag("short.bag");
+  const int frames = kBackgroundFrames + kHandFrames;
+  const ToolRun run = trackBag("--bag '" + bag + "' --out '" + path("short.csv") + "' --model '" +
+                               sag_test::modelPath("sag") + "' --quiet --background-frames 1000");
+  EXPECT_EQ(run.status, 1);
+  EXPECT_EQ(run.err, "track_bag: error: no frame was tracked: the bag has " +
+                         std::to_string(frames) +
+                         " frames, all taken as background frames (--background-frames 1000): "
+                         "none could show the hand; " +
+                         path("short.csv") + " was not written\n");
+}
