@@ -10,6 +10,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
@@ -64,22 +65,6 @@ void requireWritable(const std::string& path, const std::string& extension,
   ::close(fd);
   ::unlink(probe.c_str());
 }
-
-// Removes the temporary files it was given unless released (on every error path).
-class TemporaryFiles {
- public:
-  void add(const std::string& path) { paths_.push_back(path); }
-  void release() { paths_.clear(); }
-  ~TemporaryFiles() {
-    for (const std::string& path : paths_) {
-      std::error_code ignored;
-      std::filesystem::remove(path, ignored);
-    }
-  }
-
- private:
-  std::vector<std::string> paths_;
-};
 
 // The contact sheet: rows of frames (up to 4 of the fit's frames), one column per camera, the
 // fitted model drawn over each image. Reads the bag a second time for the images.
@@ -229,7 +214,9 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
   std::vector<CalibrationFrame> frames;
   FrameSet set;
   std::vector<CameraObservation> observations;
-  const RoutineRequirements requirements;
+  RoutineRequirements requirements;
+  // A clock set forward (the reader's forward_jumps) is no time in view.
+  requirements.max_frame_gap = kStampJumpSeconds;
   // Frames taken as background, and of the others those with some foreground: a recording where
   // none has any shows no hand, which "the hand was never found" did not tell from a failed start.
   int background_frames = 0, foreground_frames = 0;
@@ -257,6 +244,19 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
     }
   }
   summary.tracked_frames = static_cast<int>(frames.size());
+  // The stamp checks of track_bag (the reader's), in the same words: images dropped for stamps
+  // going backwards or repeated, clocks set forward, cameras not stamped together.
+  const BagReaderStatistics& stamps = reader.statistics();
+  summary.stamp_warnings = stampWarnings(stamps);
+  std::string stamp_notes;
+  for (const std::string& line : summary.stamp_warnings) stamp_notes += "\nwarning: " + line;
+  // Sets of cameras not stamped together lack cameras, and the tracker's poses and the fit's
+  // views mix moments: a camera 30 ms late gave a hand of size x0.88 with exit status 0.
+  if (camerasOutOfStep(stamps, summary.frames)) {
+    throw InputError(options.bag + ": " + stampFailure(stamps, summary.frames) +
+                     "; calibrate_hand fits no hand from cameras that are not stamped together "
+                     "(their sets lack cameras and mix moments)");
+  }
 
   // 2. Was the routine followed?
   summary.routine = checkCalibrationRoutine(start, frames, summary.cameras, requirements);
@@ -267,8 +267,10 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
                                (after_background == 1 ? "" : "s") + " after the " +
                                std::to_string(background_frames) + " background frame" +
                                (background_frames == 1 ? "" : "s");
-    std::string why;
-    if (after_background == 0) {
+    std::string why = stampFailure(stamps, summary.frames);
+    if (!why.empty()) {
+      // The stamps explain it (as in track_bag): not "all 1 frames were background frames".
+    } else if (after_background == 0) {
       why = "all " + std::to_string(summary.frames) +
             " frames of the recording were background frames (--background-frames " +
             std::to_string(options.background_frames) + "): none could show the hand";
@@ -291,7 +293,7 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
     throw InputError(options.bag +
                      ": the recording does not show the calibration routine (open hand, palm and "
                      "back turned to the cameras, a fist; doc/calibration.md):" +
-                     missing);
+                     missing + stamp_notes);
   }
 
   // 3. Fit.
@@ -318,48 +320,46 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
   summary.tips_on_foreground_after =
       fingertipsOnForeground(summary.fit.model, used, summary.fit.poses);
 
-  // 4. Write through temporary files; check that the model file loads back before it is renamed.
-  TemporaryFiles temporaries;
-  const std::string model_tmp = temporaryPath(options.out, ".yaml");
-  temporaries.add(model_tmp);
+  // 4. Write through temporary files (atomic_output.h); check that the model file loads back
+  // before it is committed. The commits replace nothing: a file created at --out while the
+  // recording was fitted stays, and the fitted model is kept under a name the error gives.
+  AtomicOutputFile model_file(options.out, /*overwrite=*/false, "--out");
   {
-    std::ofstream file(model_tmp);
+    std::ofstream file(model_file.tempPath());
     file << formatHandModel(summary.fit.model, "Fitted by calibrate_hand from " + options.bag +
                                                    " (start model " + options.model +
                                                    ").\nFormat: README.md, 'Hand models'.");
     if (!file) throw InputError("--out " + options.out + ": cannot write the file");
   }
   try {
-    loadHandModel(model_tmp);
+    loadHandModel(model_file.tempPath());
   } catch (const InputError& error) {
     throw InputError(std::string("internal error: the fitted model does not load back: ") +
                      error.what());
   }
-  std::string sheet_tmp;
+  std::unique_ptr<AtomicOutputFile> sheet_file;
   if (!options.contact_sheet.empty()) {
-    sheet_tmp = temporaryPath(options.contact_sheet, ".png");
-    temporaries.add(sheet_tmp);
+    sheet_file =
+        std::make_unique<AtomicOutputFile>(options.contact_sheet, false, "--contact-sheet");
     const cv::Mat sheet = fittedContactSheet(options, reader_options, frames, summary.fit);
     cv::Mat bgr;
     cv::cvtColor(sheet, bgr, cv::COLOR_RGB2BGR);
     bool written = false;
     try {
-      written = cv::imwrite(sheet_tmp, bgr);
+      written = cv::imwrite(sheet_file->tempPath(), bgr);
     } catch (const cv::Exception& error) {
       written = false;
     }
     if (!written)
       throw InputError("--contact-sheet " + options.contact_sheet + ": cannot write the PNG");
   }
-  // Renamed last, after every check: no file on failure.
-  refuseExisting(options.out, "--out");
-  std::filesystem::rename(model_tmp, options.out);
+  // Committed last, after every check, the model first: it is the work worth keeping.
+  model_file.commit();
   summary.out = options.out;
-  if (!sheet_tmp.empty()) {
-    std::filesystem::rename(sheet_tmp, options.contact_sheet);
+  if (sheet_file) {
+    sheet_file->commit();
     summary.contact_sheet = options.contact_sheet;
   }
-  temporaries.release();
   if (progress) progress->finish("fitted");
   summary.seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
@@ -377,6 +377,7 @@ std::string formatCalibrateHandSummary(const CalibrateHandSummary& s) {
   out << "  routine:      open hand " << s.routine.open_frames << ", palm to a camera "
       << s.routine.palm_frames << ", back to a camera " << s.routine.back_frames << ", fist "
       << s.routine.fist_frames << " frames\n";
+  for (const std::string& line : s.stamp_warnings) out << "  warning:      " << line << "\n";
   if (!s.routine.complete) {
     out << "  warning:      the recording does not show the whole routine; fitted from what it "
            "shows:\n";

@@ -35,9 +35,10 @@ const char* const kFittedTracker = "fitted";
 
 namespace {
 
-// A whole text output, written next to `path` and renamed there (atomic_output.h).
+// A whole text output, written next to `path` and renamed there (atomic_output.h); the
+// benchmark's own files, replaced each run.
 void writeOutputFile(const std::string& path, const std::string& text) {
-  AtomicOutputFile file(path);
+  AtomicOutputFile file(path, /*overwrite=*/true);
   {
     std::ofstream out(file.tempPath(), std::ios::binary | std::ios::trunc);
     out << text;

@@ -124,7 +124,8 @@ cv::Mat linePlot(const std::vector<PlotSeries>& series, const std::string& title
 }
 
 void writePng(const std::string& path, const cv::Mat& image) {
-  AtomicOutputFile file(path);  // keeps the extension, which imwrite goes by
+  // Keeps the extension, which imwrite goes by. The benchmark's own figures: replaced each run.
+  AtomicOutputFile file(path, /*overwrite=*/true);
   bool ok = false;
   try {
     ok = cv::imwrite(file.tempPath(), image);

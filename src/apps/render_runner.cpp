@@ -127,7 +127,8 @@ std::string renderBagUsage() {
          "  --config-dir DIR   where the built-in motions, rigs and models are (default: the\n"
          "                     package's config/)\n"
          "  --overwrite        replace files already at --out, --gt-csv, --preview (default:\n"
-         "                     refused before anything is rendered)\n"
+         "                     refused before anything is rendered, and a file that appears\n"
+         "                     there during the run is kept too)\n"
          "  --quiet            no progress bar\n"
          "The first 10 frames show the empty studio (for the background plate); ground truth is\n"
          "written for the frames with the hand.\n";
@@ -363,10 +364,14 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
   const std::vector<std::string> names = model.parameterNames();
   // Every output is written next to its path and renamed there only when all succeeded: a
   // failure half way leaves no partial bag, CSV or preview, and the old files untouched.
-  AtomicOutputFile bag_file(options.out);
-  AtomicOutputFile csv_file(options.gt_csv);
+  // Without --overwrite the commits replace nothing, not even a file created during the render.
+  AtomicOutputFile bag_file(options.out, options.overwrite, "--out");
+  AtomicOutputFile csv_file(options.gt_csv, options.overwrite, "--gt-csv");
   std::unique_ptr<AtomicOutputFile> preview_file;
-  if (!options.preview.empty()) preview_file = std::make_unique<AtomicOutputFile>(options.preview);
+  if (!options.preview.empty()) {
+    preview_file =
+        std::make_unique<AtomicOutputFile>(options.preview, options.overwrite, "--preview");
+  }
   BagWriter bag(bag_file.tempPath(), options.compression);
   TrackingCsvWriter csv(csv_file.tempPath(), names);
   bag.writeStaticTransforms(rig, frameStamp(options.start_stamp, 0, options.fps));

@@ -86,7 +86,7 @@ Options:
                            colours are the user's (default: a model from calibrate_hand gives
                            the gate around its colours, which drops wood and cardboard)
   --overwrite              replace a file already at --out (default: refused before the bag is
-                           read)
+                           read, and a file that appears there during the run is kept too)
   --quiet                  no progress bar
   --help                   this text
 )";
@@ -166,38 +166,18 @@ std::string formatSummary(const TrackBagSummary& summary) {
       << formatSeconds(summary.background_seconds) << "\n";
   out << "  track:     lost in " << summary.lost_frames << " frames, restarted in "
       << summary.restarted_frames << " frames\n";
-  if (summary.backward_stamps > 0) {
-    out << "  warning:   " << summary.backward_stamps
-        << " images with stamps going backwards (first: " << summary.first_backward_stamp
-        << "); images whose set was already tracked are dropped\n";
+  for (const std::string& line : stampWarnings(summary.reading, "--stamp-tolerance")) {
+    out << "  warning:   " << line << "\n";
   }
-  if (summary.duplicate_stamps > 0) {
-    out << "  warning:   " << summary.duplicate_stamps
-        << " images with the stamp of an earlier image of their camera (first: "
-        << summary.first_duplicate_stamp << "); only the first image of a stamp is tracked\n";
-  }
-  if (summary.forward_jumps > 0) {
-    out << "  warning:   " << summary.forward_jumps
-        << " images with stamps more than 10 s after their camera's previous image (first: "
-        << summary.first_forward_jump
-        << "); a clock set forward or a paused recording, tracked as the next frame\n";
-  }
-  if (summary.near_stamp_mismatches > 0) {
-    out << "  warning:   " << summary.near_stamp_mismatches
-        << " images more than --stamp-tolerance but less than 20 ms from another camera's set "
-           "(first: "
-        << summary.first_near_stamp_mismatch
-        << "): the cameras are not stamped together, so these are never seen together\n";
-  }
-  if (summary.tolerated_stamps > 0) {
-    out << "  stamps:    " << summary.tolerated_stamps
+  if (summary.reading.tolerated_stamps > 0) {
+    out << "  stamps:    " << summary.reading.tolerated_stamps
         << " images joined a set of another camera's stamp, up to "
-        << formatMillis(summary.largest_stamp_difference, 1)
+        << formatMillis(summary.reading.largest_stamp_difference, 1)
         << " apart (the cameras are not stamped together; --stamp-tolerance)\n";
   }
   if (summary.csv_written) {
-    out << "  output:    " << summary.tracked_frames + summary.lost_frames << " rows ("
-        << summary.tracked_frames << " tracked or started, " << summary.lost_frames << " lost) in "
+    out << "  output:    " << summary.tracked_frames + summary.lost_rows << " rows ("
+        << summary.tracked_frames << " tracked or started, " << summary.lost_rows << " lost) in "
         << summary.csv << "\n";
   } else if (summary.interrupted && summary.out_existed) {
     out << "  output:    none (interrupted; the existing " << summary.csv
@@ -266,8 +246,12 @@ TrackBagSummary runTrackBag(BagReader& reader, const TrackFrameFunction& track,
       summary.tracking_seconds += processed.tracking_seconds;
       summary.image_gaussians += processed.image_gaussians;
       const FrameResult& result = processed.result;
-      // A lost frame's pose is written with its status, never counted as tracked.
-      if (result.has_pose) csv.write(toCsvRow(result));
+      // A lost frame's pose is written with its status, never counted as tracked. A lost frame
+      // without a pose (after a clock jump back) has no row: the rows are counted as written.
+      if (result.has_pose) {
+        csv.write(toCsvRow(result));
+        if (result.status == TrackStatus::kLost) ++summary.lost_rows;
+      }
       if (result.status == TrackStatus::kLost) {
         ++summary.lost_frames;
       } else if (result.has_pose) {
@@ -289,16 +273,7 @@ TrackBagSummary runTrackBag(BagReader& reader, const TrackFrameFunction& track,
   summary.decode_seconds = stats.decode_seconds;
   summary.incomplete_sets = static_cast<int>(stats.incomplete_sets);
   summary.dropped_images = static_cast<int>(stats.dropped_images);
-  summary.backward_stamps = static_cast<int>(stats.backward_stamps);
-  summary.first_backward_stamp = stats.first_backward_stamp;
-  summary.duplicate_stamps = static_cast<int>(stats.duplicate_stamps);
-  summary.first_duplicate_stamp = stats.first_duplicate_stamp;
-  summary.forward_jumps = static_cast<int>(stats.forward_jumps);
-  summary.first_forward_jump = stats.first_forward_jump;
-  summary.near_stamp_mismatches = static_cast<int>(stats.near_stamp_mismatches);
-  summary.first_near_stamp_mismatch = stats.first_near_stamp_mismatch;
-  summary.tolerated_stamps = static_cast<int>(stats.tolerated_stamps);
-  summary.largest_stamp_difference = stats.largest_stamp_difference;
+  summary.reading = stats;
   if (progress) {
     progress->finish(std::to_string(summary.frames) + " frames" +
                      (summary.interrupted ? " (interrupted)" : ""));
@@ -371,7 +346,8 @@ TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
   // that fails half way, or tracks nothing, leaves no CSV and whatever was at --out untouched.
   std::error_code ignored;
   const bool out_existed = std::filesystem::exists(options.out, ignored);
-  AtomicOutputFile out(options.out);
+  // Without --overwrite the commit replaces nothing: a file created at --out during the run stays.
+  AtomicOutputFile out(options.out, options.overwrite, "--out");
   TrackingCsvWriter csv(out.tempPath(), model.parameterNames(), /*status_column=*/true);
   TrackBagSummary summary = runTrackBag(
       reader, [&pipeline](const FrameSet& set) { return pipeline.process(set); }, csv, progress,

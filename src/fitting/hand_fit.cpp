@@ -3,6 +3,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <numeric>
 #include <opencv2/imgproc.hpp>
@@ -218,7 +219,10 @@ RoutineCheck checkCalibrationRoutine(const HandModel& model,
                                      const RoutineRequirements& requirements) {
   RoutineCheck check;
   check.frames = static_cast<int>(frames.size());
-  if (!frames.empty()) check.duration = frames.back().stamp - frames.front().stamp;
+  for (std::size_t f = 1; f < frames.size(); ++f) {
+    const double gap = frames[f].stamp - frames[f - 1].stamp;
+    if (gap <= requirements.max_frame_gap) check.duration += gap;
+  }
 
   // Views: cameras (by name) that see the hand in at least a third of the frames.
   std::vector<std::pair<std::string, int>> seen;
@@ -276,10 +280,16 @@ RoutineCheck checkCalibrationRoutine(const HandModel& model,
     need(check.frames >= requirements.min_frames, "only " + std::to_string(check.frames) +
                                                       " frames with the hand, the fit needs " +
                                                       std::to_string(requirements.min_frames));
-    char duration[96];
-    std::snprintf(duration, sizeof(duration),
-                  "the hand was in view for %.1f s, the fit needs %.1f s", check.duration,
-                  requirements.min_duration);
+    // As many decimals as it takes to print less than the need: with one, 1.96 s read "in view
+    // for 2.0 s, the fit needs 2.0 s".
+    char seconds[48];
+    for (int decimals = 2; decimals <= 9; ++decimals) {
+      std::snprintf(seconds, sizeof(seconds), "%.*f", decimals, check.duration);
+      if (std::strtod(seconds, nullptr) < requirements.min_duration) break;
+    }
+    char duration[128];
+    std::snprintf(duration, sizeof(duration), "the hand was in view for %s s, the fit needs %.1f s",
+                  seconds, requirements.min_duration);
     need(check.duration >= requirements.min_duration, duration);
     if (cameras_in_recording >= requirements.min_views) {
       need(check.views >= requirements.min_views,

@@ -894,7 +894,7 @@ class TrackerNodelet : public nodelet::Nodelet {
   // Writes `model` to `path` through a temporary file that is loaded back before it is renamed;
   // refuses to replace a file that appeared meanwhile. Throws InputError.
   static void saveModel(const HandModel& model, const std::string& path) {
-    AtomicOutputFile output(path);
+    AtomicOutputFile output(path, /*overwrite=*/false, "save_path");
     {
       std::ofstream file(output.tempPath());
       file << formatHandModel(model,

@@ -7,7 +7,9 @@
 #include <rosbag/view.h>
 #include <roslz4/lz4s.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
+#include <std_msgs/String.h>
 #include <tf2_msgs/TFMessage.h>
 
 #include <algorithm>
@@ -45,7 +47,7 @@ const char* const kTfStaticTopic = "/tf_static";
 constexpr std::int64_t kNearStampNs = 20000000;
 // A camera's stamps that leap forward by more than this (a clock set forward, a paused recording)
 // are reported: the tracker takes the frames as consecutive.
-constexpr std::int64_t kStampJumpNs = 10000000000;
+constexpr std::int64_t kStampJumpNs = static_cast<std::int64_t>(kStampJumpSeconds * 1e9);
 
 std::string imageTopic(int id) { return "/cam" + std::to_string(id) + "/image_raw"; }
 std::string cameraInfoTopic(int id) { return "/cam" + std::to_string(id) + "/camera_info"; }
@@ -65,6 +67,29 @@ std::string joinIds(const std::vector<int>& ids) {
   std::string text;
   for (int id : ids) text += (text.empty() ? "" : " ") + std::to_string(id);
   return text;
+}
+
+template <class M>
+bool bytesAre(const std::vector<std::uint8_t>& bytes) {
+  return checkSerializedMessage(ros::message_traits::datatype<M>(),
+                                ros::message_traits::definition<M>(), bytes.data(), bytes.size())
+      .empty();
+}
+
+// The type, among those a camera bag holds, whose layout the bytes of `message` fit exactly; ""
+// when none does. For the error about a message that is not its connection's type: rosbag (C++
+// and Python) keeps a topic's first connection, so a std_msgs/String written on an image topic is
+// stored as a sensor_msgs/Image, and "malformed sensor_msgs/Image" did not say what it was.
+std::string typeOfBytes(const rosbag::MessageInstance& message) {
+  std::vector<std::uint8_t> bytes(message.size());
+  ros::serialization::OStream out(bytes.data(), static_cast<std::uint32_t>(bytes.size()));
+  message.write(out);
+  if (bytesAre<std_msgs::String>(bytes)) return "std_msgs/String";
+  if (bytesAre<sensor_msgs::CompressedImage>(bytes)) return "sensor_msgs/CompressedImage";
+  if (bytesAre<sensor_msgs::CameraInfo>(bytes)) return "sensor_msgs/CameraInfo";
+  if (bytesAre<sensor_msgs::Image>(bytes)) return "sensor_msgs/Image";
+  if (bytesAre<tf2_msgs::TFMessage>(bytes)) return "tf2_msgs/TFMessage";
+  return "";
 }
 
 struct ParentLink {
@@ -89,6 +114,7 @@ struct BagReader::Impl {
         own_bag(reused_bag ? nullptr : std::make_unique<rosbag::Bag>()),
         bag(reused_bag ? *reused_bag : *own_bag) {
     options.max_pending_sets = std::max(1, options.max_pending_sets);
+    stats.stamp_tolerance = options.stamp_tolerance;
     if (!(options.stamp_tolerance >= 0.0 && options.stamp_tolerance <= 1.0)) {
       throw InputError("stamp tolerance must be within [0, 1] s, got " +
                        std::to_string(options.stamp_tolerance));
@@ -117,7 +143,8 @@ struct BagReader::Impl {
   rosbag::View::iterator it;
   rosbag::View::iterator end;
   std::map<std::int64_t, PendingSet> pending;
-  std::vector<std::int64_t> last_stamp;  // per camera, newest stamp seen
+  std::vector<std::int64_t> last_stamp;    // per camera, newest stamp seen
+  std::vector<std::uint64_t> frames_read;  // per camera, its images read so far (frame numbers)
   bool yielded_any = false;
   std::int64_t last_yielded = 0;
   BagReaderStatistics stats;
@@ -147,8 +174,14 @@ struct BagReader::Impl {
     try {
       return instantiateChecked<M>(message);
     } catch (const std::runtime_error& error) {
+      const std::string found = typeOfBytes(message);
+      const std::string expected = ros::message_traits::datatype<M>();
       fail(message.getTopic() + " at " + formatStamp(message.getTime().toNSec()) + ": " +
-           error.what());
+           error.what() +
+           (found.empty() || found == expected
+                ? std::string()
+                : "; its bytes are a " + found + ", not a " + expected +
+                      " (another type written on the topic under its first connection)"));
     }
   }
 
@@ -160,8 +193,8 @@ struct BagReader::Impl {
   cv::Mat decode(const sensor_msgs::Image& image, int camera, const std::string& topic) const;
   bool frontIsFinal() const;
   std::map<std::int64_t, PendingSet>::iterator setFor(int camera, std::int64_t stamp);
-  void noteNearStamps(const std::string& topic, int camera, std::int64_t stamp);
-  void noteDuplicateStamp(const std::string& topic, std::int64_t stamp);
+  void noteNearStamps(const std::string& image, int camera, std::int64_t stamp);
+  void noteDuplicateStamp(const std::string& image, std::int64_t stamp);
   bool step(FrameSet* set);
 };
 
@@ -535,6 +568,7 @@ void BagReader::Impl::open() {
   it = view->begin();
   end = view->end();
   last_stamp.assign(ids.size(), std::numeric_limits<std::int64_t>::min());
+  frames_read.assign(ids.size(), 0);
 }
 
 std::vector<int> BagReader::Impl::discoverCameras() {
@@ -822,13 +856,13 @@ void BagReader::Impl::checkFirstImages() {
   }
 }
 
-void BagReader::Impl::noteDuplicateStamp(const std::string& topic, std::int64_t stamp) {
+void BagReader::Impl::noteDuplicateStamp(const std::string& image, std::int64_t stamp) {
   if (stats.duplicate_stamps++ == 0) {
-    stats.first_duplicate_stamp = topic + " at " + formatStamp(stamp);
+    stats.first_duplicate_stamp = image + " at " + formatStamp(stamp);
   }
 }
 
-void BagReader::Impl::noteNearStamps(const std::string& topic, int camera, std::int64_t stamp) {
+void BagReader::Impl::noteNearStamps(const std::string& image, int camera, std::int64_t stamp) {
   // This image starts a set of its own; another camera's set close by that lacks it means the
   // cameras are not stamped together (closer than the tolerance it would have joined it).
   auto neighbour = pending.lower_bound(stamp - kNearStampNs + 1);
@@ -837,7 +871,7 @@ void BagReader::Impl::noteNearStamps(const std::string& topic, int camera, std::
     const std::vector<CameraImage>& images = neighbour->second.images;
     if (neighbour->second.has(camera) || images.empty()) continue;
     if (stats.near_stamp_mismatches++ == 0) {
-      stats.first_near_stamp_mismatch = topic + " at " + formatStamp(stamp) + " vs " +
+      stats.first_near_stamp_mismatch = image + " at " + formatStamp(stamp) + " vs " +
                                         cameraName(ids[images.front().camera]) + " at " +
                                         formatStamp(neighbour->first);
     }
@@ -894,26 +928,28 @@ bool BagReader::Impl::step(FrameSet* set) {
     if (!image) fail(topic + " does not hold sensor_msgs/Image");
     ++stats.images_read;
     const int camera = topic_to_camera.at(topic);
+    // The image as the stamp warnings name it: its topic and its frame number on that topic.
+    const std::string named = topic + " frame " + std::to_string(++frames_read[camera]);
     const std::int64_t stamp = static_cast<std::int64_t>(image->header.stamp.toNSec());
     if (stamp == 0) {
       fail(topic + ": image with a zero header stamp (sets are made by header stamps)");
     }
     if (stamp < last_stamp[camera] && stats.backward_stamps++ == 0) {
       stats.first_backward_stamp =
-          topic + " at " + formatStamp(stamp) + " after " + formatStamp(last_stamp[camera]);
+          named + " at " + formatStamp(stamp) + " after " + formatStamp(last_stamp[camera]);
     }
     if (last_stamp[camera] != std::numeric_limits<std::int64_t>::min() &&
         stamp > last_stamp[camera] + kStampJumpNs && stats.forward_jumps++ == 0) {
       stats.first_forward_jump =
-          topic + " at " + formatStamp(stamp) + " after " + formatStamp(last_stamp[camera]);
+          named + " at " + formatStamp(stamp) + " after " + formatStamp(last_stamp[camera]);
     }
     if (yielded_any && stamp <= last_yielded) {
       ++stats.dropped_images;  // too late: its set is gone
-      if (stamp == last_stamp[camera]) noteDuplicateStamp(topic, stamp);
+      if (stamp == last_stamp[camera]) noteDuplicateStamp(named, stamp);
       continue;
     }
     const auto found = setFor(camera, stamp);
-    if (found == pending.end()) noteNearStamps(topic, camera, stamp);
+    if (found == pending.end()) noteNearStamps(named, camera, stamp);
     PendingSet& target = found != pending.end() ? found->second : pending[stamp];
     if (found != pending.end() && found->first != stamp) {
       ++stats.tolerated_stamps;
@@ -926,7 +962,7 @@ bool BagReader::Impl::step(FrameSet* set) {
                          [](const CameraImage& image, int index) { return image.camera < index; });
     if (position != target.images.end() && position->camera == camera) {
       ++stats.dropped_images;  // a second image of this camera with the same stamp
-      noteDuplicateStamp(topic, stamp);
+      noteDuplicateStamp(named, stamp);
       continue;
     }
     CameraImage decoded;
@@ -935,6 +971,81 @@ bool BagReader::Impl::step(FrameSet* set) {
     target.images.insert(position, std::move(decoded));
     last_stamp[camera] = std::max(last_stamp[camera], stamp);
   }
+}
+
+namespace {
+
+std::string toleranceText(const BagReaderStatistics& stats, const std::string& option) {
+  return "the stamp tolerance of " + shortNumber(1e3 * stats.stamp_tolerance) + " ms" +
+         (option.empty() ? "" : " (" + option + ")");
+}
+
+std::string nearStampText(const BagReaderStatistics& stats, const std::string& option) {
+  return std::to_string(stats.near_stamp_mismatches) + " images more than " +
+         toleranceText(stats, option) + " but less than " + shortNumber(1e-6 * kNearStampNs) +
+         " ms from another camera's set";
+}
+
+std::string plural(std::uint64_t count, const std::string& word) {
+  return std::to_string(count) + " " + word + (count == 1 ? "" : "s");
+}
+
+}  // namespace
+
+std::vector<std::string> stampWarnings(const BagReaderStatistics& stats,
+                                       const std::string& tolerance_option) {
+  std::vector<std::string> lines;
+  if (stats.backward_stamps > 0) {
+    lines.push_back(std::to_string(stats.backward_stamps) +
+                    " images with stamps going backwards (first: " + stats.first_backward_stamp +
+                    "); images whose set was already read are dropped");
+  }
+  if (stats.duplicate_stamps > 0) {
+    lines.push_back(std::to_string(stats.duplicate_stamps) +
+                    " images with the stamp of an earlier image of their camera (first: " +
+                    stats.first_duplicate_stamp + "); only the first image of a stamp is used");
+  }
+  if (stats.forward_jumps > 0) {
+    lines.push_back(std::to_string(stats.forward_jumps) + " images with stamps more than " +
+                    shortNumber(kStampJumpSeconds) +
+                    " s after their camera's previous image (first: " + stats.first_forward_jump +
+                    "); a clock set forward or a paused recording, read as the next frame");
+  }
+  if (stats.near_stamp_mismatches > 0) {
+    lines.push_back(nearStampText(stats, tolerance_option) +
+                    " (first: " + stats.first_near_stamp_mismatch +
+                    "): the cameras are not stamped together, so these are never seen together");
+  }
+  return lines;
+}
+
+std::string stampFailure(const BagReaderStatistics& stats, long sets,
+                         const std::string& tolerance_option) {
+  const std::uint64_t kept = static_cast<std::uint64_t>(std::max(0L, sets));
+  if (stats.near_stamp_mismatches > 0) {
+    return "the cameras' stamps do not match (" + nearStampText(stats, tolerance_option) +
+           ", first: " + stats.first_near_stamp_mismatch +
+           "); a set is made of the stamps within " + toleranceText(stats, tolerance_option) +
+           " of each other";
+  }
+  if (stats.backward_stamps > kept) {
+    return std::to_string(stats.backward_stamps) +
+           " images were dropped because their stamps go backwards (first: " +
+           stats.first_backward_stamp + "), against " + plural(kept, "set") +
+           " kept; the bag's images must come in the order of their stamps";
+  }
+  if (stats.duplicate_stamps > kept) {
+    return std::to_string(stats.duplicate_stamps) +
+           " images were dropped because they repeat a stamp their camera already had (first: " +
+           stats.first_duplicate_stamp + "), against " + plural(kept, "set") +
+           " kept; each image of a camera needs a stamp of its own";
+  }
+  return "";
+}
+
+bool camerasOutOfStep(const BagReaderStatistics& stats, long sets) {
+  return stats.near_stamp_mismatches > 0 &&
+         10 * stats.near_stamp_mismatches >= static_cast<std::uint64_t>(std::max(1L, sets));
 }
 
 BagReader::BagReader(const std::string& path, const BagReaderOptions& options)

@@ -34,19 +34,15 @@ int run(const TrackBagOptions& options) {
   if (summary.interrupted) return 130;
   if (summary.tracked_frames == 0) {
     std::cerr << "track_bag: error: no frame was tracked: ";
-    if (summary.near_stamp_mismatches > 0) {
-      // Not "the hand was not found": the cameras were never seen together.
-      std::cerr << "the cameras' stamps do not match (" << summary.near_stamp_mismatches
-                << " images more than --stamp-tolerance but less than 20 ms from another "
-                   "camera's set, first: "
-                << summary.first_near_stamp_mismatch
-                << "); a set is made of the stamps within --stamp-tolerance of each other";
-    } else if (summary.backward_stamps > summary.frames) {
-      // Not "the hand was not found": most images were dropped before any tracking.
-      std::cerr << summary.backward_stamps
-                << " images were dropped because their stamps go backwards (first: "
-                << summary.first_backward_stamp << "), against " << summary.frames
-                << " sets kept; the bag's images must come in the order of their stamps";
+    // Not "the hand was not found" when the stamps explain it (calibrate_hand says the same).
+    const std::string stamps = stampFailure(summary.reading, summary.frames, "--stamp-tolerance");
+    if (!stamps.empty()) {
+      std::cerr << stamps;
+    } else if (summary.frames == summary.background_frames) {
+      // Not "not found in the 0 frames after the N background frames": the bag is that short.
+      std::cerr << "the bag has " << summary.frames << " frame" << (summary.frames == 1 ? "" : "s")
+                << ", all taken as background frames (--background-frames "
+                << options.background_frames << "): none could show the hand";
     } else {
       std::cerr << "the hand was not found in the " << summary.frames - summary.background_frames
                 << " frames after the " << summary.background_frames << " background frames";

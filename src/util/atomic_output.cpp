@@ -1,5 +1,6 @@
 #include "sag_hand_tracker/util/atomic_output.h"
 
+#include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -42,13 +43,16 @@ void checkOutputPath(const std::string& out, const std::vector<std::string>& inp
 void checkOutputIsNew(const std::string& out, bool overwrite, const std::string& option,
                       const std::string& refusal) {
   std::error_code error;
-  if (overwrite || !fs::exists(out, error)) return;
+  // symlink_status: a dangling symlink is something at `out` too.
+  if (overwrite || !fs::exists(fs::symlink_status(out, error))) return;
   throw InputError(option + " " + out + refusal);
 }
 
-AtomicOutputFile::AtomicOutputFile(const std::string& path) : path_(path), target_(path) {
+AtomicOutputFile::AtomicOutputFile(const std::string& path, bool overwrite,
+                                   const std::string& option)
+    : path_(path), target_(path), option_(option), overwrite_(overwrite) {
   std::error_code error;
-  if (fs::is_symlink(fs::symlink_status(path, error))) {
+  if (overwrite && fs::is_symlink(fs::symlink_status(path, error))) {
     target_ = fs::weakly_canonical(path, error).string();
     if (error) throw InputError(path + ": cannot resolve the symlink: " + error.message());
   }
@@ -79,8 +83,34 @@ AtomicOutputFile::~AtomicOutputFile() {
 
 void AtomicOutputFile::commit() {
   if (temp_path_.empty()) return;
-  if (std::rename(temp_path_.c_str(), target_.c_str()) != 0) {
-    throw InputError(path_ + ": cannot replace it with the new output: " + std::strerror(errno));
+  const std::string named = option_.empty() ? path_ : option_ + " " + path_;
+  std::string problem;
+  if (overwrite_) {
+    if (std::rename(temp_path_.c_str(), target_.c_str()) != 0) {
+      problem = std::string("cannot replace it with the new output: ") + std::strerror(errno);
+    }
+  } else {
+    // A check before a rename would leave a window in which a file created at path_ is lost.
+    int result = ::link(temp_path_.c_str(), path_.c_str());
+    bool linked = result == 0;
+    if (result != 0 && (errno == EPERM || errno == EOPNOTSUPP || errno == ENOSYS)) {
+      // A file system without hard links (vfat, some network mounts): the kernel's own
+      // no-replace rename, where it has one.
+      result = ::renameat2(AT_FDCWD, temp_path_.c_str(), AT_FDCWD, path_.c_str(), RENAME_NOREPLACE);
+    }
+    if (result != 0) {
+      problem = errno == EEXIST ? std::string(
+                                      "a file was created there while the output was "
+                                      "written; it is not replaced")
+                                : std::string("cannot create it: ") + std::strerror(errno);
+    } else if (linked) {
+      ::unlink(temp_path_.c_str());
+    }
+  }
+  if (!problem.empty()) {
+    kept_path_ = temp_path_;
+    temp_path_.clear();
+    throw InputError(named + ": " + problem + "; the new output is kept in " + kept_path_);
   }
   temp_path_.clear();
 }

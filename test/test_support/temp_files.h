@@ -1,5 +1,5 @@
-// Test helpers for tests that write files: a fresh temporary folder per test, and the message of
-// the InputError an action throws.
+// Test helpers for tests that write files: a fresh temporary folder per test, the message of the
+// InputError an action throws, and a stream that creates a file when written to.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -11,6 +11,7 @@
 #include <fstream>
 #include <random>
 #include <sstream>
+#include <streambuf>
 #include <string>
 
 #include "sag_hand_tracker/util/types.h"
@@ -58,6 +59,32 @@ class TempDirTest : public ::testing::Test {
   }
 
   std::filesystem::path dir_;
+};
+
+// A stream that creates `path` (holding "mine") the first time it is written to: as the output of
+// a run's progress bar, which is written after the first frame, the file appears during the run.
+class CreateOnWrite : public std::streambuf {
+ public:
+  explicit CreateOnWrite(std::string path) : path_(std::move(path)) {}
+
+ protected:
+  int overflow(int c) override {
+    create();
+    return traits_type::not_eof(c);
+  }
+  std::streamsize xsputn(const char*, std::streamsize count) override {
+    create();
+    return count;
+  }
+
+ private:
+  void create() {
+    if (created_) return;
+    std::ofstream(path_) << "mine\n";
+    created_ = true;
+  }
+  std::string path_;
+  bool created_ = false;
 };
 
 // Runs `action`, expects a sag_hand_tracker::InputError, and returns its message.

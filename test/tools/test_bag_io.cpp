@@ -1299,9 +1299,11 @@ TEST_F(BagFiles, BagReportsStampsThatNearlyMatchAndStampsGoingBackwards) {
   }
   const BagReaderStatistics& stats = reader.statistics();
   EXPECT_GE(stats.near_stamp_mismatches, 3u);
-  EXPECT_EQ(stats.first_near_stamp_mismatch, "/cam1/image_raw at 100.000005 vs cam0 at 100.000000");
+  // The image named by its topic, its frame number there and its stamp.
+  EXPECT_EQ(stats.first_near_stamp_mismatch,
+            "/cam1/image_raw frame 1 at 100.000005 vs cam0 at 100.000000");
   EXPECT_EQ(stats.backward_stamps, 1u);
-  EXPECT_EQ(stats.first_backward_stamp, "/cam0/image_raw at 100.040000 after 100.080000");
+  EXPECT_EQ(stats.first_backward_stamp, "/cam0/image_raw frame 4 at 100.040000 after 100.080000");
 
   // The default tolerance (5 ms) makes one set of each frame's three cameras.
   BagReader tolerant(path("stamps.bag"));
@@ -1336,9 +1338,9 @@ TEST_F(BagFiles, BagNamesStampsThatJumpForwardByMoreThan10Seconds) {
   const BagReaderStatistics& stats = reader.statistics();
   EXPECT_EQ(stats.forward_jumps, 3u);  // each camera once
   // The first in the bag's order of the three cameras' images of frame 2.
-  EXPECT_TRUE(
-      std::regex_match(stats.first_forward_jump,
-                       std::regex("/cam[0-2]/image_raw at 7300\\.080000 after 100\\.040000")))
+  EXPECT_TRUE(std::regex_match(
+      stats.first_forward_jump,
+      std::regex("/cam[0-2]/image_raw frame 3 at 7300\\.080000 after 100\\.040000")))
       << stats.first_forward_jump;
   EXPECT_EQ(stats.backward_stamps, 0u);
   // The good bag (frames 40 ms apart, cam1 missing frame 2) has none.
@@ -1379,7 +1381,7 @@ TEST_F(BagFiles, BagNamesImagesThatRepeatTheirCamerasStamp) {
   const BagReaderStatistics& stats = reader.statistics();
   EXPECT_EQ(stats.duplicate_stamps, 2u);
   EXPECT_EQ(stats.dropped_images, 2u);
-  EXPECT_EQ(stats.first_duplicate_stamp, "/cam1/image_raw at 100.000000");
+  EXPECT_EQ(stats.first_duplicate_stamp, "/cam1/image_raw frame 2 at 100.000000");
 }
 
 // A camera recorded through image_transport's compressed plugin only was left out silently (its

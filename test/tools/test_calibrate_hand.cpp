@@ -3,12 +3,19 @@
 // routine is fitted with a warning (refused with --require-routine); existing files are not
 // replaced; the command line is checked. (The fit itself is tested in test/unit/test_hand_fit.cpp.)
 #include <gtest/gtest.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/Image.h>
 
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
+#include <map>
+#include <optional>
 
+#include "sag_hand_tracker/apps/calibrate_runner.h"
 #include "sag_hand_tracker/apps/render_runner.h"
 #include "sag_hand_tracker/model/hand_model.h"
 #include "test_support/temp_files.h"
@@ -40,6 +47,32 @@ class CalibrateHandTool : public sag_test::TempDirTest {
     options.frames = frames;
     renderStudioBag(options, nullptr);
     return options.out;
+  }
+
+  // `in` written again as `name`, each image's header stamp given by `stamp(camera id, frame,
+  // stamp)` (frame: its number on its topic, from 0), or the image left out when it gives none;
+  // the order of the messages (their times in the bag) and every other message as they were.
+  std::string restampedBag(
+      const std::string& in, const std::string& name,
+      const std::function<std::optional<ros::Time>(int, int, const ros::Time&)>& stamp) const {
+    rosbag::Bag source(in);
+    rosbag::Bag out(path(name), rosbag::bagmode::Write);
+    std::map<std::string, int> frames;
+    for (const rosbag::MessageInstance& message : rosbag::View(source)) {
+      const std::string& topic = message.getTopic();
+      const sensor_msgs::Image::ConstPtr image = message.instantiate<sensor_msgs::Image>();
+      if (!image) {
+        out.write(topic, message.getTime(), message);
+        continue;
+      }
+      const int camera = std::stoi(topic.substr(4));  // "/cam<i>/image_raw"
+      const std::optional<ros::Time> moved = stamp(camera, frames[topic]++, image->header.stamp);
+      if (!moved) continue;
+      sensor_msgs::Image copy = *image;
+      copy.header.stamp = *moved;
+      out.write(topic, message.getTime(), copy);
+    }
+    return path(name);
   }
 
   // Runs calibrate_hand, expects exit 1, `what` in the error, and no model file.
@@ -220,4 +253,138 @@ TEST_F(CalibrateHandTool, RefusesToReplaceFilesAndChecksTheCommandLine) {
   run = calibrateHand("--help");
   EXPECT_EQ(run.status, 0);
   EXPECT_NE(run.out.find("Usage: calibrate_hand"), std::string::npos);
+}
+
+// The fitted model is committed without replacing anything: a file created at --out during the
+// run stays, and the model is kept under the name the error gives (before, a check just before
+// the rename left a window, and its refusal threw the fitted model away).
+TEST_F(CalibrateHandTool, ReplacesNoFileCreatedAtOutDuringTheRun) {
+  CalibrateHandOptions options;
+  options.bag = routineBag("pinch.bag", 75, "dexter5", "pinch");
+  options.out = path("hand.yaml");
+  options.config_dir = kConfig;
+  sag_test::CreateOnWrite creator(options.out);
+  std::ostream stream(&creator);
+  ProgressBar progress(stream, /*interactive=*/false);
+  const std::string message =
+      sag_test::inputErrorOf([&] { sag_hand_tracker::calibrateHand(options, &progress); });
+  EXPECT_EQ(readAll(options.out), "mine\n");
+  const std::string prefix = "--out " + options.out +
+                             ": a file was created there while the output was written; it is not "
+                             "replaced; the new output is kept in ";
+  ASSERT_EQ(message.rfind(prefix, 0), 0u) << message;
+  const std::string kept = message.substr(prefix.size());
+  EXPECT_EQ(fs::path(kept).parent_path(), dir_);
+  EXPECT_TRUE(loadHandModel(kept).colours_fitted) << "the fitted model is kept";
+}
+
+// The stamp checks of track_bag (the bag reader's), in calibrate_hand: found in a recording of
+// the routine restamped after rendering. Before, a camera 30 ms late was fitted into a hand of
+// size x0.88 with exit status 0, images whose stamps went backwards were dropped without a word,
+// a clock set forward by an hour counted as an hour of routine, and a recording with one stamp
+// was "all 1 frames of the recording were background frames".
+TEST_F(CalibrateHandTool, NamesUnsynchronisedCamerasAndClocksThatJump) {
+  const std::string bag = routineBag("routine.bag", 60);
+  const auto first = [](int frames) {
+    return [frames](int, int frame, const ros::Time& stamp) -> std::optional<ros::Time> {
+      if (frame >= frames) return std::nullopt;
+      return stamp;
+    };
+  };
+
+  // cam2 stamped 30 ms late: refused, naming the first image out of step.
+  const std::string late =
+      restampedBag(bag, "late.bag",
+                   [](int camera, int frame, const ros::Time& stamp) -> std::optional<ros::Time> {
+                     if (frame >= 30) return std::nullopt;
+                     return camera == 2 ? stamp + ros::Duration(0.03) : stamp;
+                   });
+  const ToolRun late_run = calibrateHand("--bag '" + late + "' --out '" + path("hand.yaml") + "'");
+  EXPECT_EQ(late_run.status, 1);
+  EXPECT_EQ(late_run.err.rfind(
+                "calibrate_hand: error: " + late + ": the cameras' stamps do not match (", 0),
+            0u)
+      << late_run.err;
+  EXPECT_NE(late_run.err.find(" ms from another camera's set, first: /cam"), std::string::npos)
+      << late_run.err;
+  EXPECT_NE(late_run.err.find("; calibrate_hand fits no hand from cameras that are not stamped "
+                              "together (their sets lack cameras and mix moments)\n"),
+            std::string::npos)
+      << late_run.err;
+  EXPECT_FALSE(fs::exists(path("hand.yaml")));
+
+  // 50 frames with the hand: 1.96 s, which read "in view for 2.0 s, the fit needs 2.0 s".
+  const ToolRun short_run = calibrateHand("--bag '" + bag + "' --out '" + path("hand.yaml") + "'");
+  EXPECT_EQ(short_run.status, 1);
+  EXPECT_NE(short_run.err.find("the hand was in view for 1.9"), std::string::npos) << short_run.err;
+  EXPECT_NE(short_run.err.find(" s, the fit needs 2.0 s"), std::string::npos) << short_run.err;
+
+  // The clock set forward by an hour at frame 40 of 55: the hour is no time in view (45 frames
+  // of the hand are 1.8 s), and the jump is named.
+  const std::string forward = restampedBag(
+      bag, "forward.bag", [](int, int frame, const ros::Time& stamp) -> std::optional<ros::Time> {
+        if (frame >= 55) return std::nullopt;
+        return frame >= 40 ? stamp + ros::Duration(3600.0) : stamp;
+      });
+  const ToolRun forward_run =
+      calibrateHand("--bag '" + forward + "' --out '" + path("hand.yaml") + "'");
+  EXPECT_EQ(forward_run.status, 1);
+  EXPECT_NE(forward_run.err.find("the hand was in view for 1."), std::string::npos)
+      << forward_run.err;
+  EXPECT_NE(forward_run.err.find(
+                "\nwarning: 5 images with stamps more than 10 s after their camera's previous "
+                "image (first: /cam"),
+            std::string::npos)
+      << forward_run.err;
+  EXPECT_NE(forward_run.err.find(
+                "/image_raw frame 41 at 1400003601.600000 after 1400000001.560000); a clock set "
+                "forward or a paused recording, read as the next frame"),
+            std::string::npos)
+      << forward_run.err;
+  EXPECT_FALSE(fs::exists(path("hand.yaml")));
+
+  // The clock set back by 1 s at frame 45: the images of the sets already read are dropped, and
+  // said so.
+  const std::string back = restampedBag(
+      bag, "back.bag", [](int, int frame, const ros::Time& stamp) -> std::optional<ros::Time> {
+        return frame >= 45 ? stamp - ros::Duration(1.0) : stamp;
+      });
+  const ToolRun back_run = calibrateHand("--bag '" + back + "' --out '" + path("hand.yaml") + "'");
+  EXPECT_EQ(back_run.status, 1);
+  EXPECT_NE(back_run.err.find("\nwarning: 75 images with stamps going backwards (first: /cam"),
+            std::string::npos)
+      << back_run.err;
+  EXPECT_NE(back_run.err.find("/image_raw frame 46 at 1400000000.800000 after 1400000001.760000); "
+                              "images whose set was already read are dropped"),
+            std::string::npos)
+      << back_run.err;
+
+  // One stamp for every image: the repeats are dropped, and that is the reason given.
+  const std::string same = restampedBag(restampedBag(bag, "ten.bag", first(10)), "same.bag",
+                                        [](int, int, const ros::Time&) -> std::optional<ros::Time> {
+                                          return ros::Time(1400000000.0);
+                                        });
+  const ToolRun same_run = calibrateHand("--bag '" + same + "' --out '" + path("hand.yaml") + "'");
+  EXPECT_EQ(same_run.status, 1);
+  EXPECT_NE(same_run.err.find("  - no frame with the hand: 45 images were dropped because they "
+                              "repeat a stamp their camera already had (first: /cam"),
+            std::string::npos)
+      << same_run.err;
+  EXPECT_NE(same_run.err.find("/image_raw frame 2 at 1400000000.000000), against 1 set kept; each "
+                              "image of a camera needs a stamp of its own"),
+            std::string::npos)
+      << same_run.err;
+}
+
+// The stamp warnings are the summary's too, when the recording was fitted.
+TEST(CalibrateHandSummaryText, ListsTheStampWarnings) {
+  CalibrateHandSummary summary;
+  summary.start_model = loadHandModel(kConfig + "/hand_sag_right.yaml");
+  summary.fit.model = summary.start_model;
+  summary.fit.shape.bone_length.assign(16, 1.0);
+  summary.stamp_warnings = {"2 images with stamps going backwards (first: x)"};
+  const std::string text = formatCalibrateHandSummary(summary);
+  EXPECT_NE(text.find("\n  warning:      2 images with stamps going backwards (first: x)\n"),
+            std::string::npos)
+      << text;
 }

@@ -19,6 +19,7 @@
 #include "sag_hand_tracker/apps/csv.h"
 #include "sag_hand_tracker/apps/metrics.h"
 #include "sag_hand_tracker/apps/render_runner.h"
+#include "sag_hand_tracker/apps/track_runner.h"
 #include "sag_hand_tracker/ros/bag_output.h"
 #include "sag_hand_tracker/ros/conversions.h"
 #include "sag_hand_tracker/segmentation/background_plate.h"
@@ -294,7 +295,7 @@ TEST_F(TrackBagTool, TrackBagNamesAStampMismatchInsteadOfAMissingHand) {
                           0),
             0u)
       << run.err;
-  EXPECT_NE(run.err.find("first: /cam1/image_raw at 1000.000005 vs cam0 at 1000.000000"),
+  EXPECT_NE(run.err.find("first: /cam1/image_raw frame 1 at 1000.000005 vs cam0 at 1000.000000"),
             std::string::npos)
       << run.err;
   EXPECT_NE(run.out.find("warning:"), std::string::npos) << run.out;
@@ -360,8 +361,8 @@ TEST_F(TrackBagTool, TrackBagNamesImagesWhoseStampsGoBackwards) {
             std::string::npos)
       << run.out;
   EXPECT_NE(run.out.find("  warning:   2 images with stamps going backwards (first: "
-                         "/cam0/image_raw at 1000.160000 after 1000.400000); images whose set was "
-                         "already tracked are dropped\n"),
+                         "/cam0/image_raw frame 12 at 1000.160000 after 1000.400000); images whose "
+                         "set was already read are dropped\n"),
             std::string::npos)
       << run.out;
   // One row per set, in the order of the stamps: the late images made no second frame 4 or 6.
@@ -392,7 +393,7 @@ TEST_F(TrackBagTool, TrackBagNamesImagesWhoseStampsGoBackwards) {
   EXPECT_EQ(
       run.err,
       "track_bag: error: no frame was tracked: 20 images were dropped because their stamps go "
-      "backwards (first: /cam0/image_raw at 1000.000000 after 1000.120000), against 4 sets "
+      "backwards (first: /cam0/image_raw frame 5 at 1000.000000 after 1000.120000), against 4 sets "
       "kept; the bag's images must come in the order of their stamps; " +
           path("mostly_backward.csv") + " was not written\n");
   EXPECT_FALSE(fs::exists(path("mostly_backward.csv")));
@@ -564,4 +565,80 @@ TEST_F(TrackBagTool, TrackBagUsageErrors) {
   run = trackBag("--bag a.bag --out '" + path("x.csv") + "' --model '" + path("nope.yaml") + "'");
   EXPECT_EQ(run.status, 1);
   EXPECT_NE(run.err.find("nope.yaml"), std::string::npos) << run.err;
+}
+
+// --out was checked only before the run: a file created there during the run was replaced by the
+// CSV. The commit replaces nothing without --overwrite; the error names --out and the file the
+// finished CSV was kept in. A dangling symlink at --out is something there too.
+TEST_F(TrackBagTool, TrackBagReplacesNoFileCreatedAtOutDuringTheRun) {
+  const std::string bag = writeSceneBag("scene.bag");
+  TrackBagOptions options;
+  options.bag = bag;
+  options.out = path("race.csv");
+  options.model = sag_test::modelPath("sag");
+  options.background_frames = kBackgroundFrames;
+  sag_test::CreateOnWrite creator(options.out);
+  std::ostream stream(&creator);
+  ProgressBar progress(stream, /*interactive=*/false);
+  const std::string message =
+      sag_test::inputErrorOf([&] { sag_hand_tracker::trackBag(options, &progress); });
+  EXPECT_EQ(readAll(options.out), "mine\n");
+  const std::string prefix = "--out " + options.out +
+                             ": a file was created there while the output was written; it is not "
+                             "replaced; the new output is kept in ";
+  ASSERT_EQ(message.rfind(prefix, 0), 0u) << message;
+  const std::string kept = message.substr(prefix.size());
+  EXPECT_EQ(fs::path(kept).parent_path(), dir_);
+  EXPECT_EQ(readTrackingCsv(kept).rows.size(), static_cast<std::size_t>(kHandFrames));
+
+  // With --overwrite the file created meanwhile is replaced, as asked.
+  options.overwrite = true;
+  std::ostringstream quiet;
+  ProgressBar plain(quiet, false);
+  sag_hand_tracker::trackBag(options, &plain);
+  EXPECT_EQ(readTrackingCsv(options.out).rows.size(), static_cast<std::size_t>(kHandFrames));
+
+  fs::create_symlink("nothere.csv", path("dangling.csv"));
+  const ToolRun run = trackBag("--bag '" + bag + "' --out '" + path("dangling.csv") + "' " +
+                               modelArgument() + " --quiet");
+  EXPECT_EQ(run.status, 1);
+  EXPECT_EQ(run.err, "track_bag: error: --out " + path("dangling.csv") +
+                         " exists; it is not replaced (--overwrite replaces it, or choose another "
+                         "name)\n");
+  EXPECT_TRUE(fs::is_symlink(path("dangling.csv")));
+  EXPECT_FALSE(fs::exists(path("nothere.csv")));
+}
+
+// A std_msgs/String written on an image topic is stored under the topic's sensor_msgs/Image
+// connection (rosbag keeps a topic's first one): the error said "malformed sensor_msgs/Image" only.
+TEST_F(TrackBagTool, TrackBagNamesTheTypeOfAStringOnAnImageTopic) {
+  const std::string bag = writeSceneBag("string.bag", 0.0, [](BagWriter* writer) {
+    std_msgs::String text;
+    text.data = "hello";
+    writer->write("/cam1/image_raw", frameTime(20), text);
+  });
+  const ToolRun run = trackBag("--bag '" + bag + "' --out '" + path("string.csv") + "' " +
+                               modelArgument() + " --quiet");
+  EXPECT_EQ(run.status, 1);
+  EXPECT_EQ(run.err.rfind("track_bag: error: " + bag + ": /cam1/image_raw at 1000.800000: ", 0), 0u)
+      << run.err;
+  EXPECT_NE(run.err.find("; its bytes are a std_msgs/String, not a sensor_msgs/Image"),
+            std::string::npos)
+      << run.err;
+  EXPECT_FALSE(fs::exists(path("string.csv")));
+}
+
+// --background-frames beyond the bag: "the hand was not found in the 0 frames after the 3
+// background frames" did not say that the bag has only those.
+TEST_F(TrackBagTool, TrackBagSaysHowManyFramesABagOfBackgroundHas) {
+  const std::string bag = writeSceneBag("short.bag");
+  const int frames = kBackgroundFrames + kHandFrames;
+  const ToolRun run = trackBag("--bag '" + bag + "' --out '" + path("short.csv") + "' --model '" +
+                               sag_test::modelPath("sag") + "' --quiet --background-frames 1000");
+  EXPECT_EQ(run.status, 1);
+  EXPECT_EQ(run.err, "track_bag: error: no frame was tracked: the bag has " +
+                         std::to_string(frames) +
+                         " frames, all taken as background frames (--background-frames 1000): "
+                         "none could show the hand; " +
+                         path("short.csv") + " was not written\n");
 }

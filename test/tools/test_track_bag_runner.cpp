@@ -277,19 +277,19 @@ TEST(TrackBagOutput, TheSummaryNamesRepeatedStampsAndForwardLeaps) {
   TrackBagSummary summary;
   summary.frames = 4;
   summary.tracked_frames = 4;
-  summary.duplicate_stamps = 2;
-  summary.first_duplicate_stamp = "/cam1/image_raw at 100.000000";
-  summary.forward_jumps = 3;
-  summary.first_forward_jump = "/cam0/image_raw at 7300.080000 after 100.040000";
+  summary.reading.duplicate_stamps = 2;
+  summary.reading.first_duplicate_stamp = "/cam1/image_raw frame 2 at 100.000000";
+  summary.reading.forward_jumps = 3;
+  summary.reading.first_forward_jump = "/cam0/image_raw frame 3 at 7300.080000 after 100.040000";
   const std::string report = formatSummary(summary);
   EXPECT_NE(report.find("  warning:   2 images with the stamp of an earlier image of their camera "
-                        "(first: /cam1/image_raw at 100.000000); only the first image of a stamp "
-                        "is tracked\n"),
+                        "(first: /cam1/image_raw frame 2 at 100.000000); only the first image of a "
+                        "stamp is used\n"),
             std::string::npos)
       << report;
   EXPECT_NE(report.find("  warning:   3 images with stamps more than 10 s after their camera's "
-                        "previous image (first: /cam0/image_raw at 7300.080000 after "
-                        "100.040000); a clock set forward or a paused recording, tracked as the "
+                        "previous image (first: /cam0/image_raw frame 3 at 7300.080000 after "
+                        "100.040000); a clock set forward or a paused recording, read as the "
                         "next frame\n"),
             std::string::npos)
       << report;
@@ -326,4 +326,35 @@ TEST_F(TrackBagRun, TrackBagPassesTrackingErrorsOn) {
       runTrackBag(
           reader, [](const FrameSet&) -> ProcessedFrame { throw InputError("bad"); }, csv, nullptr),
       InputError);
+}
+
+// A lost frame without a pose (after a clock jump back in bag time and stamps) has no CSV row:
+// the summary counted it among the rows ("29 rows ... 12 lost" for a CSV of 28 rows, 11 lost).
+TEST_F(TrackBagRun, TheSummaryCountsTheRowsTheCsvHas) {
+  BagReader reader(path("in.bag"));
+  TrackBagSummary summary;
+  {
+    TrackingCsvWriter csv(path("out.csv"), names26(), /*status_column=*/true);
+    summary = runTrackBag(
+        reader,
+        [](const FrameSet& set) {
+          ProcessedFrame processed = standIn(set);
+          // The incomplete set (frame 4): lost, and no pose to write.
+          if (processed.result.status == TrackStatus::kWaiting) {
+            processed.result.status = TrackStatus::kLost;
+          }
+          return processed;
+        },
+        csv, nullptr);
+  }
+  EXPECT_EQ(summary.lost_frames, 2);
+  EXPECT_EQ(summary.lost_rows, 1);
+  const TrackingCsv csv = readTrackingCsv(path("out.csv"));
+  ASSERT_EQ(csv.rows.size(), 3u);
+  const std::string report = formatSummary(summary);
+  EXPECT_NE(report.find("frames:    6 (2 background, 2 tracked, 2 lost, 0 without a hand pose)"),
+            std::string::npos)
+      << report;
+  EXPECT_NE(report.find("output:    3 rows (2 tracked or started, 1 lost) in "), std::string::npos)
+      << report;
 }

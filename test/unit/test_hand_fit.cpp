@@ -264,7 +264,7 @@ TEST(CalibrationRoutine, SaysWhatIsMissing) {
   EXPECT_NE(joined(check.missing).find("only 15 frames with the hand, the fit needs 40"),
             std::string::npos)
       << joined(check.missing);
-  EXPECT_NE(joined(check.missing).find("in view for 0.6 s, the fit needs 2.0 s"),
+  EXPECT_NE(joined(check.missing).find("in view for 0.56 s, the fit needs 2.0 s"),
             std::string::npos);
 
   // One view; and no hand at all.
@@ -276,6 +276,30 @@ TEST(CalibrationRoutine, SaysWhatIsMissing) {
   check = checkCalibrationRoutine(handModel(), {}, 5);
   EXPECT_FALSE(check.ok);
   EXPECT_NE(joined(check.missing).find("no frame with the hand"), std::string::npos);
+}
+
+// A duration just short of the need is printed with the decimals that show it (1.96 s read "in
+// view for 2.0 s, the fit needs 2.0 s"), and a gap longer than max_frame_gap (a clock set forward
+// by an hour; calibrate_hand sets the bag reader's 10 s) is no time in view.
+TEST(CalibrationRoutine, CountsNoClockJumpAsTimeInView) {
+  std::vector<CalibrationFrame> frames = routineFrames({"back"}, 50, 5);
+  RoutineCheck check = checkCalibrationRoutine(handModel(), frames, 5);
+  EXPECT_NEAR(check.duration, 1.96, 1e-9);
+  EXPECT_NE(joined(check.missing).find("the hand was in view for 1.96 s, the fit needs 2.0 s"),
+            std::string::npos)
+      << joined(check.missing);
+
+  for (std::size_t f = 25; f < frames.size(); ++f) frames[f].stamp += 3600.0;
+  check = checkCalibrationRoutine(handModel(), frames, 5);
+  EXPECT_NEAR(check.duration, 3601.96, 1e-6);  // without a limit, as before
+  RoutineRequirements requirements;
+  requirements.max_frame_gap = 10.0;
+  check = checkCalibrationRoutine(handModel(), frames, 5, requirements);
+  EXPECT_NEAR(check.duration, 1.92, 1e-9);
+  EXPECT_FALSE(check.ok);
+  EXPECT_NE(joined(check.missing).find("the hand was in view for 1.92 s, the fit needs 2.0 s"),
+            std::string::npos)
+      << joined(check.missing);
 }
 
 // With open_hand_frames the fit takes its frames among the open-hand ones when there are

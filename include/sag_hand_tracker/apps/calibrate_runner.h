@@ -51,6 +51,8 @@ struct CalibrateHandSummary {
   double seconds = 0.0;
   std::string truth_shape;  // --truth-shape, empty: none
   SkeletonErrors truth_errors;
+  // The bag reader's stamp problems (stampWarnings: the words of track_bag's summary).
+  std::vector<std::string> stamp_warnings;
 };
 
 // The whole tool. Throws InputError with a message naming the problem (bad bag, fewer than two

@@ -68,7 +68,8 @@ struct TrackBagSummary {
   int background_frames = 0;          // sets learned as background
   int tracked_frames = 0;             // sets with an accepted pose (status started or tracked)
   int waiting_frames = 0;             // sets after the background without a pose
-  int lost_frames = 0;                // status lost (a CSV row with status "lost", not tracked)
+  int lost_frames = 0;                // status lost (not tracked)
+  int lost_rows = 0;                  // lost with a pose: a CSV row with status "lost"
   int restarted_frames = 0;           // the track was started again after being lost
   int incomplete_sets = 0;            // sets where a camera was missing
   int dropped_images = 0;             // late or duplicate images (see BagReaderStatistics)
@@ -81,16 +82,9 @@ struct TrackBagSummary {
   bool interrupted = false;
   bool csv_written = false;  // trackBag: the CSV was renamed into place
   bool out_existed = false;  // trackBag: a file was at --out before the run
-  int backward_stamps = 0;   // see BagReaderStatistics
-  std::string first_backward_stamp;
-  int duplicate_stamps = 0;  // see BagReaderStatistics
-  std::string first_duplicate_stamp;
-  int forward_jumps = 0;  // see BagReaderStatistics
-  std::string first_forward_jump;
-  int near_stamp_mismatches = 0;  // see BagReaderStatistics
-  std::string first_near_stamp_mismatch;
-  int tolerated_stamps = 0;  // see BagReaderStatistics
-  double largest_stamp_difference = 0.0;
+  // The reader's statistics at the end: its stamp checks (stampWarnings, stampFailure; the same
+  // words as calibrate_hand's) and the stamps it joined within the tolerance.
+  BagReaderStatistics reading;
   // Without a plate: which skin gate segmented the images ("generic", or the user's from the
   // model's colours with its ranges); empty with a plate.
   std::string skin_gate;
@@ -135,10 +129,11 @@ PipelineParams trackBagPipelineParams(const TrackBagOptions& options);
 // The whole of track_bag: loads the model, opens the bag (options.cameras, options.root_frame),
 // builds the TrackingPipeline and runs runTrackBag into the CSV options.out. `progress` and
 // `stop` may be null. --out equal to an input is refused before anything is opened; the CSV is
-// written to a temporary file and renamed to options.out only when a frame was tracked
-// (summary.csv_written, commitsTrackCsv), so a failure (rethrown), a run without a tracked frame
-// or an interrupted run leaves whatever was at options.out untouched. The caller decides what no
-// tracked frame means.
+// written to a temporary file and moved to options.out only when a frame was tracked
+// (summary.csv_written, commitsTrackCsv; without options.overwrite the move replaces nothing, not
+// even a file created there during the run: InputError naming where the CSV was kept), so a failure
+// (rethrown), a run without a tracked frame or an interrupted run leaves whatever was at
+// options.out untouched. The caller decides what no tracked frame means.
 TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
                          const std::atomic<bool>* stop = nullptr);
 

@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <functional>
+#include <limits>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
@@ -62,6 +63,10 @@ struct RoutineRequirements {
   // Seconds between the first and the last of them. 2.0 (2.5 until session 16): the first 3 s of
   // a recording, less its 0.4 s of background frames and a start that takes a few frames.
   double min_duration = 2.0;
+  // A gap between two frames with the hand longer than this is not counted in the duration: a
+  // clock set forward or a paused recording, no time in view (calibrate_hand: the bag reader's
+  // kStampJumpSeconds; a clock set forward by an hour passed the 2 s check).
+  double max_frame_gap = std::numeric_limits<double>::infinity();
   int min_views = 2;                 // cameras that see the hand in at least a third of the frames
   int min_foreground_gaussians = 8;  // for a camera to count as seeing the hand in a frame
   int min_pose_frames = 3;           // frames needed for each pose (palm, back, fist, open)

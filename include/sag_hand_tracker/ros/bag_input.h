@@ -43,6 +43,10 @@ struct BagReaderOptions {
   double stamp_tolerance = 0.005;
 };
 
+// A camera's stamps that leap forward by more than this (a clock set forward, a paused recording)
+// are reported (BagReaderStatistics::forward_jumps); calibrate_hand counts no such gap as time.
+constexpr double kStampJumpSeconds = 10.0;
+
 struct BagReaderStatistics {
   std::uint64_t image_messages = 0;   // image messages of the selected cameras in the bag
   std::uint64_t images_read = 0;      // image messages read so far
@@ -50,22 +54,24 @@ struct BagReaderStatistics {
   std::uint64_t incomplete_sets = 0;  // yielded sets without every selected camera
   std::uint64_t dropped_images = 0;   // duplicates, or stamps older than a set already yielded
   double decode_seconds = 0.0;        // time spent in next(): reading, deserialising, converting
+  double stamp_tolerance = 0.0;       // the reader's BagReaderOptions::stamp_tolerance
   // Images whose stamp is older than the previous image of the same camera (reported, and
-  // dropped when their set is gone); the first one as "topic at stamp after stamp".
+  // dropped when their set is gone); the first one as "topic frame N at stamp after stamp" (N:
+  // the image's number on its topic, from 1).
   std::uint64_t backward_stamps = 0;
   std::string first_backward_stamp;
   // Images of a camera at a stamp it already delivered (dropped: one image per camera and set);
-  // the first one as "topic at stamp".
+  // the first one as "topic frame N at stamp".
   std::uint64_t duplicate_stamps = 0;
   std::string first_duplicate_stamp;
   // Images whose stamp is more than 10 s after the previous image of the same camera (a clock
-  // set forward, a paused recording: tracked as the next frame); the first one as "topic at stamp
-  // after stamp".
+  // set forward, a paused recording: read as the next frame); the first one as "topic frame N at
+  // stamp after stamp".
   std::uint64_t forward_jumps = 0;
   std::string first_forward_jump;
   // Images that started a set of their own while another camera's set without them lay within
   // 20 ms (beyond stamp_tolerance): the cameras are not stamped together, so sets lack cameras.
-  // The first one described.
+  // The first one as "topic frame N at stamp vs camera at stamp".
   std::uint64_t near_stamp_mismatches = 0;
   std::string first_near_stamp_mismatch;
   // Images that joined a set of another stamp (within stamp_tolerance), and the largest difference
@@ -73,6 +79,25 @@ struct BagReaderStatistics {
   std::uint64_t tolerated_stamps = 0;
   double largest_stamp_difference = 0.0;
 };
+
+// The reader's stamp checks in words, the same for every tool that reads a bag (track_bag,
+// calibrate_hand): one line per problem found, naming the first image (topic, frame number, stamp)
+// and what the reading did with such images. Empty when the stamps were in order.
+// `tolerance_option` names the option that sets the stamp tolerance, empty if the tool has none.
+std::vector<std::string> stampWarnings(const BagReaderStatistics& stats,
+                                       const std::string& tolerance_option = "");
+
+// Why a bag of which `sets` sets were read gave nothing to work with, when the stamps explain it:
+// cameras never stamped together, or more images dropped (stamps going backwards, or repeated)
+// than sets kept. "" when the stamps do not explain it.
+std::string stampFailure(const BagReaderStatistics& stats, long sets,
+                         const std::string& tolerance_option = "");
+
+// Whether the cameras were not stamped together in at least a tenth of the `sets` sets read
+// (near_stamp_mismatches; a camera that skips a frame at a high frame rate counts too, hence the
+// share). Their sets lack cameras, and a tool that must see the hand from every camera at once
+// (calibrate_hand) refuses them.
+bool camerasOutOfStep(const BagReaderStatistics& stats, long sets);
 
 class BagReader {
  public:

@@ -1,6 +1,7 @@
 // Output files that are never half-written and never lose a file: the tools write to a temporary
-// file in the output's folder and rename it over the output only when everything succeeded. On
-// failure the temporary file is removed and whatever was at the output path is untouched. No ROS.
+// file in the output's folder and move it to the output only when everything succeeded (over a
+// file already there only when asked to). On failure the temporary file is removed and whatever was
+// at the output path is untouched. No ROS.
 #pragma once
 
 #include <string>
@@ -15,8 +16,9 @@ namespace sag_hand_tracker {
 void checkOutputPath(const std::string& out, const std::vector<std::string>& inputs,
                      const std::string& option = "--out");
 
-// Throws InputError "<option> <out><refusal>" when something is at `out` (a symlink to a file
-// counts) and `overwrite` is false: a tool replaces no file that existed before it ran unless
+// Throws InputError "<option> <out><refusal>" when something is at `out` (any symlink counts, even
+// a dangling one: replacing it would put a regular file where the user had a link) and `overwrite`
+// is false: a tool replaces no file that existed before it ran unless
 // asked to (--overwrite; calibrate_hand never, with its own `refusal`). Call it with
 // checkOutputPath, before anything is opened.
 void checkOutputIsNew(const std::string& out, bool overwrite, const std::string& option = "--out",
@@ -27,10 +29,13 @@ void checkOutputIsNew(const std::string& out, bool overwrite, const std::string&
 class AtomicOutputFile {
  public:
   // Creates an empty temporary file next to `path` (same folder, so the final rename is atomic;
-  // it keeps the extension, for writers that choose the format by it). A symlink at `path` is
-  // followed: its target is what gets replaced. Throws InputError if the folder is not writable.
-  explicit AtomicOutputFile(const std::string& path);
-  // Removes the temporary file unless commit() succeeded.
+  // it keeps the extension, for writers that choose the format by it). With `overwrite` a symlink
+  // at `path` is followed: its target is what gets replaced. Without it commit() replaces
+  // nothing, not even what appeared at `path` while the output was written. `option` names the
+  // path in messages ("--out"; empty: the path alone). Throws InputError if the folder is not
+  // writable.
+  AtomicOutputFile(const std::string& path, bool overwrite, const std::string& option = "");
+  // Removes the temporary file unless commit() succeeded or kept it (keptPath()).
   ~AtomicOutputFile();
   AtomicOutputFile(const AtomicOutputFile&) = delete;
   AtomicOutputFile& operator=(const AtomicOutputFile&) = delete;
@@ -39,13 +44,22 @@ class AtomicOutputFile {
   const std::string& tempPath() const { return temp_path_; }
   // Where the result goes.
   const std::string& path() const { return path_; }
-  // Renames the temporary file to path(); throws InputError if it cannot.
+  // Puts the temporary file at path(). With overwrite, rename(2) over whatever is there. Without,
+  // link(2) to path() (which fails if anything is there, a dangling symlink too, with no window
+  // between a check and the move), then the temporary name is removed. Throws InputError naming
+  // the path and the problem if it cannot; the finished output is then kept at keptPath(), named
+  // in the message: a run's work is never lost, and neither is the file at path().
   void commit();
+  // Where a failed commit() left the output (empty: it did not fail).
+  const std::string& keptPath() const { return kept_path_; }
 
  private:
   std::string path_;       // as given (for messages)
-  std::string target_;     // path_ with a symlink resolved
-  std::string temp_path_;  // empty once committed
+  std::string target_;     // path_ with a symlink resolved (with overwrite only)
+  std::string temp_path_;  // empty once committed or kept
+  std::string kept_path_;  // the temporary file left after a failed commit
+  std::string option_;     // the option that named path_, for messages
+  bool overwrite_ = false;
 };
 
 }  // namespace sag_hand_tracker
