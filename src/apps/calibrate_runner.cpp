@@ -344,11 +344,20 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
     const cv::Mat sheet = fittedContactSheet(options, reader_options, frames, summary.fit);
     cv::Mat bgr;
     cv::cvtColor(sheet, bgr, cv::COLOR_RGB2BGR);
+    // Encoded as PNG whatever the name ends with (imwrite goes by the extension, and a name
+    // without .png would fail only now, after the fit).
+    std::vector<unsigned char> png;
     bool written = false;
     try {
-      written = cv::imwrite(sheet_file->tempPath(), bgr);
+      written = cv::imencode(".png", bgr, png);
     } catch (const cv::Exception& error) {
       written = false;
+    }
+    if (written) {
+      std::ofstream file(sheet_file->tempPath(), std::ios::binary);
+      file.write(reinterpret_cast<const char*>(png.data()),
+                 static_cast<std::streamsize>(png.size()));
+      written = static_cast<bool>(file);
     }
     if (!written)
       throw InputError("--contact-sheet " + options.contact_sheet + ": cannot write the PNG");

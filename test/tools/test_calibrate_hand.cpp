@@ -131,8 +131,13 @@ TEST_F(CalibrateHandTool, FitsTheFirstSecondsOfAnySequenceAndSaysWhatWasMissing)
   expectFailure(bag, "no fist", "--require-routine");
 
   const std::string out = path("hand.yaml");
-  const ToolRun run = calibrateHand("--bag '" + bag + "' --out '" + out + "'");
+  // A contact sheet whose name does not end in .png is a PNG all the same (written by its
+  // extension, it failed after the fit).
+  const std::string sheet = path("sheet.img");
+  const ToolRun run =
+      calibrateHand("--bag '" + bag + "' --out '" + out + "' --contact-sheet '" + sheet + "'");
   EXPECT_EQ(run.status, 0) << run.err;
+  EXPECT_EQ(readAll(sheet).substr(0, 4), "\x89PNG");
   EXPECT_NE(run.out.find("warning:      the recording does not show the whole routine"),
             std::string::npos)
       << run.out;
