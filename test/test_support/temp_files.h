@@ -1,5 +1,6 @@
 // Test helpers for tests that write files: a fresh temporary folder per test, the message of the
-// InputError an action throws, and a stream that creates a file when written to.
+// InputError an action throws, a stream that creates a file when written to, and a run during
+// which a file appears at its output.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -97,6 +98,31 @@ std::string inputErrorOf(Action action) {
   }
   ADD_FAILURE() << "no InputError thrown";
   return "";
+}
+
+// A file created at --out `out` while a tool runs: `run(stream)` runs the tool with its progress
+// written to `stream`, which creates `out` (CreateOnWrite) after the first frame. Expects the
+// tool to refuse to replace it, naming --out and the file the finished output was kept in (in
+// `out`'s folder), and `out` to hold what was created. Returns the kept file's path ("" if not).
+template <typename Run>
+std::string keptOutputOfARace(const std::string& out, Run run) {
+  CreateOnWrite creator(out);
+  std::ostream stream(&creator);
+  const std::string message = inputErrorOf([&] { run(stream); });
+  std::ifstream created(out);
+  std::stringstream content;
+  content << created.rdbuf();
+  EXPECT_EQ(content.str(), "mine\n") << "the file created during the run is kept";
+  const std::string prefix = "--out " + out +
+                             ": a file was created there while the output was written; it is not "
+                             "replaced; the new output is kept in ";
+  if (message.rfind(prefix, 0) != 0) {
+    ADD_FAILURE() << message;
+    return "";
+  }
+  const std::string kept = message.substr(prefix.size());
+  EXPECT_EQ(std::filesystem::path(kept).parent_path(), std::filesystem::path(out).parent_path());
+  return kept;
 }
 
 }  // namespace sag_test
