@@ -351,6 +351,9 @@ class TrackerNodelet : public nodelet::Nodelet {
     params.min_cameras_for_start = config.min_cameras_for_start;
     std::lock_guard<std::mutex> lock(mutex_);
     tracker_->setParams(params);
+    // Read back from the tracker: what it now runs (the replay_reconfigure rostest checks it).
+    NODELET_INFO("tracker: parameters set: %d optimizer iterations per set",
+                 tracker_->params().optimizer.iterations);
     if (config.reset) {
       NODELET_INFO("tracker reset requested");
       tracker_->reset();
