@@ -1,13 +1,8 @@
 // calibrateHand: the body of the calibrate_hand tool (see calibrate_hand_runner.h).
 #include "sag_hand_tracker/apps/calibrate_runner.h"
 
-#include <fcntl.h>
-#include <unistd.h>
-
-#include <cerrno>
 #include <chrono>
 #include <cstdio>
-#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -30,14 +25,6 @@
 namespace sag_hand_tracker {
 namespace {
 
-// A file next to `path` for writing before the final rename (same folder, so rename is atomic).
-std::string temporaryPath(const std::string& path, const std::string& extension) {
-  const std::filesystem::path target(path);
-  const std::string name =
-      "." + target.filename().string() + ".tmp" + std::to_string(::getpid()) + extension;
-  return (target.parent_path() / name).string();
-}
-
 // calibrate_hand never replaces a file (no --overwrite).
 void refuseExisting(const std::string& path, const std::string& option) {
   checkOutputIsNew(path, /*overwrite=*/false, option,
@@ -45,25 +32,11 @@ void refuseExisting(const std::string& path, const std::string& option) {
                    "choose another name)");
 }
 
-// The temporary file of `path` (temporaryPath(path, extension)) must be creatable: checked by
-// creating and removing it before the recording is tracked and fitted, not when the fitted model
-// is written at the end (a missing or read-only folder, a name too long, "cannot write the file").
-void requireWritable(const std::string& path, const std::string& extension,
-                     const std::string& option) {
-  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
-  std::error_code error;
-  if (!parent.empty() && !std::filesystem::is_directory(parent, error)) {
-    throw InputError(option + " " + path + ": the folder " + parent.string() + " does not exist");
-  }
-  const std::string probe = temporaryPath(path, extension);
-  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0600);
-  if (fd < 0) {
-    throw InputError(option + " " + path + ": cannot create a file in " +
-                     (parent.empty() ? std::string(".") : parent.string()) + ": " +
-                     std::strerror(errno));
-  }
-  ::close(fd);
-  ::unlink(probe.c_str());
+// The output's temporary file (AtomicOutputFile) must be creatable: checked by creating and
+// removing one before the recording is tracked and fitted, not when the fitted model is written
+// at the end (a missing or read-only folder, a name too long, "cannot write the file").
+void requireWritable(const std::string& path, const std::string& option) {
+  const AtomicOutputFile probe(path, /*overwrite=*/false, option);
 }
 
 // The contact sheet: rows of frames (up to 4 of the fit's frames), one column per camera, the
@@ -163,10 +136,10 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
                                    const std::atomic<bool>* stop) {
   const auto start_time = std::chrono::steady_clock::now();
   refuseExisting(options.out, "--out");
-  requireWritable(options.out, ".yaml", "--out");
+  requireWritable(options.out, "--out");
   if (!options.contact_sheet.empty()) {
     refuseExisting(options.contact_sheet, "--contact-sheet");
-    requireWritable(options.contact_sheet, ".png", "--contact-sheet");
+    requireWritable(options.contact_sheet, "--contact-sheet");
     // Renamed after the model, the sheet would replace it: the fitted model lost, exit status 0.
     std::error_code error;
     if (std::filesystem::weakly_canonical(options.contact_sheet, error) ==

@@ -81,10 +81,10 @@ PoseEnergy::PoseEnergy(const HandModel& model, const EnergyParams& params)
     const int dip = model_.jointIndex(name.substr(0, at) + "_dip_flex");
     if (dip >= 0) pip_dip_pairs_.emplace_back(pip, dip);
   }
-  // The long fingers are fingerNames()[1..4], index to pinky.
-  for (int f = 1; f + 1 < kNumFingers; ++f) {
-    const int radial = model_.jointIndex(std::string(fingerNames()[f]) + "_mcp_abd");
-    const int ulnar = model_.jointIndex(std::string(fingerNames()[f + 1]) + "_mcp_abd");
+  // Neighbouring long fingers, index to pinky.
+  const std::array<LongFingerJoints, kNumFingers - 1> fingers = longFingerJoints(model_);
+  for (size_t f = 0; f + 1 < fingers.size(); ++f) {
+    const int radial = fingers[f].mcp_abd, ulnar = fingers[f + 1].mcp_abd;
     if (radial >= 0 && ulnar >= 0) abduction_neighbours_.emplace_back(radial, ulnar);
   }
   // Each bone's finger, from the model's fingertip Gaussians up to the palm (-1: the palm's).

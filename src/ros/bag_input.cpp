@@ -19,6 +19,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <map>
 #include <memory>
@@ -193,8 +194,9 @@ struct BagReader::Impl {
   cv::Mat decode(const sensor_msgs::Image& image, int camera, const std::string& topic) const;
   bool frontIsFinal() const;
   std::map<std::int64_t, PendingSet>::iterator setFor(int camera, std::int64_t stamp);
-  void noteNearStamps(const std::string& image, int camera, std::int64_t stamp);
-  void noteDuplicateStamp(const std::string& image, std::int64_t stamp);
+  // `image` names the image (made only when its note is the first of its kind).
+  void noteNearStamps(const std::function<std::string()>& image, int camera, std::int64_t stamp);
+  void noteDuplicateStamp(const std::function<std::string()>& image, std::int64_t stamp);
   bool step(FrameSet* set);
 };
 
@@ -856,13 +858,15 @@ void BagReader::Impl::checkFirstImages() {
   }
 }
 
-void BagReader::Impl::noteDuplicateStamp(const std::string& image, std::int64_t stamp) {
+void BagReader::Impl::noteDuplicateStamp(const std::function<std::string()>& image,
+                                         std::int64_t stamp) {
   if (stats.duplicate_stamps++ == 0) {
-    stats.first_duplicate_stamp = image + " at " + formatStamp(stamp);
+    stats.first_duplicate_stamp = image() + " at " + formatStamp(stamp);
   }
 }
 
-void BagReader::Impl::noteNearStamps(const std::string& image, int camera, std::int64_t stamp) {
+void BagReader::Impl::noteNearStamps(const std::function<std::string()>& image, int camera,
+                                     std::int64_t stamp) {
   // This image starts a set of its own; another camera's set close by that lacks it means the
   // cameras are not stamped together (closer than the tolerance it would have joined it).
   auto neighbour = pending.lower_bound(stamp - kNearStampNs + 1);
@@ -871,7 +875,7 @@ void BagReader::Impl::noteNearStamps(const std::string& image, int camera, std::
     const std::vector<CameraImage>& images = neighbour->second.images;
     if (neighbour->second.has(camera) || images.empty()) continue;
     if (stats.near_stamp_mismatches++ == 0) {
-      stats.first_near_stamp_mismatch = image + " at " + formatStamp(stamp) + " vs " +
+      stats.first_near_stamp_mismatch = image() + " at " + formatStamp(stamp) + " vs " +
                                         cameraName(ids[images.front().camera]) + " at " +
                                         formatStamp(neighbour->first);
     }
@@ -929,19 +933,21 @@ bool BagReader::Impl::step(FrameSet* set) {
     ++stats.images_read;
     const int camera = topic_to_camera.at(topic);
     // The image as the stamp warnings name it: its topic and its frame number on that topic.
-    const std::string named = topic + " frame " + std::to_string(++frames_read[camera]);
+    // Made only for a warning's first image, not for every image read.
+    const std::uint64_t frame = ++frames_read[camera];
+    auto named = [&topic, frame] { return topic + " frame " + std::to_string(frame); };
     const std::int64_t stamp = static_cast<std::int64_t>(image->header.stamp.toNSec());
     if (stamp == 0) {
       fail(topic + ": image with a zero header stamp (sets are made by header stamps)");
     }
     if (stamp < last_stamp[camera] && stats.backward_stamps++ == 0) {
       stats.first_backward_stamp =
-          named + " at " + formatStamp(stamp) + " after " + formatStamp(last_stamp[camera]);
+          named() + " at " + formatStamp(stamp) + " after " + formatStamp(last_stamp[camera]);
     }
     if (last_stamp[camera] != std::numeric_limits<std::int64_t>::min() &&
         stamp > last_stamp[camera] + kStampJumpNs && stats.forward_jumps++ == 0) {
       stats.first_forward_jump =
-          named + " at " + formatStamp(stamp) + " after " + formatStamp(last_stamp[camera]);
+          named() + " at " + formatStamp(stamp) + " after " + formatStamp(last_stamp[camera]);
     }
     if (yielded_any && stamp <= last_yielded) {
       ++stats.dropped_images;  // too late: its set is gone

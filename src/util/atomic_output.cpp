@@ -50,23 +50,26 @@ void checkOutputIsNew(const std::string& out, bool overwrite, const std::string&
 
 AtomicOutputFile::AtomicOutputFile(const std::string& path, bool overwrite,
                                    const std::string& option)
-    : path_(path), target_(path), option_(option), overwrite_(overwrite) {
+    : path_(path),
+      target_(path),
+      named_(option.empty() ? path : option + " " + path),
+      overwrite_(overwrite) {
   std::error_code error;
   if (overwrite && fs::is_symlink(fs::symlink_status(path, error))) {
     target_ = fs::weakly_canonical(path, error).string();
-    if (error) throw InputError(path + ": cannot resolve the symlink: " + error.message());
+    if (error) throw InputError(named_ + ": cannot resolve the symlink: " + error.message());
   }
   const fs::path target(target_);
   const fs::path folder = target.has_parent_path() ? target.parent_path() : fs::path(".");
   if (!fs::is_directory(folder, error)) {
-    throw InputError(path + ": the folder " + folder.string() + " does not exist");
+    throw InputError(named_ + ": the folder " + folder.string() + " does not exist");
   }
   const std::string extension = target.extension().string();
   std::string pattern =
       (folder / ("." + target.filename().string() + ".tmp-XXXXXX")).string() + extension;
   const int fd = ::mkstemps(&pattern[0], static_cast<int>(extension.size()));
   if (fd < 0) {
-    throw InputError(path + ": cannot create a file in " + folder.string() + ": " +
+    throw InputError(named_ + ": cannot create a file in " + folder.string() + ": " +
                      std::strerror(errno));
   }
   // mkstemp makes the file 0600; an output gets the usual 0666 minus the umask.
@@ -83,7 +86,6 @@ AtomicOutputFile::~AtomicOutputFile() {
 
 void AtomicOutputFile::commit() {
   if (temp_path_.empty()) return;
-  const std::string named = option_.empty() ? path_ : option_ + " " + path_;
   std::string problem;
   if (overwrite_) {
     if (std::rename(temp_path_.c_str(), target_.c_str()) != 0) {
@@ -110,7 +112,7 @@ void AtomicOutputFile::commit() {
   if (!problem.empty()) {
     kept_path_ = temp_path_;
     temp_path_.clear();
-    throw InputError(named + ": " + problem + "; the new output is kept in " + kept_path_);
+    throw InputError(named_ + ": " + problem + "; the new output is kept in " + kept_path_);
   }
   temp_path_.clear();
 }

@@ -32,8 +32,9 @@ class AtomicOutputFile {
   // it keeps the extension, for writers that choose the format by it). With `overwrite` a symlink
   // at `path` is followed: its target is what gets replaced. Without it commit() replaces
   // nothing, not even what appeared at `path` while the output was written. `option` names the
-  // path in messages ("--out"; empty: the path alone). Throws InputError if the folder is not
-  // writable.
+  // path in messages ("--out"; empty: the path alone). Throws InputError if the folder is missing
+  // or no file can be created in it: made before a long run, it checks that its output can be
+  // written (calibrate_hand).
   AtomicOutputFile(const std::string& path, bool overwrite, const std::string& option = "");
   // Removes the temporary file unless commit() succeeded or kept it (keptPath()).
   ~AtomicOutputFile();
@@ -58,7 +59,7 @@ class AtomicOutputFile {
   std::string target_;     // path_ with a symlink resolved (with overwrite only)
   std::string temp_path_;  // empty once committed or kept
   std::string kept_path_;  // the temporary file left after a failed commit
-  std::string option_;     // the option that named path_, for messages
+  std::string named_;      // path_ as messages name it: "<option> <path>", or the path alone
   bool overwrite_ = false;
 };
 
