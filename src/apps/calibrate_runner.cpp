@@ -178,8 +178,8 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
   pipeline_params.tracker.colour_adaptation.enabled = false;
   // Whole ascents, no races (TrackerParams::counter_turn_race_share, redetect_race_iterations): a
   // routine is tracked once, and its poses decide the fit; with the counter-turn race the studio's
-  // long_thin hand was fitted with its index finger 6.2 % short, without it within 5 % (README
-  // "Session 17").
+  // long_thin hand was fitted with its index finger 6.2 % short, without it within 5 %
+  // (doc/history.md "Session 17").
   pipeline_params.tracker.counter_turn_race_share = 0.0;
   pipeline_params.tracker.redetect_race_iterations = 0;
   pipeline_params.tracker.energy = calibrationEnergyParams();

@@ -160,8 +160,8 @@ double fingertipDriftFromTruth(const EnergyParams& params,
 // hidden one does not: fits from the truth on fists of `fingercount` drift less than half as far
 // (measured 22.1 -> 10.7 mm on the whole-cell image SoG this was measured on in session 11), and
 // on open hands they stay close (measured 4.5-5.1 mm). With the silhouette's border decided pixel
-// by pixel (session 19's default) the gain is smaller, 18.4 -> 12.3 mm (README, session 19): there
-// the test asks only that occlusion still helps.
+// by pixel (session 19's default) the gain is smaller, 18.4 -> 12.3 mm (doc/history.md, session
+// 19): there the test asks only that occlusion still helps.
 TEST(EnergyCannotCheat, WithOcclusionAndTheModelAreaFistsStayClosed) {
   EnergyParams paper;
   EnergyParams occluding;

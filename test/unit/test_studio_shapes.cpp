@@ -447,7 +447,7 @@ TEST(StudioHardMotions, DoWhatTheirNamesSay) {
   EXPECT_GT(fastturn.max_forward_change, 150.0);
   // `natural`: the fingers' joints move independently, as a person's do (hook: PIP bent with the
   // MCP straight; flat: the reverse), unlike the open-to-fist keyframes of the other motions, where
-  // the MCP is 0.85 x the PIP within 0.06 rad (rms; README "Session 21").
+  // the MCP is 0.85 x the PIP within 0.06 rad (rms; doc/history.md "Session 21").
   auto joint = [&](const std::string& name) {
     const int j = model.jointIndex(name);
     if (j >= 0) return j;

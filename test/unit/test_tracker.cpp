@@ -516,7 +516,7 @@ double errorAfterARollTurnsBack(const TrackerParams& params, double step = 0.15)
 // little: the track's path through a fast turn is chaotic. With the hard cap and 10 iterations
 // the counter-turn start's worst error is 0.042 rad at 0.15 rad per frame (the test below) but
 // 0.215 at 0.14 and at 0.16, and a prior of weight 0.001 on the thumb alone moves the 0.15 one
-// to about 0.2 (README "Session 29").
+// to about 0.2 (doc/history.md "Session 29").
 double meanErrorAfterARollTurnsBack(const TrackerParams& params) {
   double sum = 0.0;
   int count = 0;
@@ -564,7 +564,7 @@ TEST(TrackerOrientation, CounterTurnStartFollowsARollThatTurnsBack) {
 // at every speed from 0.08 to 0.20 rad per frame better than the track without it: on average
 // under 0.6 of its worst error (measured in session 29, mean rad: 0.108 with, raced the same,
 // 0.237 without). The hard cap's figures over these speeds (0.191 with, 0.270 without) are in
-// README "Session 29".
+// doc/history.md "Session 29".
 TEST(TrackerOrientation, CounterTurnStartHelpsAtEverySpeedOnAverage) {
   TrackerParams params;
   ASSERT_TRUE(params.counter_turn_start);

@@ -31,7 +31,7 @@ struct EnergyParams {
   // Pairs whose Mahalanobis term exceeds this are skipped: exp(-30) ~ 1e-13 of the pair's peak.
   double max_mahalanobis_sq = 60.0;
   // The pair kernels (overlap.h) in float: twice the SIMD lanes, a tracking step 1.4 times
-  // faster (README "Session 13"). The energy then carries float rounding (about 1e-7 of its
+  // faster (doc/history.md "Session 13"). The energy then carries float rounding (about 1e-7 of its
   // value), too much for central differences; false computes them in double.
   bool float_pairs = true;
   // The saturation of eq. 8: 0 is the paper's min(S_q, E_qq) with S_q = sum_p w_p E_pq; a in
@@ -39,8 +39,8 @@ struct EnergyParams {
   // rises as steeply at 0 and approaches the same cap smoothly, so that a second model Gaussian
   // on a foreground region gains less than the first (curled fingers, issue 9: two straight
   // model fingers on one real finger) and one on an already covered region still gains a
-  // little. Studio bags, default model (README "Session 6"): 0.5 took fingercount, flexex1 and
-  // tigergrasp (7 hands) from 30.7 to 23.0 mm and the open adbadd, fingerwave, pinch, random (4
+  // little. Studio bags, default model (doc/history.md "Session 6"): 0.5 took fingercount, flexex1
+  // and tigergrasp (7 hands) from 30.7 to 23.0 mm and the open adbadd, fingerwave, pinch, random (4
   // hands) from 17.1 to 14.9 mm; 1 helped the curled ones as much (22.8) and cost the open (26.2
   // on 3 hands, against 18.7).
   double saturation_softness = 0.5;
@@ -58,7 +58,7 @@ struct EnergyParams {
   // truth stays within 0.21 in every motion but `random`, whose independent random joints cross
   // fingers as no hand can), the model's next finger laid along an opened real finger. Benchmark,
   // default model, 84 runs: pooled 14.5 -> 13.6 mm, fingercount 28.5 -> 26.8, random 21.9 ->
-  // 19.0; fitted models 10.8 -> 10.4 (README "Session 24"). 0 disables it.
+  // 19.0; fitted models 10.8 -> 10.4 (doc/history.md "Session 24"). 0 disables it.
   double finger_order_weight = 0.25;
   double finger_order_margin = 0.08;
   // Finger collision (opt-in): two fingers cannot lie in one place. A soft prior
@@ -67,7 +67,7 @@ struct EnergyParams {
   // d = mu_p - mu_q: 1 where two Gaussians coincide, about 0.15-0.35 for fingers side by side
   // in an open hand. Unlike the order prior it charges only fingers that are close in 3D, i.e. a
   // straight model finger laid along its straight neighbour (fingercount's stacked finger).
-  // Benchmark, 84 + 84 runs (README "Session 25: finger collision"): w_k 0.1, f_0 0.4 took
+  // Benchmark, 84 + 84 runs (doc/history.md "Session 25: finger collision"): w_k 0.1, f_0 0.4 took
   // fingercount from 26.9 to 25.3 mm and the fitted models from 10.6 to 10.2 mm pooled, but the
   // default model's pooled error from 13.6 to 13.9 (random 19.0 -> 21.6); 0.2 / 0.55 made
   // fingercount worse (28.3). 0 disables it.
@@ -93,7 +93,7 @@ struct EnergyParams {
   // gradient, and such fingers drifted to their limits: the thumb folded across the palm, a
   // finger curled into a fist over the palm's saturated foreground. The prior pulls them gently
   // to the middle of their range. Off by default: at 0.003 it helped curled and small hands a
-  // little and cost the open default hand more (adbadd 6.2 -> 12.7 mm; README).
+  // little and cost the open default hand more (adbadd 6.2 -> 12.7 mm; doc/history.md).
   double joint_range_weight = 0.0;
   // The same prior on the thumb's four joints alone, with this weight in place of
   // joint_range_weight. Cameras above a table do not see the thumb of a palm-down fist (tucked
@@ -101,9 +101,9 @@ struct EnergyParams {
   // to its limits (40 mm off on fingercount's default hand). At 0.003 the benchmark went 13.09 ->
   // 12.94 mm pooled and fingercount 25.6 -> 22.6, but a thumb pulled off a visible pose turns
   // the palm: the counter-turn start's roll that turns back went from 0.04 to 0.09-0.21 rad
-  // (TrackerOrientation.CounterTurn*). Off by default; README "Session 28". Held only while no
-  // camera saw the thumb (its phalanges' visible share, visibility.h) or only in a fist, it lost
-  // the gain (README "Session 29").
+  // (TrackerOrientation.CounterTurn*). Off by default; doc/history.md "Session 28". Held only while
+  // no camera saw the thumb (its phalanges' visible share, visibility.h) or only in a fist, it lost
+  // the gain (doc/history.md "Session 29").
   double thumb_range_weight = 0.0;
   // lambda of the per-camera normalisation E_c = (1 + lambda) O_c / (I_c + lambda M_c), with O_c
   // the capped overlap of eq. 8, I_c = sum_q E_qq the image's foreground area and M_c the projected

@@ -103,7 +103,7 @@ RoutineCheck checkCalibrationRoutine(const HandModel& model,
 // (EnergyParams::wrist_weight). The start model's palm is not the user's, and holding its wrist at
 // the sleeve's end moves its knuckles and fingers off the user's, so the poses the fit starts from
 // are biased by the start model: with the prior, the studio's long_thin hand (palm 15 % shorter,
-// fingers 15 % longer) was fitted with every finger bone 6 % short (README "Session 26").
+// fingers 15 % longer) was fitted with every finger bone 6 % short (doc/history.md "Session 26").
 EnergyParams calibrationEnergyParams();
 
 struct HandFitParams {

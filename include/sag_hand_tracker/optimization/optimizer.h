@@ -19,8 +19,8 @@ StepControl parseStepControl(const std::string& name);  // "fixed" | "rprop"
 std::string toString(StepControl step_control);
 
 struct OptimizerParams {
-  // Twice the paper's 10: on the studio benchmark (77 runs, README "Session 13") 20 took the
-  // pooled fingertip error from 15.4 to 14.4 mm and rolled-over frames from 0.4 % to 0.1 %; the
+  // Twice the paper's 10: on the studio benchmark (77 runs, doc/history.md "Session 13") 20 took
+  // the pooled fingertip error from 15.4 to 14.4 mm and rolled-over frames from 0.4 % to 0.1 %; the
   // float pair kernels (EnergyParams::float_pairs) pay for most of the time. The live tracker
   // keeps 10 (cfg/Tracker.cfg) for its 60 Hz latency.
   int iterations = 20;

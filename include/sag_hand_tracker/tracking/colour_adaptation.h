@@ -61,8 +61,8 @@ class GaussianColourStatistics {
 // The colours `model` learns from `statistics`: each palm Gaussian (bone 0) its own mean colour;
 // the fingers' Gaussians (every other bone) one colour together, the mean over all of them. A
 // finger shows its back, side, pad or nail by turns, so a colour per finger Gaussian learnt in one
-// pose misleads in the next: on the benchmark it cost the curled and raised sequences (README,
-// session 8). A palm Gaussian, or the fingers together, that collected less than
+// pose misleads in the next: on the benchmark it cost the curled and raised sequences
+// (doc/history.md, session 8). A palm Gaussian, or the fingers together, that collected less than
 // `min_weight_share` of the mean Gaussian's area keeps the colours of `start` (one per Gaussian).
 std::vector<Hsv> adaptedColours(const HandModel& model, const std::vector<Hsv>& start,
                                 const GaussianColourStatistics& statistics,

@@ -52,14 +52,14 @@ struct TrackerParams {
   // first start) keeps `start_kept`, one with a pose (re-detection, restart after a loss) 4. The
   // first start is rare, so it can afford more. With 4, `wristflex` on `long_distal_large` with
   // its fitted model started reversed (energy 0.35; the right pose, 0.62, ranked fifth or lower
-  // after the coarse stage) and stayed so for 65 frames (README "Session 13").
+  // after the coarse stage) and stayed so for 65 frames (doc/history.md "Session 13").
   int start_kept = 8;
   // In a search with a pose (re-detection, restart after a loss) the last stage races: every
   // candidate gets `redetect_race_iterations` of its `start_iterations`, then only the best
   // `redetect_race_kept` (by energy) get the rest; the others end as they are, ranked below
   // them. On the benchmark's 77 default-model runs 5 and 2 changed one track (14.33 mm pooled
-  // either way) and optimisation per frame fell ~8 % (README "Session 17"); 10 and 1 changed ten
-  // (14.48 mm). 0 (or >= start_iterations): every candidate gets all of them.
+  // either way) and optimisation per frame fell ~8 % (doc/history.md "Session 17"); 10 and 1
+  // changed ten (14.48 mm). 0 (or >= start_iterations): every candidate gets all of them.
   int redetect_race_iterations = 5;
   int redetect_race_kept = 2;
   // The track counts as lost when the normalised similarity drops below `lost_similarity`, or
@@ -93,7 +93,7 @@ struct TrackerParams {
   // frame reset it, the next frames could turn only max_rotation_change_per_frame more than the
   // still start, and the track stayed behind until it had rolled over (4 frames, dark_small).
   // Benchmark, 84 default-model runs: 0 rolled-over frames instead of 4, pooled 13.6 mm either
-  // way (README "Session 25").
+  // way (doc/history.md "Session 25").
   bool redetect_keeps_motion = true;
   // How fast the hand may turn (radians per frame). The optimiser starts each frame from the pose
   // predicted at constant velocity (its turn capped at `max_rotation_per_frame`); its result may
@@ -102,9 +102,10 @@ struct TrackerParams {
   // hand speeds up its turn over several frames and never flips in one: 0.45 rad per frame at
   // 25 fps is 640 deg/s, above the fastest turns of a forearm and wrist, and the change bound lets
   // a turn reach that in 3 frames (0.1 was worse on the benchmark's raised, wristflex and fastturn
-  // sequences, 0.3 the same as 0.2; README). A bound on the turn itself, not its change, kept fast
-  // turns from being followed (at 0.1 rad, 143 deg/s, a 500 deg/s turn rolled the track over). A
-  // turn the bounds cannot follow ends in the lost test and a restart instead. 0 disables a bound.
+  // sequences, 0.3 the same as 0.2; doc/history.md). A bound on the turn itself, not its change,
+  // kept fast turns from being followed (at 0.1 rad, 143 deg/s, a 500 deg/s turn rolled the track
+  // over). A turn the bounds cannot follow ends in the lost test and a restart instead. 0 disables
+  // a bound.
   double max_rotation_per_frame = 0.45;
   double max_rotation_change_per_frame = 0.2;
   // The counter-turn start: a hand seen turning about its own long axis looks much the same
@@ -116,7 +117,7 @@ struct TrackerParams {
   // optimisation in those frames (65-93 % of the frames of the studio's sequences at 1 deg):
   // optimisation +25-30 % per frame, frames/s -15-20 %. Subset of the benchmark (raised,
   // fastturn, random x 4 hands): 30.8 -> 30.4 mm, rolled over 9.3 -> 1.5 %; the 7 Dexter
-  // sequences, default hand: 17.7 -> 15.6 mm (README, session 6).
+  // sequences, default hand: 17.7 -> 15.6 mm (doc/history.md, session 6).
   bool counter_turn_start = true;
   double counter_turn_min_angle = 0.0175;
   // The two starts race: each is optimised for this share of the optimiser's iterations, then
@@ -124,13 +125,13 @@ struct TrackerParams {
   // Raced at half the iterations, the benchmark's 77 default-model runs went from 14.4 mm pooled
   // and 0.09 % rolled over to 14.3 mm and none, and optimisation per frame from 3.69 to 3.20 ms
   // (frames/s 215 -> 241, medians of an interleaved run); a quarter gave 14.5 mm, 0.4 gave
-  // 14.6 mm and 0.28 % rolled (README "Session 17"). calibrate_hand tracks without it.
+  // 14.6 mm and 0.28 % rolled (doc/history.md "Session 17"). calibrate_hand tracks without it.
   double counter_turn_race_share = 0.5;
-  // Finger toggles judged by the silhouette (issue 9, README "Session 27"). The energy scores a
-  // long finger tracked straight over its opened neighbour, or out where the truth has it curled,
-  // as well as the curled truth (eq. 8 never charges model over background), and the frame's
-  // ascent does not leave that state. After each tracked frame every long finger tracked straight
-  // (MCP + PIP flexion below toggle_straight_flexion) is tried curled (MCP toggle_mcp, PIP
+  // Finger toggles judged by the silhouette (issue 9, doc/history.md "Session 27"). The energy
+  // scores a long finger tracked straight over its opened neighbour, or out where the truth has it
+  // curled, as well as the curled truth (eq. 8 never charges model over background), and the
+  // frame's ascent does not leave that state. After each tracked frame every long finger tracked
+  // straight (MCP + PIP flexion below toggle_straight_flexion) is tried curled (MCP toggle_mcp, PIP
   // toggle_pip, DIP by the coupling's ratio, abduction 0) and refined for toggle_iterations; the
   // best one replaces the track when E + toggle_silhouette_weight * D rises by more than
   // toggle_min_gain, D the silhouette score (silhouette.h) at toggle_silhouette_sigmas. A toggle
@@ -185,7 +186,7 @@ struct TrackerParams {
   // explains the foreground poorly. The test looks only at that candidate, and a start that left a
   // bare forearm out can be wrong where the forearm gains little: the fitted model of the studio's
   // stocky hand started `wristflex` 93 mm off at 0.40, where the forearm straight on gains less
-  // than 0.12 (refined, 0.065); with the forearm the true pose scores 0.63 (README "Session
+  // than 0.12 (refined, 0.065); with the forearm the true pose scores 0.63 (doc/history.md "Session
   // 15"). Every start of the benchmark's 77 default-model runs ends at 0.57 or more, so none of
   // them searches more than before.
   double forearm_start_weak_energy = 0.5;
