@@ -27,6 +27,7 @@
 #include "sag_hand_tracker/studio/room.h"
 #include "sag_hand_tracker/studio/sequence.h"
 #include "sag_hand_tracker/util/atomic_output.h"
+#include "sag_hand_tracker/util/number_text.h"
 #include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
@@ -37,6 +38,8 @@ constexpr double kMinSizeFactor = 0.3;
 constexpr double kMaxSizeFactor = 3.0;
 // --start-stamp: the last frame's stamp must still fit ros::Time's 32-bit seconds.
 constexpr double kMaxStartStamp = 4.0e9;
+// The largest stamp a bag holds: ros::Time's seconds are 32 bits.
+constexpr double kMaxBagStamp = 4294967295.0;
 
 using studio::StudioFrame;
 
@@ -207,6 +210,8 @@ RenderBagOptions parseRenderBagArguments(const std::vector<std::string>& args) {
     } else if (a == "--noise") {
       options.noise = number(&i);
       if (options.noise < 0.0) throw UsageError("--noise must not be negative");
+      // In 8-bit levels: 1e308 rendered images of noise alone.
+      if (options.noise > 255.0) throw UsageError("--noise must be at most 255 (8-bit levels)");
     } else if (a == "--hand-scale") {
       options.hand_scale = size_factor(&i);
     } else if (a == "--shape") {
@@ -345,6 +350,20 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
     scene = room->scene(scene);
   }
   const int frames = sequence.frameCount();
+  // A frame rate so low that the motion has no frame wrote a bag without images (exit status 0);
+  // a last stamp past ros::Time's 32-bit seconds failed with "Time is out of dual 32-bit range".
+  if (frames < 1) {
+    throw InputError("--fps " + shortNumber(options.fps) +
+                     " gives the motion no frame (its duration times the frame rate rounds to "
+                     "0; --frames N sets the number of frames)");
+  }
+  const double last_stamp = options.start_stamp + (frames - 1) / options.fps;
+  if (!(last_stamp <= kMaxBagStamp)) {
+    throw InputError("the last frame's stamp " + shortNumber(last_stamp) + " s (--start-stamp " +
+                     shortNumber(options.start_stamp) + ", " + std::to_string(frames) +
+                     " frames at --fps " + shortNumber(options.fps) +
+                     ") is past a bag stamp's 32-bit seconds (4294967295)");
+  }
   const int preview_frame = options.preview.empty()
                                 ? -1
                                 : (options.preview_frame >= 0 ? options.preview_frame : frames / 2);

@@ -191,6 +191,15 @@ TEST_F(RenderBagTool, BadInputGetsAOneLineErrorAndNonZeroExit) {
       {"--sequence pinch --room attic" + out, 2, "--room: unknown studio room 'attic' (known: "},
       {"--sequence pinch --threads 0" + out, 2, "--threads needs an integer >= 1"},
       {"--sequence pinch --threads 17" + out, 2, "--threads must be at most 16"},
+      // Session 30: a frame rate that gives the motion no frame wrote a bag without images, exit
+      // status 0; a last stamp past 32-bit seconds failed with ros::Time's words.
+      {"--sequence pinch --fps 0.001" + out, 1,
+       "--fps 0.001 gives the motion no frame (its duration times the frame rate rounds to 0; "
+       "--frames N sets the number of frames)"},
+      {"--sequence pinch --fps 1e-300 --frames 2" + out, 1,
+       "the last frame's stamp 1e+300 s (--start-stamp 1.4e+09, 2 frames at --fps 1e-300) is "
+       "past a bag stamp's 32-bit seconds (4294967295)"},
+      {"--sequence pinch --noise 1e308" + out, 2, "--noise must be at most 255 (8-bit levels)"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.arguments);
@@ -202,6 +211,7 @@ TEST_F(RenderBagTool, BadInputGetsAOneLineErrorAndNonZeroExit) {
       EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
     }
   }
+  EXPECT_FALSE(std::filesystem::exists(path("x.bag"))) << "no bag from a failed run";
 }
 
 // Numbers beyond the limits were cast to int before they were checked (--threads 1e99 passed "at
