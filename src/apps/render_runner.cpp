@@ -11,6 +11,7 @@
 #include <memory>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <regex>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -27,6 +28,7 @@
 #include "sag_hand_tracker/studio/room.h"
 #include "sag_hand_tracker/studio/sequence.h"
 #include "sag_hand_tracker/util/atomic_output.h"
+#include "sag_hand_tracker/util/input_limits.h"
 #include "sag_hand_tracker/util/number_text.h"
 #include "sag_hand_tracker/util/types.h"
 
@@ -321,6 +323,20 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
   const HandModel model = loadHandModel(model_path, options.hand);
   const CameraRig rig = loadCameraRig(rig_path);
   if (rig.cameras.empty()) throw InputError("the rig has no cameras");
+  // A bag's cameras are /cam<i>/image_raw, i < 64 (the bag reader's topics): a rig camera named
+  // otherwise ('left') was written on a topic that track_bag and calibrate_hand pass over, and
+  // they tracked the other cameras without a word.
+  static const std::regex bag_camera_name("^cam(0|[1-9][0-9]?)$");
+  for (const Camera& camera : rig.cameras) {
+    std::smatch number;
+    if (!std::regex_match(camera.name, number, bag_camera_name) ||
+        std::stoi(number[1].str()) >= kMaxCameras) {
+      throw InputError("--rig " + options.rig + ": camera '" + camera.name +
+                       "' is not named as a bag's cameras are (cam0 ... cam" +
+                       std::to_string(kMaxCameras - 1) + ", their images on /cam<i>/image_raw); " +
+                       "track_bag would not read its images");
+    }
+  }
   studio::Motion motion = studio::loadMotion(motion_path, model, options.seed);
 
   studio::SequenceParams params;

@@ -163,7 +163,19 @@ TEST_F(RenderBagTool, BadInputGetsAOneLineErrorAndNonZeroExit) {
       << "keyframes:\n  - {time: 0, position: [0, 0, 0.15], joints: {index_pip_flex: 130}}\n";
   std::ofstream(path("short_motion.yaml"))
       << "duration: 1\nkeyframes:\n  - {time: 0, position: [0, 0, 0.15]}\n  - {time: 2}\n";
+  // Session 30: cameras named otherwise than cam<i> were written on topics track_bag passes over.
+  const std::string rig_dir = kConfig + "/rigs/dexter5/";
+  std::ofstream(path("named_rig.yaml"))
+      << "root_frame: world\ncameras:\n"
+      << "  - {name: left, calibration: " << rig_dir
+      << "cam0.yaml, translation: [0.68, 0, 0.47], rotation: [0, 0, 0, 1]}\n"
+      << "  - {name: cam1, calibration: " << rig_dir
+      << "cam1.yaml, translation: [0.26, 0.56, 0.66], rotation: [0, 0, 0, 1]}\n";
   const std::vector<Case> cases{
+      {"--sequence pinch --rig '" + path("named_rig.yaml") + "'" + out, 1,
+       "--rig " + path("named_rig.yaml") +
+           ": camera 'left' is not named as a bag's cameras are (cam0 ... cam63, their images on "
+           "/cam<i>/image_raw); track_bag would not read its images"},
       {"--sequence nosuch" + out, 1, "motion nosuch: does not exist"},
       {"--sequence pinch --out '" + path("same") + "' --gt-csv '" + path("same") + "'", 1,
        "--gt-csv " + path("same") + " is the input " + path("same")},
