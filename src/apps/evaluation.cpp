@@ -1282,6 +1282,15 @@ BenchmarkResults runBenchmark(const BenchmarkOptions& options, std::ostream& log
   BenchmarkResults results;
   checkBenchmarkOutputs(options);
   checkBenchmarkInputs(options);
+  {
+    // An --out-dir that cannot be made failed with a bare filesystem error, not naming the option.
+    std::error_code error;
+    fs::create_directories(options.out_dir, error);
+    if (error) {
+      throw InputError("--out-dir " + options.out_dir +
+                       ": cannot create the folder: " + error.message());
+    }
+  }
   if (!options.rooms.empty()) {
     // --fitted: the rooms' hand is the default one; its model fitted in the clean studio (a user
     // who ran calibrate_hand once) brings the user's skin gate into the rooms.

@@ -180,6 +180,10 @@ TEST_F(BenchmarkTool, BenchmarkChecksItsNamesAndCsvBeforeRendering) {
                 " exists; the benchmark replaces files only in its --out-dir (choose another "
                 "name)");
   EXPECT_EQ(readAll(csv), "mine\n");
+  const std::string file = write("a_file", "mine\n");
+  EXPECT_EQ(
+      sag_test::inputErrorOf([&] { runBenchmark(options("--out-dir " + file + "/sub"), log); }),
+      "--out-dir " + file + "/sub: cannot create the folder: Not a directory");
   EXPECT_FALSE(fs::exists(dir_ / "bags")) << "nothing rendered";
   EXPECT_FALSE(fs::exists(dir_ / "tracks")) << "nothing tracked";
 
