@@ -310,18 +310,23 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
   const std::string model_path = resolveModelPath(options.model, config);
   const std::string rig_path = studio::resolveRigPath(options.rig, config);
   const std::string motion_path = studio::resolveMotionPath(options.sequence, config);
-  // Before anything is opened: no output may be an input or another output.
-  checkOutputPath(options.out, {model_path, rig_path, motion_path});
-  checkOutputPath(options.gt_csv, {model_path, rig_path, motion_path, options.out}, "--gt-csv");
+  // The rig is read first: its calibration files are inputs too (--out cam0.yaml --overwrite
+  // replaced a rig's calibration file with the bag, as --out shape.yaml did a --shape file).
+  std::vector<std::string> inputs{model_path, rig_path, motion_path,
+                                  studio::handShapeFile(options.shape, config)};
+  const CameraRig rig = loadCameraRig(rig_path, &inputs);
+  // Before any output is opened: no output may be an input or another output.
+  checkOutputPath(options.out, inputs);
+  inputs.push_back(options.out);
+  checkOutputPath(options.gt_csv, inputs, "--gt-csv");
   if (!options.preview.empty()) {
-    checkOutputPath(options.preview,
-                    {model_path, rig_path, motion_path, options.out, options.gt_csv}, "--preview");
+    inputs.push_back(options.gt_csv);
+    checkOutputPath(options.preview, inputs, "--preview");
   }
   checkOutputIsNew(options.out, options.overwrite);
   checkOutputIsNew(options.gt_csv, options.overwrite, "--gt-csv");
   if (!options.preview.empty()) checkOutputIsNew(options.preview, options.overwrite, "--preview");
   const HandModel model = loadHandModel(model_path, options.hand);
-  const CameraRig rig = loadCameraRig(rig_path);
   if (rig.cameras.empty()) throw InputError("the rig has no cameras");
   // A bag's cameras are /cam<i>/image_raw, i < 64 (the bag reader's topics): a rig camera named
   // otherwise ('left') was written on a topic that track_bag and calibrate_hand pass over, and

@@ -190,6 +190,10 @@ std::vector<std::string> handShapeNames(const std::string& config_dir) {
   return names;
 }
 
+std::string handShapeFile(const std::string& name_or_file, const std::string& config_dir) {
+  return looksLikeFile(name_or_file) ? name_or_file : handShapesPath(config_dir);
+}
+
 StudioHand resolveHandShape(const std::string& name_or_file, const std::string& config_dir) {
   if (looksLikeFile(name_or_file)) {
     const std::vector<StudioHand> hands = loadHandShapes(name_or_file);

@@ -163,6 +163,16 @@ TEST_F(RenderBagTool, BadInputGetsAOneLineErrorAndNonZeroExit) {
       << "keyframes:\n  - {time: 0, position: [0, 0, 0.15], joints: {index_pip_flex: 130}}\n";
   std::ofstream(path("short_motion.yaml"))
       << "duration: 1\nkeyframes:\n  - {time: 0, position: [0, 0, 0.15]}\n  - {time: 2}\n";
+  std::ofstream(path("shape.yaml")) << "shapes:\n  - {name: mine, scale: 1.1}\n";
+  std::filesystem::copy_file(kConfig + "/rigs/dexter5/cam1.yaml", path("cam1_copy.yaml"));
+  const std::string calibration = readAll(path("cam1_copy.yaml"));
+  std::ofstream(path("copied_rig.yaml"))
+      << "root_frame: world\ncameras:\n"
+      << "  - {name: cam0, calibration: cam1_copy.yaml, translation: [0.68, 0, 0.47], rotation: "
+         "[0, "
+         "0, 0, 1]}\n"
+      << "  - {name: cam1, calibration: cam1_copy.yaml, translation: [0.26, 0.56, 0.66], rotation: "
+         "[0, 0, 0, 1]}\n";
   // Session 30: cameras named otherwise than cam<i> were written on topics track_bag passes over.
   const std::string rig_dir = kConfig + "/rigs/dexter5/";
   std::ofstream(path("named_rig.yaml"))
@@ -176,6 +186,13 @@ TEST_F(RenderBagTool, BadInputGetsAOneLineErrorAndNonZeroExit) {
        "--rig " + path("named_rig.yaml") +
            ": camera 'left' is not named as a bag's cameras are (cam0 ... cam63, their images on "
            "/cam<i>/image_raw); track_bag would not read its images"},
+      // Session 30: a rig's calibration file and a --shape file were replaced with --overwrite.
+      {"--sequence pinch --frames 2 --shape '" + path("shape.yaml") + "' --out '" +
+           path("shape.yaml") + "' --overwrite",
+       1, "--out " + path("shape.yaml") + " is the input " + path("shape.yaml")},
+      {"--sequence pinch --frames 2 --rig '" + path("copied_rig.yaml") + "' --out '" +
+           path("cam1_copy.yaml") + "' --overwrite",
+       1, "--out " + path("cam1_copy.yaml") + " is the input " + path("cam1_copy.yaml")},
       {"--sequence nosuch" + out, 1, "motion nosuch: does not exist"},
       {"--sequence pinch --out '" + path("same") + "' --gt-csv '" + path("same") + "'", 1,
        "--gt-csv " + path("same") + " is the input " + path("same")},
@@ -224,6 +241,8 @@ TEST_F(RenderBagTool, BadInputGetsAOneLineErrorAndNonZeroExit) {
     }
   }
   EXPECT_FALSE(std::filesystem::exists(path("x.bag"))) << "no bag from a failed run";
+  EXPECT_EQ(readAll(path("shape.yaml")), "shapes:\n  - {name: mine, scale: 1.1}\n");
+  EXPECT_EQ(readAll(path("cam1_copy.yaml")), calibration);
 }
 
 // Numbers beyond the limits were cast to int before they were checked (--threads 1e99 passed "at
