@@ -1072,6 +1072,23 @@ BenchmarkOptions parseBenchmarkArguments(const std::vector<std::string>& args) {
       throw UsageError("unknown argument '" + arg + "'");
     }
   }
+  // Options the chosen benchmark does not use were ignored without a word (--room-configs without
+  // --rooms ran the hand shapes' benchmark; --shapes, --camera-counts and --csv with --rooms were
+  // not run or written).
+  auto given = [&](const std::string& option) {
+    return std::find(args.begin(), args.end(), option) != args.end();
+  };
+  if (options.rooms.empty() && given("--room-configs")) {
+    throw UsageError("--room-configs selects runs of --rooms; give --rooms too");
+  }
+  if (!options.rooms.empty()) {
+    for (const std::string option : {"--shapes", "--camera-counts", "--csv"}) {
+      if (given(option)) {
+        throw UsageError(option + " is not used with --rooms (the rooms run the default hand " +
+                         "and write rooms.md)");
+      }
+    }
+  }
   if (options.sequences.empty() && !options.rooms.empty()) options.sequences = {"adbadd", "pinch"};
   if (options.sequences.empty()) options.sequences = benchmarkSequences();
   std::set<std::string> labels;

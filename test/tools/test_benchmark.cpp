@@ -192,7 +192,18 @@ TEST_F(BenchmarkTool, BenchmarkChecksItsNamesAndCsvBeforeRendering) {
            {{"--rooms", "office,office"}, "--rooms names 'office' twice"},
            {{"--rooms", "all,kitchen"}, "--rooms names 'kitchen' twice"},
            {{"--rooms", "office", "--room-configs", "skin,skin"},
-            "--room-configs names 'skin' twice"}}) {
+            "--room-configs names 'skin' twice"},
+           // Options the chosen benchmark does not use were ignored without a word.
+           {{"--room-configs", "skin"}, "--room-configs selects runs of --rooms; give --rooms too"},
+           {{"--rooms", "office", "--shapes", "stocky"},
+            "--shapes is not used with --rooms (the rooms run the default hand and write "
+            "rooms.md)"},
+           {{"--rooms", "office", "--camera-counts"},
+            "--camera-counts is not used with --rooms (the rooms run the default hand and write "
+            "rooms.md)"},
+           {{"--rooms", "office", "--csv", "r.csv"},
+            "--csv is not used with --rooms (the rooms run the default hand and write "
+            "rooms.md)"}}) {
     try {
       parseBenchmarkArguments(args);
       ADD_FAILURE() << "no error for " << args[1];
