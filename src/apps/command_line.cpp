@@ -1,5 +1,6 @@
 #include "sag_hand_tracker/apps/command_line.h"
 
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -7,6 +8,13 @@
 #include <sstream>
 
 namespace sag_hand_tracker {
+
+namespace {
+
+// The largest value of an integer option (parseIntOption).
+constexpr long kMaxIntOption = 1000000;
+
+}  // namespace
 
 const std::string& nextOptionValue(const std::vector<std::string>& args, size_t* i) {
   if (*i + 1 >= args.size() || args[*i + 1].rfind("--", 0) == 0) {
@@ -30,7 +38,15 @@ int parseIntOption(const std::string& option, const std::string& text, int min_v
   char* end = nullptr;
   errno = 0;
   const long value = std::strtol(text.c_str(), &end, 10);
-  if (text.empty() || *end != '\0' || errno == ERANGE || value < min_value || value > 1000000) {
+  // strtol skips leading white space (" 10", "\n10" were taken); and 1000001 was refused as not
+  // ">= 1", which it is.
+  const bool parsed = !text.empty() && !std::isspace(static_cast<unsigned char>(text[0])) &&
+                      *end == '\0' && errno != ERANGE;
+  if (parsed && value > kMaxIntOption) {
+    throw UsageError(option + " expects an integer of at most " + std::to_string(kMaxIntOption) +
+                     ", got '" + text + "'");
+  }
+  if (!parsed || value < min_value) {
     throw UsageError(option + " expects an integer >= " + std::to_string(min_value) + ", got '" +
                      text + "'");
   }
@@ -42,8 +58,8 @@ double parseDoubleOption(const std::string& option, const std::string& text, dou
   char* end = nullptr;
   errno = 0;
   const double value = std::strtod(text.c_str(), &end);
-  if (text.empty() || *end != '\0' || errno == ERANGE || !std::isfinite(value) ||
-      value < min_value || value > max_value) {
+  if (text.empty() || std::isspace(static_cast<unsigned char>(text[0])) || *end != '\0' ||
+      errno == ERANGE || !std::isfinite(value) || value < min_value || value > max_value) {
     std::ostringstream range;
     range << "[" << min_value << ", " << max_value << "]";
     throw UsageError(option + " expects a number within " + range.str() + ", got '" + text + "'");

@@ -24,6 +24,8 @@
 #include "sag_hand_tracker/ros/package_config.h"
 #include "sag_hand_tracker/studio/hand_shapes.h"
 #include "sag_hand_tracker/studio/motion.h"
+#include "sag_hand_tracker/studio/room.h"
+#include "sag_hand_tracker/studio/sequence.h"
 #include "sag_hand_tracker/util/atomic_output.h"
 #include "sag_hand_tracker/util/number_text.h"
 #include "sag_hand_tracker/util/timing.h"
@@ -1070,6 +1072,23 @@ BenchmarkOptions parseBenchmarkArguments(const std::vector<std::string>& args) {
       throw UsageError("unknown argument '" + arg + "'");
     }
   }
+  // Options the chosen benchmark does not use were ignored without a word (--room-configs without
+  // --rooms ran the hand shapes' benchmark; --shapes, --camera-counts and --csv with --rooms were
+  // not run or written).
+  auto given = [&](const std::string& option) {
+    return std::find(args.begin(), args.end(), option) != args.end();
+  };
+  if (options.rooms.empty() && given("--room-configs")) {
+    throw UsageError("--room-configs selects runs of --rooms; give --rooms too");
+  }
+  if (!options.rooms.empty()) {
+    for (const std::string option : {"--shapes", "--camera-counts", "--csv"}) {
+      if (given(option)) {
+        throw UsageError(option + " is not used with --rooms (the rooms run the default hand " +
+                         "and write rooms.md)");
+      }
+    }
+  }
   if (options.sequences.empty() && !options.rooms.empty()) options.sequences = {"adbadd", "pinch"};
   if (options.sequences.empty()) options.sequences = benchmarkSequences();
   std::set<std::string> labels;
@@ -1082,6 +1101,31 @@ BenchmarkOptions parseBenchmarkArguments(const std::vector<std::string>& args) {
     std::set<std::string> shapes;
     for (const std::string& shape : options.shapes) {
       if (!shapes.insert(shape).second) throw UsageError("--shapes names '" + shape + "' twice");
+    }
+  }
+  // A sequence, room or run named twice was run twice: its bags and tracks are named after the
+  // sequence's file name (pinch and motions/pinch.yaml are one), its rows doubled in the tables.
+  {
+    std::set<std::string> sequences;
+    for (const std::string& sequence : options.sequences) {
+      const std::string stem = fs::path(sequence).stem().string();
+      if (!sequences.insert(stem).second) {
+        throw UsageError("--sequences names '" + stem + "' twice");
+      }
+    }
+    std::set<std::string> rooms;
+    for (const std::string& room : options.rooms) {
+      const std::vector<std::string> names =
+          room == "all" ? studio::builtinRoomNames() : std::vector<std::string>{room};
+      for (const std::string& name : names) {
+        if (!rooms.insert(name).second) throw UsageError("--rooms names '" + name + "' twice");
+      }
+    }
+    std::set<std::string> configs;
+    for (const std::string& config : options.room_configs) {
+      if (!configs.insert(config).second) {
+        throw UsageError("--room-configs names '" + config + "' twice");
+      }
     }
   }
   if (options.frames > 0 && options.frames <= 10) {
@@ -1216,12 +1260,54 @@ static void checkBenchmarkOutputs(const BenchmarkOptions& options) {
     throw InputError("--csv " + options.csv + ": the folder " + parent.string() +
                      " does not exist");
   }
+  // The benchmark replaces the files of its own folder only: a --csv elsewhere replaced whatever
+  // was there (a bag, another run's tables).
+  if (!in_out_dir) {
+    checkOutputIsNew(options.csv, false, "--csv",
+                     " exists; the benchmark replaces files only in its --out-dir (choose "
+                     "another name)");
+  }
+}
+
+// The names of the rig, sequences and models, checked before the hours of rendering and tracking:
+// an unknown name late in --sequences or --models failed only after every run before it (the
+// runs lost, the error not naming the option), an unknown --fit-sequence failed each hand's fit.
+static void checkBenchmarkInputs(const BenchmarkOptions& options) {
+  const std::string config = packageConfigDir(options.config_dir);
+  studio::resolveRigPath(options.rig, config);
+  const HandModel render_model = loadHandModel(resolveModelPath("sag", config));
+  auto checkMotion = [&](const std::string& option, const std::string& sequence) {
+    try {
+      studio::loadMotion(studio::resolveMotionPath(sequence, config), render_model, 1);
+    } catch (const InputError& error) {
+      throw InputError(option + " " + sequence + ": " + error.what());
+    }
+  };
+  for (const std::string& sequence : options.sequences) checkMotion("--sequences", sequence);
+  if (options.fitted) checkMotion("--fit-sequence", options.fit_sequence);
+  for (const std::string& model : options.models) {
+    try {
+      loadHandModel(resolveModelPath(model, config));
+    } catch (const InputError& error) {
+      throw InputError("--models " + model + ": " + error.what());
+    }
+  }
 }
 
 BenchmarkResults runBenchmark(const BenchmarkOptions& options, std::ostream& log) {
   const auto start = std::chrono::steady_clock::now();
   BenchmarkResults results;
   checkBenchmarkOutputs(options);
+  checkBenchmarkInputs(options);
+  {
+    // An --out-dir that cannot be made failed with a bare filesystem error, not naming the option.
+    std::error_code error;
+    fs::create_directories(options.out_dir, error);
+    if (error) {
+      throw InputError("--out-dir " + options.out_dir +
+                       ": cannot create the folder: " + error.message());
+    }
+  }
   if (!options.rooms.empty()) {
     // --fitted: the rooms' hand is the default one; its model fitted in the clean studio (a user
     // who ran calibrate_hand once) brings the user's skin gate into the rooms.

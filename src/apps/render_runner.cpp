@@ -11,6 +11,7 @@
 #include <memory>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <regex>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -27,6 +28,8 @@
 #include "sag_hand_tracker/studio/room.h"
 #include "sag_hand_tracker/studio/sequence.h"
 #include "sag_hand_tracker/util/atomic_output.h"
+#include "sag_hand_tracker/util/input_limits.h"
+#include "sag_hand_tracker/util/number_text.h"
 #include "sag_hand_tracker/util/types.h"
 
 namespace sag_hand_tracker {
@@ -37,6 +40,8 @@ constexpr double kMinSizeFactor = 0.3;
 constexpr double kMaxSizeFactor = 3.0;
 // --start-stamp: the last frame's stamp must still fit ros::Time's 32-bit seconds.
 constexpr double kMaxStartStamp = 4.0e9;
+// The largest stamp a bag holds: ros::Time's seconds are 32 bits.
+constexpr double kMaxBagStamp = 4294967295.0;
 
 using studio::StudioFrame;
 
@@ -207,6 +212,8 @@ RenderBagOptions parseRenderBagArguments(const std::vector<std::string>& args) {
     } else if (a == "--noise") {
       options.noise = number(&i);
       if (options.noise < 0.0) throw UsageError("--noise must not be negative");
+      // In 8-bit levels: 1e308 rendered images of noise alone.
+      if (options.noise > 255.0) throw UsageError("--noise must be at most 255 (8-bit levels)");
     } else if (a == "--hand-scale") {
       options.hand_scale = size_factor(&i);
     } else if (a == "--shape") {
@@ -303,19 +310,38 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
   const std::string model_path = resolveModelPath(options.model, config);
   const std::string rig_path = studio::resolveRigPath(options.rig, config);
   const std::string motion_path = studio::resolveMotionPath(options.sequence, config);
-  // Before anything is opened: no output may be an input or another output.
-  checkOutputPath(options.out, {model_path, rig_path, motion_path});
-  checkOutputPath(options.gt_csv, {model_path, rig_path, motion_path, options.out}, "--gt-csv");
+  // The rig is read first: its calibration files are inputs too (--out cam0.yaml --overwrite
+  // replaced a rig's calibration file with the bag, as --out shape.yaml did a --shape file).
+  std::vector<std::string> inputs{model_path, rig_path, motion_path,
+                                  studio::handShapeFile(options.shape, config)};
+  const CameraRig rig = loadCameraRig(rig_path, &inputs);
+  // Before any output is opened: no output may be an input or another output.
+  checkOutputPath(options.out, inputs);
+  inputs.push_back(options.out);
+  checkOutputPath(options.gt_csv, inputs, "--gt-csv");
   if (!options.preview.empty()) {
-    checkOutputPath(options.preview,
-                    {model_path, rig_path, motion_path, options.out, options.gt_csv}, "--preview");
+    inputs.push_back(options.gt_csv);
+    checkOutputPath(options.preview, inputs, "--preview");
   }
   checkOutputIsNew(options.out, options.overwrite);
   checkOutputIsNew(options.gt_csv, options.overwrite, "--gt-csv");
   if (!options.preview.empty()) checkOutputIsNew(options.preview, options.overwrite, "--preview");
   const HandModel model = loadHandModel(model_path, options.hand);
-  const CameraRig rig = loadCameraRig(rig_path);
   if (rig.cameras.empty()) throw InputError("the rig has no cameras");
+  // A bag's cameras are /cam<i>/image_raw, i < 64 (the bag reader's topics): a rig camera named
+  // otherwise ('left') was written on a topic that track_bag and calibrate_hand pass over, and
+  // they tracked the other cameras without a word.
+  static const std::regex bag_camera_name("^cam(0|[1-9][0-9]?)$");
+  for (const Camera& camera : rig.cameras) {
+    std::smatch number;
+    if (!std::regex_match(camera.name, number, bag_camera_name) ||
+        std::stoi(number[1].str()) >= kMaxCameras) {
+      throw InputError("--rig " + options.rig + ": camera '" + camera.name +
+                       "' is not named as a bag's cameras are (cam0 ... cam" +
+                       std::to_string(kMaxCameras - 1) + ", their images on /cam<i>/image_raw); " +
+                       "track_bag would not read its images");
+    }
+  }
   studio::Motion motion = studio::loadMotion(motion_path, model, options.seed);
 
   studio::SequenceParams params;
@@ -345,6 +371,20 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
     scene = room->scene(scene);
   }
   const int frames = sequence.frameCount();
+  // A frame rate so low that the motion has no frame wrote a bag without images (exit status 0);
+  // a last stamp past ros::Time's 32-bit seconds failed with "Time is out of dual 32-bit range".
+  if (frames < 1) {
+    throw InputError("--fps " + shortNumber(options.fps) +
+                     " gives the motion no frame (its duration times the frame rate rounds to "
+                     "0; --frames N sets the number of frames)");
+  }
+  const double last_stamp = options.start_stamp + (frames - 1) / options.fps;
+  if (!(last_stamp <= kMaxBagStamp)) {
+    throw InputError("the last frame's stamp " + shortNumber(last_stamp) + " s (--start-stamp " +
+                     shortNumber(options.start_stamp) + ", " + std::to_string(frames) +
+                     " frames at --fps " + shortNumber(options.fps) +
+                     ") is past a bag stamp's 32-bit seconds (4294967295)");
+  }
   const int preview_frame = options.preview.empty()
                                 ? -1
                                 : (options.preview_frame >= 0 ? options.preview_frame : frames / 2);

@@ -276,11 +276,12 @@ CameraRig parseCameraRig(const std::string& yaml_text, const std::string& source
   return rig;
 }
 
-CameraRig loadCameraRig(const std::string& path) {
+CameraRig loadCameraRig(const std::string& path, std::vector<std::string>* calibration_files) {
   const fs::path directory = fs::path(path).parent_path();
   return parseCameraRig(readYamlFileText(path, "rig file"), path, [&](const std::string& name) {
     fs::path file = name;
     if (file.is_relative()) file = directory / file;
+    if (calibration_files) calibration_files->push_back(file.string());
     return loadCameraCalibration(file.string());
   });
 }

@@ -208,9 +208,18 @@ class ModelParser {
 
   void parseFingertips(const YamlValue& tips, HandModel* model) {
     tips.allowOnly({fingerNames().begin(), fingerNames().end()});
+    std::map<int, int> finger_of_bone;
     for (int finger = 0; finger < kNumFingers; ++finger) {
       const YamlValue tip = tips[fingerNames()[finger]];
       const int bone = boneIndex(tip);
+      // Two fingers on one bone tracked and fitted one finger twice (the same fingertip in two
+      // columns); the palm as a fingertip failed only later, in the studio and the fit.
+      if (bone == 0) tip.fail("is the palm (the root bone), not a finger's last bone");
+      const auto [other, inserted] = finger_of_bone.emplace(bone, finger);
+      if (!inserted) {
+        tip.fail("bone '" + model->bones[bone].name + "' is already the " +
+                 fingerNames()[other->second] + "'s fingertip; each finger needs its own");
+      }
       // The fingertip Gaussian: the one on that bone reaching furthest along the bone axis.
       int best = -1;
       double best_reach = -1e9;
@@ -327,6 +336,12 @@ void validateHandModel(const HandModel& model) {
     if (model.fingertip_gaussians[finger] < 0 ||
         model.fingertip_gaussians[finger] >= static_cast<int>(model.gaussians.size())) {
       throw InputError(std::string("no fingertip Gaussian for the ") + fingerNames()[finger]);
+    }
+    for (int other = 0; other < finger; ++other) {
+      if (model.fingertip_gaussians[other] == model.fingertip_gaussians[finger]) {
+        throw InputError(std::string("the ") + fingerNames()[other] + " and the " +
+                         fingerNames()[finger] + " have one fingertip Gaussian");
+      }
     }
   }
 }

@@ -173,11 +173,9 @@ std::vector<StudioHand> parseHandShapes(const std::string& yaml_text, const std:
 }
 
 std::vector<StudioHand> loadHandShapes(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError("hand shapes " + path + ": cannot open the file");
-  std::stringstream text;
-  text << in.rdbuf();
-  return parseHandShapes(text.str(), path);
+  // Read as every YAML input is: a FIFO given as --shape hung the tool (open waits for a writer,
+  // SIGTERM too), /dev/zero was read until memory ran out, a directory was an empty document.
+  return parseHandShapes(readYamlFileText(path, "hand shapes"), path);
 }
 
 std::string handShapesPath(const std::string& config_dir) {
@@ -190,6 +188,10 @@ std::vector<std::string> handShapeNames(const std::string& config_dir) {
     names.push_back(hand.name);
   }
   return names;
+}
+
+std::string handShapeFile(const std::string& name_or_file, const std::string& config_dir) {
+  return looksLikeFile(name_or_file) ? name_or_file : handShapesPath(config_dir);
 }
 
 StudioHand resolveHandShape(const std::string& name_or_file, const std::string& config_dir) {

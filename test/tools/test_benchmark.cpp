@@ -159,6 +159,60 @@ TEST_F(BenchmarkTool, BenchmarkChecksItsOutputFoldersBeforeRendering) {
   EXPECT_FALSE(std::filesystem::exists(dir_ / "bags")) << "nothing rendered";
 }
 
+// Session 30: an unknown name late in --sequences or --models failed only after every run before
+// it (a whole benchmark's rendering and tracking), an unknown --fit-sequence failed every hand's
+// fit and the benchmark went on; a --csv outside --out-dir replaced the file there; a name given
+// twice ran twice.
+TEST_F(BenchmarkTool, BenchmarkChecksItsNamesAndCsvBeforeRendering) {
+  std::ostringstream log;
+  EXPECT_EQ(
+      sag_test::inputErrorOf([&] { runBenchmark(options("--sequences fingerwave,nosuch"), log); }),
+      "--sequences nosuch: motion nosuch: does not exist");
+  EXPECT_EQ(sag_test::inputErrorOf([&] { runBenchmark(options("--models sag,nosuch.yaml"), log); }),
+            "--models nosuch.yaml: hand model nosuch.yaml: does not exist");
+  EXPECT_EQ(
+      sag_test::inputErrorOf([&] { runBenchmark(options("--fitted --fit-sequence nosuch"), log); }),
+      "--fit-sequence nosuch: motion nosuch: does not exist");
+  fs::create_directories(dir_ / "elsewhere");
+  const std::string csv = write("elsewhere/mine.csv", "mine\n");
+  EXPECT_EQ(sag_test::inputErrorOf([&] { runBenchmark(options("--csv " + csv), log); }),
+            "--csv " + csv +
+                " exists; the benchmark replaces files only in its --out-dir (choose another "
+                "name)");
+  EXPECT_EQ(readAll(csv), "mine\n");
+  const std::string file = write("a_file", "mine\n");
+  EXPECT_EQ(
+      sag_test::inputErrorOf([&] { runBenchmark(options("--out-dir " + file + "/sub"), log); }),
+      "--out-dir " + file + "/sub: cannot create the folder: Not a directory");
+  EXPECT_FALSE(fs::exists(dir_ / "bags")) << "nothing rendered";
+  EXPECT_FALSE(fs::exists(dir_ / "tracks")) << "nothing tracked";
+
+  for (const auto& [args, message] : std::vector<std::pair<std::vector<std::string>, std::string>>{
+           {{"--sequences", "pinch,motions/pinch.yaml"}, "--sequences names 'pinch' twice"},
+           {{"--rooms", "office,office"}, "--rooms names 'office' twice"},
+           {{"--rooms", "all,kitchen"}, "--rooms names 'kitchen' twice"},
+           {{"--rooms", "office", "--room-configs", "skin,skin"},
+            "--room-configs names 'skin' twice"},
+           // Options the chosen benchmark does not use were ignored without a word.
+           {{"--room-configs", "skin"}, "--room-configs selects runs of --rooms; give --rooms too"},
+           {{"--rooms", "office", "--shapes", "stocky"},
+            "--shapes is not used with --rooms (the rooms run the default hand and write "
+            "rooms.md)"},
+           {{"--rooms", "office", "--camera-counts"},
+            "--camera-counts is not used with --rooms (the rooms run the default hand and write "
+            "rooms.md)"},
+           {{"--rooms", "office", "--csv", "r.csv"},
+            "--csv is not used with --rooms (the rooms run the default hand and write "
+            "rooms.md)"}}) {
+    try {
+      parseBenchmarkArguments(args);
+      ADD_FAILURE() << "no error for " << args[1];
+    } catch (const UsageError& error) {
+      EXPECT_EQ(std::string(error.what()), message);
+    }
+  }
+}
+
 TEST(BenchmarkErrors, BenchmarkCountsFramesWithoutAPoseAsFailures) {
   const double inf = std::numeric_limits<double>::infinity();
   const ErrorStats stats = errorStats({10.0, inf, 30.0, 16.0});

@@ -163,7 +163,36 @@ TEST_F(RenderBagTool, BadInputGetsAOneLineErrorAndNonZeroExit) {
       << "keyframes:\n  - {time: 0, position: [0, 0, 0.15], joints: {index_pip_flex: 130}}\n";
   std::ofstream(path("short_motion.yaml"))
       << "duration: 1\nkeyframes:\n  - {time: 0, position: [0, 0, 0.15]}\n  - {time: 2}\n";
+  std::ofstream(path("shape.yaml")) << "shapes:\n  - {name: mine, scale: 1.1}\n";
+  std::filesystem::copy_file(kConfig + "/rigs/dexter5/cam1.yaml", path("cam1_copy.yaml"));
+  const std::string calibration = readAll(path("cam1_copy.yaml"));
+  std::ofstream(path("copied_rig.yaml"))
+      << "root_frame: world\ncameras:\n"
+      << "  - {name: cam0, calibration: cam1_copy.yaml, translation: [0.68, 0, 0.47], rotation: "
+         "[0, "
+         "0, 0, 1]}\n"
+      << "  - {name: cam1, calibration: cam1_copy.yaml, translation: [0.26, 0.56, 0.66], rotation: "
+         "[0, 0, 0, 1]}\n";
+  // Session 30: cameras named otherwise than cam<i> were written on topics track_bag passes over.
+  const std::string rig_dir = kConfig + "/rigs/dexter5/";
+  std::ofstream(path("named_rig.yaml"))
+      << "root_frame: world\ncameras:\n"
+      << "  - {name: left, calibration: " << rig_dir
+      << "cam0.yaml, translation: [0.68, 0, 0.47], rotation: [0, 0, 0, 1]}\n"
+      << "  - {name: cam1, calibration: " << rig_dir
+      << "cam1.yaml, translation: [0.26, 0.56, 0.66], rotation: [0, 0, 0, 1]}\n";
   const std::vector<Case> cases{
+      {"--sequence pinch --rig '" + path("named_rig.yaml") + "'" + out, 1,
+       "--rig " + path("named_rig.yaml") +
+           ": camera 'left' is not named as a bag's cameras are (cam0 ... cam63, their images on "
+           "/cam<i>/image_raw); track_bag would not read its images"},
+      // Session 30: a rig's calibration file and a --shape file were replaced with --overwrite.
+      {"--sequence pinch --frames 2 --shape '" + path("shape.yaml") + "' --out '" +
+           path("shape.yaml") + "' --overwrite",
+       1, "--out " + path("shape.yaml") + " is the input " + path("shape.yaml")},
+      {"--sequence pinch --frames 2 --rig '" + path("copied_rig.yaml") + "' --out '" +
+           path("cam1_copy.yaml") + "' --overwrite",
+       1, "--out " + path("cam1_copy.yaml") + " is the input " + path("cam1_copy.yaml")},
       {"--sequence nosuch" + out, 1, "motion nosuch: does not exist"},
       {"--sequence pinch --out '" + path("same") + "' --gt-csv '" + path("same") + "'", 1,
        "--gt-csv " + path("same") + " is the input " + path("same")},
@@ -191,6 +220,15 @@ TEST_F(RenderBagTool, BadInputGetsAOneLineErrorAndNonZeroExit) {
       {"--sequence pinch --room attic" + out, 2, "--room: unknown studio room 'attic' (known: "},
       {"--sequence pinch --threads 0" + out, 2, "--threads needs an integer >= 1"},
       {"--sequence pinch --threads 17" + out, 2, "--threads must be at most 16"},
+      // Session 30: a frame rate that gives the motion no frame wrote a bag without images, exit
+      // status 0; a last stamp past 32-bit seconds failed with ros::Time's words.
+      {"--sequence pinch --fps 0.001" + out, 1,
+       "--fps 0.001 gives the motion no frame (its duration times the frame rate rounds to 0; "
+       "--frames N sets the number of frames)"},
+      {"--sequence pinch --fps 1e-300 --frames 2" + out, 1,
+       "the last frame's stamp 1e+300 s (--start-stamp 1.4e+09, 2 frames at --fps 1e-300) is "
+       "past a bag stamp's 32-bit seconds (4294967295)"},
+      {"--sequence pinch --noise 1e308" + out, 2, "--noise must be at most 255 (8-bit levels)"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.arguments);
@@ -202,6 +240,9 @@ TEST_F(RenderBagTool, BadInputGetsAOneLineErrorAndNonZeroExit) {
       EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
     }
   }
+  EXPECT_FALSE(std::filesystem::exists(path("x.bag"))) << "no bag from a failed run";
+  EXPECT_EQ(readAll(path("shape.yaml")), "shapes:\n  - {name: mine, scale: 1.1}\n");
+  EXPECT_EQ(readAll(path("cam1_copy.yaml")), calibration);
 }
 
 // Numbers beyond the limits were cast to int before they were checked (--threads 1e99 passed "at

@@ -172,6 +172,17 @@ TEST(TrackBagArguments, TrackBagRejectsBadArguments) {
             "--iterations expects an integer >= 1, got 'ten'");
   EXPECT_EQ(message(with({"--cameras", "0,x"})), "--cameras expects an integer >= 0, got 'x'");
   EXPECT_EQ(message(with({"--cameras", "1,1"})), "--cameras lists camera 1 twice");
+  // Session 30: a value above the limit was refused as not ">= 1"; leading white space was
+  // skipped.
+  EXPECT_EQ(message(with({"--iterations", "1000001"})),
+            "--iterations expects an integer of at most 1000000, got '1000001'");
+  EXPECT_EQ(message(with({"--cameras", "0,1000001"})),
+            "--cameras expects an integer of at most 1000000, got '1000001'");
+  EXPECT_EQ(message(with({"--iterations", " 10"})),
+            "--iterations expects an integer >= 1, got ' 10'");
+  EXPECT_EQ(message(with({"--stamp-tolerance", " 0.1"})),
+            "--stamp-tolerance expects a number within [0, 1], got ' 0.1'");
+  EXPECT_EQ(parseTrackBagArguments(with({"--iterations", "1000000"})).iterations, 1000000);
   EXPECT_EQ(message(with({"--cameras", "1,"})),
             "--cameras expects camera numbers like 0,2,4, got '1,'");
   EXPECT_EQ(message(with({"--hand", "both"})), "--hand expects left, right or auto, got 'both'");

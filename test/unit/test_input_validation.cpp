@@ -104,6 +104,25 @@ TEST(InputValidation, ModelNamesMustBeSafeFrameNames) {
   EXPECT_TRUE(contains(message, "not a safe frame name")) << message;
 }
 
+// Session 30: two fingers on one fingertip bone were tracked and fitted as one finger twice (the
+// same fingertip in two CSV columns); the palm as a fingertip failed only in the studio and the
+// fit.
+TEST(InputValidation, ModelFingertipsAreDistinctFingerBones) {
+  std::string message = modelError("thumb: thumb_distal", "thumb: index_distal");
+  EXPECT_TRUE(contains(message,
+                       "key 'fingertips.index': bone 'index_distal' is already the thumb's "
+                       "fingertip; each finger needs its own"))
+      << message;
+  message = modelError("ring: ring_distal", "ring: palm");
+  EXPECT_TRUE(contains(
+      message, "key 'fingertips.ring': is the palm (the root bone), not a finger's last bone"))
+      << message;
+  HandModel model = loadHandModel(sag_test::modelPath("sag"));
+  model.fingertip_gaussians[2] = model.fingertip_gaussians[1];
+  EXPECT_EQ(sag_test::inputErrorOf([&] { validateHandModel(model); }),
+            "the index and the middle have one fingertip Gaussian");
+}
+
 TEST(InputValidation, ModelGaussianCountIsLimitedBeforeParsingThem) {
   std::string text = builtinModelText();
   const std::size_t at = text.find("gaussians:\n") + std::string("gaussians:\n").size();

@@ -2,7 +2,11 @@
 // forearm, and the harder motions (raised, pronation, wristflex, fastturn).
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <opencv2/core.hpp>
 #include <string>
@@ -18,6 +22,7 @@
 #include "sag_hand_tracker/studio/motion.h"
 #include "sag_hand_tracker/studio/renderer.h"
 #include "sag_hand_tracker/studio/sequence.h"
+#include "test_support/temp_files.h"
 
 using namespace sag_hand_tracker;
 using namespace sag_hand_tracker::studio;
@@ -298,6 +303,18 @@ TEST(StudioShapes, ResolvesNamesAndFilesAndRejectsBadOnes) {
   EXPECT_NE(expectInputError("shapes:\n  - {scale: 1}\n").find("'name' is missing"),
             std::string::npos);
   expectInputError("shapes: [ {name: a\n");  // not YAML
+
+  // Session 30: a FIFO as a shape file hung the tool in open(); a directory was an empty document.
+  const std::string dir =
+      (std::filesystem::temp_directory_path() / ("sag_shapes_" + std::to_string(::getpid())))
+          .string();
+  std::filesystem::create_directories(dir);
+  ASSERT_EQ(::mkfifo((dir + "/fifo.yaml").c_str(), 0600), 0);
+  EXPECT_EQ(sag_test::inputErrorOf([&] { resolveHandShape(dir + "/fifo.yaml", kConfig); }),
+            "hand shapes " + dir + "/fifo.yaml: is not a regular file");
+  EXPECT_EQ(sag_test::inputErrorOf([&] { loadHandShapes(dir); }),
+            "hand shapes " + dir + ": is a directory, not a file");
+  std::filesystem::remove_all(dir);
 }
 
 // ---- bare forearm -----------------------------------------------------------------------------

@@ -28,8 +28,9 @@ const std::string& nextOptionValue(const std::vector<std::string>& args, size_t*
 // (two --out, two --bag). Every tool's parser calls it first.
 void rejectRepeatedOptions(const std::vector<std::string>& args);
 
-// `text` as an integer in [min_value, 1000000]; else UsageError
-// "<option> expects an integer >= <min_value>, got '<text>'".
+// `text` as an integer in [min_value, 1000000] (no leading white space); else UsageError
+// "<option> expects an integer >= <min_value>, got '<text>'", or "<option> expects an integer of
+// at most 1000000, got '<text>'" above the limit.
 int parseIntOption(const std::string& option, const std::string& text, int min_value);
 // A finite number within [min_value, max_value]; UsageError naming the option otherwise.
 double parseDoubleOption(const std::string& option, const std::string& text, double min_value,

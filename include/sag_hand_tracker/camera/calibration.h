@@ -61,7 +61,9 @@ void saveCameraCalibration(const std::string& path, const Camera& camera);
 
 // Reads a rig file and every calibration file it names. Throws InputError naming the file (the
 // rig or a camera's calibration file), the line where there is one, and the problem.
-CameraRig loadCameraRig(const std::string& path);
+// `calibration_files`, when given, receives the paths of the calibration files read.
+CameraRig loadCameraRig(const std::string& path,
+                        std::vector<std::string>* calibration_files = nullptr);
 // Parses a rig document; `load_calibration` reads the calibration file a camera names (as
 // written in the rig). loadCameraRig resolves it relative to the rig file. Camera names must be
 // safe as topic and frame names, camera centres at least kMinCameraSeparation apart.

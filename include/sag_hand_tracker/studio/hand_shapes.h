@@ -48,6 +48,9 @@ std::string handShapesPath(const std::string& config_dir);
 // the file), or a file in the same format holding exactly one shape. Throws InputError naming the
 // known shapes when the name is unknown.
 StudioHand resolveHandShape(const std::string& name_or_file, const std::string& config_dir);
+// The file resolveHandShape reads for `name_or_file`: that file, or the config's hand shapes file
+// for a name (an input that no output may replace).
+std::string handShapeFile(const std::string& name_or_file, const std::string& config_dir);
 
 // The names in `<config_dir>/hand_shapes.yaml`, in file order.
 std::vector<std::string> handShapeNames(const std::string& config_dir);
