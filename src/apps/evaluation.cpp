@@ -957,6 +957,14 @@ void writePlots(const std::string& dir, const BenchmarkResults& results,
   }
 }
 
+// Throws UsageError "<option> names '<name>' twice" for the first name that `names` holds twice.
+void rejectNamesGivenTwice(const std::string& option, const std::vector<std::string>& names) {
+  std::set<std::string> seen;
+  for (const std::string& name : names) {
+    if (!seen.insert(name).second) throw UsageError(option + " names '" + name + "' twice");
+  }
+}
+
 }  // namespace
 
 const std::vector<std::string>& benchmarkSequences() {
@@ -1091,52 +1099,36 @@ BenchmarkOptions parseBenchmarkArguments(const std::vector<std::string>& args) {
   }
   if (options.sequences.empty() && !options.rooms.empty()) options.sequences = {"adbadd", "pinch"};
   if (options.sequences.empty()) options.sequences = benchmarkSequences();
-  std::set<std::string> labels;
-  for (const std::string& model : options.models) {
-    if (!labels.insert(trackerLabel(model)).second) {
-      throw UsageError("--models names '" + trackerLabel(model) + "' twice");
-    }
-  }
-  {
-    std::set<std::string> shapes;
-    for (const std::string& shape : options.shapes) {
-      if (!shapes.insert(shape).second) throw UsageError("--shapes names '" + shape + "' twice");
-    }
-  }
+  std::vector<std::string> labels;
+  for (const std::string& model : options.models) labels.push_back(trackerLabel(model));
+  rejectNamesGivenTwice("--models", labels);
+  rejectNamesGivenTwice("--shapes", options.shapes);
   // A sequence, room or run named twice was run twice: its bags and tracks are named after the
   // sequence's file name (pinch and motions/pinch.yaml are one), its rows doubled in the tables.
-  {
-    std::set<std::string> sequences;
-    for (const std::string& sequence : options.sequences) {
-      const std::string stem = fs::path(sequence).stem().string();
-      if (!sequences.insert(stem).second) {
-        throw UsageError("--sequences names '" + stem + "' twice");
-      }
-    }
-    std::set<std::string> rooms;
-    for (const std::string& room : options.rooms) {
-      const std::vector<std::string> names =
-          room == "all" ? studio::builtinRoomNames() : std::vector<std::string>{room};
-      for (const std::string& name : names) {
-        if (!rooms.insert(name).second) throw UsageError("--rooms names '" + name + "' twice");
-      }
-    }
-    std::set<std::string> configs;
-    for (const std::string& config : options.room_configs) {
-      if (!configs.insert(config).second) {
-        throw UsageError("--room-configs names '" + config + "' twice");
-      }
+  std::vector<std::string> sequence_stems;
+  for (const std::string& sequence : options.sequences) {
+    sequence_stems.push_back(fs::path(sequence).stem().string());
+  }
+  rejectNamesGivenTwice("--sequences", sequence_stems);
+  std::vector<std::string> rooms;
+  for (const std::string& room : options.rooms) {
+    if (room == "all") {
+      for (const std::string& name : studio::builtinRoomNames()) rooms.push_back(name);
+    } else {
+      rooms.push_back(room);
     }
   }
+  rejectNamesGivenTwice("--rooms", rooms);
+  rejectNamesGivenTwice("--room-configs", options.room_configs);
   if (options.frames > 0 && options.frames <= 10) {
     throw UsageError("--frames must be more than the 10 frames without the hand");
   }
   if (options.fitted) {
-    if (labels.count(kFittedTracker)) {
+    if (std::count(labels.begin(), labels.end(), kFittedTracker) > 0) {
       throw UsageError(std::string("--fitted labels its runs '") + kFittedTracker +
                        "': a model of --models has that name");
     }
-    if (!labels.count("sag")) {
+    if (std::count(labels.begin(), labels.end(), "sag") == 0) {
       throw UsageError(
           "--fitted compares with SAG's default model, the fit's start: --models "
           "must include sag");

@@ -11,7 +11,6 @@
 #include <memory>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <regex>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -21,6 +20,7 @@
 #include "sag_hand_tracker/apps/csv.h"
 #include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/model/hand_model.h"
+#include "sag_hand_tracker/ros/bag_input.h"
 #include "sag_hand_tracker/ros/conversions.h"
 #include "sag_hand_tracker/studio/hand_shapes.h"
 #include "sag_hand_tracker/studio/motion.h"
@@ -331,11 +331,8 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
   // A bag's cameras are /cam<i>/image_raw, i < 64 (the bag reader's topics): a rig camera named
   // otherwise ('left') was written on a topic that track_bag and calibrate_hand pass over, and
   // they tracked the other cameras without a word.
-  static const std::regex bag_camera_name("^cam(0|[1-9][0-9]?)$");
   for (const Camera& camera : rig.cameras) {
-    std::smatch number;
-    if (!std::regex_match(camera.name, number, bag_camera_name) ||
-        std::stoi(number[1].str()) >= kMaxCameras) {
+    if (!isBagCameraName(camera.name)) {
       throw InputError("--rig " + options.rig + ": camera '" + camera.name +
                        "' is not named as a bag's cameras are (cam0 ... cam" +
                        std::to_string(kMaxCameras - 1) + ", their images on /cam<i>/image_raw); " +

@@ -1072,6 +1072,13 @@ BagReader& BagReader::operator=(BagReader&&) noexcept = default;
 const std::string& BagReader::path() const { return impl_->path; }
 const std::string& BagReader::rootFrame() const { return impl_->root_frame; }
 const std::vector<Camera>& BagReader::cameras() const { return impl_->cameras; }
+bool isBagCameraName(const std::string& name) {
+  for (int id = 0; id < kMaxCameras; ++id) {
+    if (name == cameraName(id)) return true;
+  }
+  return false;
+}
+
 const std::vector<int>& BagReader::cameraIds() const { return impl_->ids; }
 const BagReaderStatistics& BagReader::statistics() const { return impl_->stats; }
 

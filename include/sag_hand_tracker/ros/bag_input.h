@@ -99,6 +99,11 @@ std::string stampFailure(const BagReaderStatistics& stats, long sets,
 // (calibrate_hand) refuses them.
 bool camerasOutOfStep(const BagReaderStatistics& stats, long sets);
 
+// Whether BagReader reads the images of a camera of this name: cam<i>, i < kMaxCameras, written
+// as the reader looks it up (no leading zeros). A bag writer's other names go on topics the
+// reader passes over.
+bool isBagCameraName(const std::string& name);
+
 class BagReader {
  public:
   // Opens the bag, finds the cameras, reads their calibration and extrinsics and checks the first
