@@ -538,6 +538,14 @@ std::string report(const BenchmarkOptions& options, const BenchmarkResults& resu
         "**roll %**: tracked frames whose back-of-hand normal is more than 90 deg from the "
         "truth's (rolled over); **wrist**: mean wrist (root position) error of the tracked frames "
         "(mm).\n\n";
+  // Hands drawn at random are known by their seed only: say what was drawn.
+  bool drawn = false;
+  for (size_t h = 0; h < results.shapes.size() && h < results.shape_descriptions.size(); ++h) {
+    if (studio::drawnHandSeed(results.shapes[h]) < 0) continue;
+    md << "- `" << results.shapes[h] << "`: " << results.shape_descriptions[h] << "\n";
+    drawn = true;
+  }
+  if (drawn) md << "\n";
 
   // Error tables: one row per selection of runs, the columns of every tracker.
   std::vector<std::string> columns{"frames"};
@@ -989,8 +997,11 @@ Options:
   --sequences a,b,..   sequences (names or motion files; default: adbadd fingercount fingerwave
                        flexex1 pinch random tigergrasp raised pronation wristflex fastturn
                        natural)
-  --shapes a,b,..      rendered hands from config/hand_shapes.yaml (default: all of them); the
-                       trackers keep their default models
+  --shapes a,b,..      rendered hands from config/hand_shapes.yaml (default: all of them), or
+                       drawn<N>: a hand drawn at random with seed N; the trackers keep their
+                       default models
+  --drawn-hands N      also the hands drawn1..drawnN (without --shapes: only those): hands no
+                       setting was tuned on
   --camera-counts      also track every combination of 2..N of the N cameras, on the Dexter 1
                        sequences but random, on the default hand (Figure 6)
   --frames N           render N frames per sequence, the first 10 without the hand (full length)
@@ -1035,6 +1046,8 @@ BenchmarkOptions parseBenchmarkArguments(const std::vector<std::string>& args) {
       options.sequences = parseListOption(arg, value());
     } else if (arg == "--shapes") {
       options.shapes = parseListOption(arg, value());
+    } else if (arg == "--drawn-hands") {
+      options.drawn_hands = parseIntOption(arg, value(), 1);
     } else if (arg == "--discard-bags") {
       options.discard_bags = true;
     } else if (arg == "--camera-counts") {
@@ -1090,7 +1103,7 @@ BenchmarkOptions parseBenchmarkArguments(const std::vector<std::string>& args) {
     throw UsageError("--room-configs selects runs of --rooms; give --rooms too");
   }
   if (!options.rooms.empty()) {
-    for (const std::string option : {"--shapes", "--camera-counts", "--csv"}) {
+    for (const std::string option : {"--shapes", "--drawn-hands", "--camera-counts", "--csv"}) {
       if (given(option)) {
         throw UsageError(option + " is not used with --rooms (the rooms run the default hand " +
                          "and write rooms.md)");
@@ -1102,6 +1115,9 @@ BenchmarkOptions parseBenchmarkArguments(const std::vector<std::string>& args) {
   std::vector<std::string> labels;
   for (const std::string& model : options.models) labels.push_back(trackerLabel(model));
   rejectNamesGivenTwice("--models", labels);
+  for (int seed = 1; seed <= options.drawn_hands; ++seed) {
+    options.shapes.push_back("drawn" + std::to_string(seed));
+  }
   rejectNamesGivenTwice("--shapes", options.shapes);
   // A sequence, room or run named twice was run twice: its bags and tracks are named after the
   // sequence's file name (pinch and motions/pinch.yaml are one), its rows doubled in the tables.
@@ -1334,7 +1350,10 @@ BenchmarkResults runBenchmark(const BenchmarkOptions& options, std::ostream& log
       }
     }
   }
-  for (const studio::StudioHand& hand : hands) results.shapes.push_back(hand.name);
+  for (const studio::StudioHand& hand : hands) {
+    results.shapes.push_back(hand.name);
+    results.shape_descriptions.push_back(hand.description);
+  }
   for (const std::string& sequence : options.sequences) {
     results.sequences.push_back(fs::path(sequence).stem().string());
   }

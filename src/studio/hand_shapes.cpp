@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <set>
 #include <sstream>
 
@@ -104,6 +105,10 @@ class ShapeParser {
                                "' may hold only letters, digits and '_' (it names files)");
       }
     }
+    if (drawnHandSeed(hand.name) >= 0) {
+      fail(node["name"], where + ": name '" + hand.name +
+                             "' is reserved for the hands drawn at random (drawn<N>)");
+    }
     const std::string what = "shape '" + hand.name + "'";
     if (node["description"]) hand.description = node["description"].as<std::string>();
     HandShape& shape = hand.shape;
@@ -144,6 +149,12 @@ class ShapeParser {
  private:
   std::string source_;
 };
+
+// Uniform in [lo, hi) from the generator's raw 64 bits (std::uniform_real_distribution is not
+// the same on every standard library; the drawn hands must be).
+double uniform(std::mt19937_64& rng, double lo, double hi) {
+  return lo + (hi - lo) * static_cast<double>(rng() >> 11) * 0x1.0p-53;
+}
 
 bool looksLikeFile(const std::string& text) {
   return text.find('/') != std::string::npos || text.find('.') != std::string::npos;
@@ -194,7 +205,77 @@ std::string handShapeFile(const std::string& name_or_file, const std::string& co
   return looksLikeFile(name_or_file) ? name_or_file : handShapesPath(config_dir);
 }
 
+int drawnHandSeed(const std::string& name) {
+  static const std::string prefix = "drawn";
+  if (name.size() <= prefix.size() || name.size() > prefix.size() + 7 ||
+      name.compare(0, prefix.size(), prefix) != 0) {
+    return -1;
+  }
+  const std::string digits = name.substr(prefix.size());
+  if (digits.size() > 1 && digits[0] == '0') return -1;
+  for (char c : digits) {
+    if (!std::isdigit(static_cast<unsigned char>(c))) return -1;
+  }
+  const int seed = std::stoi(digits);
+  return seed <= kMaxDrawnHandSeed ? seed : -1;
+}
+
+StudioHand drawHandShape(int seed, const std::vector<SkinAlbedo>& skin_tones) {
+  if (seed < 0 || seed > kMaxDrawnHandSeed) {
+    throw InputError("drawn hand seed " + std::to_string(seed) + " is outside 0.." +
+                     std::to_string(kMaxDrawnHandSeed));
+  }
+  std::mt19937_64 rng(0x5A6D4A11u + 0x9E3779B97F4A7C15ull * static_cast<uint64_t>(seed));
+  StudioHand hand;
+  hand.name = "drawn" + std::to_string(seed);
+  HandShape& shape = hand.shape;
+  shape.scale = uniform(rng, 0.9, 1.1);
+  for (double& length : shape.finger_length) length = uniform(rng, 0.95, 1.05);
+  // Phalanx proportions: t = 0 the model's, 1 long_distal's (config/hand_shapes.yaml).
+  const double t = uniform(rng, -0.3, 1.0);
+  for (int f = 0; f < kNumFingers; ++f) {
+    const bool thumb = f == 0;
+    const std::array<double, 3> towards =
+        thumb ? std::array<double, 3>{{0.0, -0.15, 0.35}} : std::array<double, 3>{{-0.2, 0.0, 0.5}};
+    for (int k = 0; k < 3; ++k) {
+      shape.phalanx_length[f][k] = (1.0 + t * towards[k]) * uniform(rng, 0.95, 1.05);
+    }
+  }
+  shape.palm_width = uniform(rng, 0.9, 1.1);
+  shape.palm_length = uniform(rng, 0.9, 1.1);
+  shape.thickness = uniform(rng, 0.8, 1.2);
+  std::ostringstream description;
+  description.precision(2);
+  description << std::fixed << "drawn with seed " << seed << ": size " << shape.scale
+              << ", phalanx proportions t " << t << ", palm " << shape.palm_width << " wide and "
+              << shape.palm_length << " long, thickness " << shape.thickness;
+  if (!skin_tones.empty()) {
+    const size_t a = rng() % skin_tones.size(), b = rng() % skin_tones.size();
+    const float w = static_cast<float>(uniform(rng, 0.0, 1.0));
+    const auto mix = [&](const Eigen::Vector3f SkinAlbedo::*albedo) {
+      return ((1.0f - w) * (skin_tones[a].*albedo) + w * (skin_tones[b].*albedo)).eval();
+    };
+    hand.skin.dorsal = mix(&SkinAlbedo::dorsal);
+    hand.skin.palmar = mix(&SkinAlbedo::palmar);
+    hand.skin.nail = mix(&SkinAlbedo::nail);
+    description << ", skin dorsal [" << hand.skin.dorsal.x() << ", " << hand.skin.dorsal.y() << ", "
+                << hand.skin.dorsal.z() << "]";
+  }
+  hand.description = description.str();
+  return hand;
+}
+
 StudioHand resolveHandShape(const std::string& name_or_file, const std::string& config_dir) {
+  if (const int seed = drawnHandSeed(name_or_file); seed >= 0) {
+    // The config's skin tones, when it has its hands file.
+    std::vector<SkinAlbedo> tones;
+    const std::string path = handShapesPath(config_dir);
+    std::error_code error;
+    if (std::filesystem::exists(path, error)) {
+      for (const StudioHand& hand : loadHandShapes(path)) tones.push_back(hand.skin);
+    }
+    return drawHandShape(seed, tones);
+  }
   if (looksLikeFile(name_or_file)) {
     const std::vector<StudioHand> hands = loadHandShapes(name_or_file);
     if (hands.size() != 1) {
@@ -213,7 +294,7 @@ StudioHand resolveHandShape(const std::string& name_or_file, const std::string& 
   }
   if (name_or_file == "default") return StudioHand();
   throw InputError("no hand shape '" + name_or_file + "' in " + path + " (known: " + known +
-                   "; or give a shape file)");
+                   "; drawn<N> for a hand drawn at random with seed N; or give a shape file)");
 }
 
 }  // namespace studio

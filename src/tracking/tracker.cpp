@@ -175,14 +175,26 @@ Eigen::Matrix3d boundedRotation(const Eigen::Matrix3d& reference, const Eigen::M
 
 RedetectionChoice chooseRedetection(const OptimizationResult& tracked,
                                     const std::vector<OptimizationResult>& candidates,
-                                    const TrackerParams& params, bool carrying) {
+                                    const TrackerParams& params, bool carrying,
+                                    const std::vector<Eigen::Matrix3d>& recent) {
   RedetectionChoice choice;
   for (size_t i = 0; i < candidates.size(); ++i) {
     const OptimizationResult& candidate = candidates[i];
-    const bool flip = isFlip(candidate.pose.rotation, tracked.pose.rotation);
+    bool flip = isFlip(candidate.pose.rotation, tracked.pose.rotation);
+    // A flip of the track that returns to where the track was before it turned over.
+    bool returning = false;
+    if (flip) {
+      for (const Eigen::Matrix3d& before : recent) {
+        if (isFlip(tracked.pose.rotation, before) && !isFlip(candidate.pose.rotation, before)) {
+          returning = true;
+          break;
+        }
+      }
+    }
+    if (returning) flip = false;
     // A large turn that is no flip still needs the flip's margin.
     const bool turned =
-        params.redetect_turn_angle > 0.0 &&
+        !returning && params.redetect_turn_angle > 0.0 &&
         rotationAngle(candidate.pose.rotation, tracked.pose.rotation) > params.redetect_turn_angle;
     const double margin =
         turned ? std::max(params.flip_margin, params.redetect_margin) : params.redetect_margin;
@@ -296,8 +308,9 @@ bool HandTracker::sameTrackState(const TrackState& a, const TrackState& b) {
          a.arm_reversed_streak == b.arm_reversed_streak && a.forearm_present == b.forearm_present &&
          sameVector(a.forearm, b.forearm) &&
          sameVector(a.alternative_forearm, b.alternative_forearm) &&
-         a.tracked_streak == b.tracked_streak && a.colour_samples == b.colour_samples &&
-         a.colour_statistics == b.colour_statistics && a.colours == b.colours;
+         a.recent_rotations == b.recent_rotations && a.tracked_streak == b.tracked_streak &&
+         a.colour_samples == b.colour_samples && a.colour_statistics == b.colour_statistics &&
+         a.colours == b.colours;
 }
 
 // A set the frame path has stepped, for the worker.
@@ -426,6 +439,7 @@ HandTracker::TrackState HandTracker::trackState() const {
   state.forearm_present = forearm_present_;
   state.forearm = forearm_;
   state.alternative_forearm = alternative_forearm_;
+  state.recent_rotations = recent_rotations_;
   state.tracked_streak = tracked_streak_;
   state.colour_samples = colour_samples_;
   state.colour_statistics = colour_statistics_;
@@ -444,6 +458,7 @@ void HandTracker::setTrackState(const TrackState& state) {
   forearm_present_ = state.forearm_present;
   forearm_ = state.forearm;
   alternative_forearm_ = state.alternative_forearm;
+  recent_rotations_ = state.recent_rotations;
   tracked_streak_ = state.tracked_streak;
   colour_samples_ = state.colour_samples;
   colour_statistics_ = state.colour_statistics;
@@ -1069,8 +1084,8 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
           arm_reversed_streak_ = 0;
         }
       } else {
-        const RedetectionChoice choice =
-            chooseRedetection(*optimized, restart, params_, alternative_.has_value());
+        const RedetectionChoice choice = chooseRedetection(
+            *optimized, restart, params_, alternative_.has_value(), recent_rotations_);
         if (choice.adopt >= 0) {
           // The adopted pose is of about the track's orientation: it goes on with the track's
           // motion (a hand in a fast turn keeps turning; reset, the track stopped while the hand
@@ -1137,6 +1152,18 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
       lost_ ? TrackStatus::kLost : (started ? TrackStatus::kStarted : TrackStatus::kTracking);
 
   frames_since_start_ = started ? 0 : frames_since_start_ + 1;
+  // The orientations a flip may return to (TrackerParams::flip_return_frames).
+  if (started || flipped) recent_rotations_.clear();
+  if (params_.flip_return_frames > 0) {
+    recent_rotations_.push_back(optimized->pose.rotation);
+    const size_t kept = static_cast<size_t>(params_.flip_return_frames);
+    if (recent_rotations_.size() > kept) {
+      recent_rotations_.erase(recent_rotations_.begin(),
+                              recent_rotations_.end() - static_cast<std::ptrdiff_t>(kept));
+    }
+  } else {
+    recent_rotations_.clear();
+  }
   // A (re)start or a flip breaks the motion history: do not extrapolate across it. A
   // re-detection adopted in place of the track keeps the track's motion.
   previous_ = kept_motion ? kept_motion : (started || flipped) ? std::optional<Pose>() : current_;

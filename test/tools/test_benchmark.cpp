@@ -23,7 +23,9 @@
 #include "sag_hand_tracker/apps/evaluation.h"
 #include "sag_hand_tracker/apps/metrics.h"
 #include "sag_hand_tracker/model/hand_model.h"
+#include "sag_hand_tracker/model/kinematics.h"
 #include "sag_hand_tracker/model/pose.h"
+#include "sag_hand_tracker/studio/hand_shapes.h"
 #include "sag_hand_tracker/util/types.h"
 
 using namespace sag_hand_tracker;
@@ -121,6 +123,14 @@ TEST(BenchmarkArguments, BenchmarkParsesOptionsAndRejectsBadOnes) {
   EXPECT_EQ(shaped.shapes, (std::vector<std::string>{"default", "stocky"}));
   EXPECT_TRUE(shaped.discard_bags);
   EXPECT_THROW(parseBenchmarkArguments({"--shapes", "stocky,stocky"}), UsageError);
+  // Hands drawn at random: alone, or after the named ones; a drawn hand named twice is refused.
+  EXPECT_EQ(parseBenchmarkArguments({"--drawn-hands", "3"}).shapes,
+            (std::vector<std::string>{"drawn1", "drawn2", "drawn3"}));
+  EXPECT_EQ(parseBenchmarkArguments({"--shapes", "default", "--drawn-hands", "1"}).shapes,
+            (std::vector<std::string>{"default", "drawn1"}));
+  EXPECT_THROW(parseBenchmarkArguments({"--shapes", "drawn2", "--drawn-hands", "2"}), UsageError);
+  EXPECT_THROW(parseBenchmarkArguments({"--drawn-hands", "0"}), UsageError);
+  EXPECT_THROW(parseBenchmarkArguments({"--rooms", "office", "--drawn-hands", "2"}), UsageError);
   EXPECT_THROW(parseBenchmarkArguments({"--shapes", ""}), UsageError);
 
   EXPECT_THROW(parseBenchmarkArguments({"--frames", "0"}), UsageError);
@@ -548,6 +558,34 @@ TEST_F(BenchmarkTool, BenchmarkReportsPerHandShapeAndPooled) {
   std::ostringstream bad;
   EXPECT_THROW(runBenchmark(options("--shapes no_such_hand --models sag --no-plots"), bad),
                InputError);
+}
+
+// A hand drawn at random (--drawn-hands): rendered, tracked and reported with what was drawn.
+TEST_F(BenchmarkTool, BenchmarkRendersAndDescribesDrawnHands) {
+  std::ostringstream log;
+  const BenchmarkResults results =
+      runBenchmark(options("--drawn-hands 1 --models sag --frames 14 --discard-bags"), log);
+  EXPECT_EQ(results.shapes, (std::vector<std::string>{"default", "drawn1"}));  // the fixture's
+  ASSERT_EQ(results.runs.size(), 2u);
+  EXPECT_EQ(results.markdown.find("- `default`"), std::string::npos);  // described: drawn only
+  EXPECT_NE(log.str().find("rendered fingerwave (hand drawn1)"), std::string::npos) << log.str();
+  const std::string described = "- `drawn1`: drawn with seed 1: size ";
+  EXPECT_NE(results.markdown.find(described), std::string::npos) << results.markdown;
+  // The ground truth's fingertips are the drawn hand's at the motion's pose, not the model's.
+  const TrackingCsv gt = readTrackingCsv((dir_ / "bags" / "fingerwave__drawn1_gt.csv").string());
+  ASSERT_FALSE(gt.rows.empty());
+  const HandModel model = loadHandModel(kConfig + "/hand_sag_right.yaml");
+  const HandModel drawn =
+      studio::shapeHandModel(model, studio::resolveHandShape("drawn1", kConfig).shape);
+  const TrackingCsvRow& row = gt.rows.back();
+  const Pose pose = Pose::fromVector(row.parameters);
+  const Fingertips on_drawn = fingertips(drawn, pose), on_model = fingertips(model, pose);
+  double off_model = 0.0;
+  for (int f = 0; f < kNumFingers; ++f) {
+    EXPECT_LT((on_drawn[f] - row.fingertips[f]).norm(), 1e-5) << f;
+    off_model = std::max(off_model, (on_model[f] - row.fingertips[f]).norm());
+  }
+  EXPECT_GT(off_model, 0.002);
 }
 
 TEST(BenchmarkArguments, BenchmarkParsesTheFittedOptions) {

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <map>
 #include <opencv2/core.hpp>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -315,6 +316,73 @@ TEST(StudioShapes, ResolvesNamesAndFilesAndRejectsBadOnes) {
   EXPECT_EQ(sag_test::inputErrorOf([&] { loadHandShapes(dir); }),
             "hand shapes " + dir + ": is a directory, not a file");
   std::filesystem::remove_all(dir);
+}
+
+// Hands drawn at random (drawn<N>): the same name gives the same hand, other seeds other hands,
+// every one within the config's envelope (size, fingers, phalanx proportions between the model's
+// and a little past long_distal's, palm, thickness) and its skin between the config's tones.
+TEST(StudioShapes, DrawnHandsAreReproducibleDistinctAndWithinTheEnvelope) {
+  EXPECT_EQ(drawnHandSeed("drawn7"), 7);
+  EXPECT_EQ(drawnHandSeed("drawn0"), 0);
+  EXPECT_EQ(drawnHandSeed("drawn1000000"), kMaxDrawnHandSeed);
+  for (const char* not_drawn : {"drawn", "drawn007", "drawn1000001", "drawn12345678", "drawn-1",
+                                "drawn3a", "Drawn3", "xdrawn3", "default"}) {
+    EXPECT_EQ(drawnHandSeed(not_drawn), -1) << not_drawn;
+  }
+  std::vector<SkinAlbedo> tones;
+  for (const StudioHand& hand : configHands()) tones.push_back(hand.skin);
+  Eigen::Vector3f lightest = tones.front().dorsal, darkest = tones.front().dorsal;
+  for (const SkinAlbedo& tone : tones) {
+    lightest = lightest.cwiseMax(tone.dorsal);
+    darkest = darkest.cwiseMin(tone.dorsal);
+  }
+  std::set<double> scales;
+  double min_distal = 10.0, max_distal = 0.0;
+  for (int seed = 0; seed < 200; ++seed) {
+    SCOPED_TRACE(seed);
+    const StudioHand hand = drawHandShape(seed, tones);
+    EXPECT_EQ(hand.name, "drawn" + std::to_string(seed));
+    const HandShape& s = hand.shape;
+    scales.insert(s.scale);
+    EXPECT_GE(s.scale, 0.9);
+    EXPECT_LT(s.scale, 1.1);
+    EXPECT_GE(s.scale * s.palm_width, 0.81);
+    EXPECT_LE(s.scale * s.palm_width, 1.21);
+    EXPECT_GE(s.thickness, 0.8);
+    EXPECT_LT(s.thickness, 1.2);
+    for (int f = 1; f < kNumFingers; ++f) {
+      const double proximal = s.phalanx_length[f][0], distal = s.phalanx_length[f][2];
+      EXPECT_GE(proximal, 0.8 * 0.95 - 1e-12);
+      EXPECT_LE(proximal, 1.06 * 1.05 + 1e-12);
+      EXPECT_GE(distal, 0.85 * 0.95 - 1e-12);
+      EXPECT_LE(distal, 1.5 * 1.05 + 1e-12);
+      min_distal = std::min(min_distal, distal);
+      max_distal = std::max(max_distal, distal);
+    }
+    EXPECT_TRUE((hand.skin.dorsal.array() <= lightest.array() + 1e-6f).all());
+    EXPECT_TRUE((hand.skin.dorsal.array() >= darkest.array() - 1e-6f).all());
+    // The same seed, the same hand.
+    const StudioHand again = drawHandShape(seed, tones);
+    EXPECT_EQ(again.shape.phalanx_length, s.phalanx_length);
+    EXPECT_EQ(again.shape.finger_length, s.finger_length);
+    EXPECT_EQ(again.skin.dorsal, hand.skin.dorsal);
+    EXPECT_EQ(again.description, hand.description);
+  }
+  EXPECT_EQ(scales.size(), 200u);  // other seeds, other hands
+  EXPECT_LT(min_distal, 0.95);     // shorter distal phalanges than the model's, and
+  EXPECT_GT(max_distal, 1.4);      // long_distal's
+  // The figures of one hand, so that a change of the drawing shows (the hands of a run stay
+  // comparable only if drawn<N> stays the same hand).
+  const StudioHand seven = drawHandShape(7, tones);
+  EXPECT_EQ(seven.description, resolveHandShape("drawn7", kConfig).description);
+  EXPECT_EQ(seven.description.rfind("drawn with seed 7: size ", 0), 0u) << seven.description;
+  // Without the config's tones, the default skin.
+  EXPECT_EQ(drawHandShape(7, {}).skin.dorsal, SkinAlbedo().dorsal);
+  EXPECT_THROW(drawHandShape(-1, tones), InputError);
+  EXPECT_THROW(drawHandShape(kMaxDrawnHandSeed + 1, tones), InputError);
+  // A config shape may not take a drawn hand's name.
+  EXPECT_NE(expectInputError("shapes:\n  - {name: drawn5}\n").find("reserved"), std::string::npos);
+  EXPECT_NO_THROW(parseHandShapes("shapes:\n  - {name: drawn05}\n", "t"));  // not a drawn name
 }
 
 // ---- bare forearm -----------------------------------------------------------------------------

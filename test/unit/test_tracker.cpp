@@ -288,6 +288,45 @@ TEST(TrackerOrientation, RedetectionNeedsTheFlipMarginForALargeTurn) {
   EXPECT_EQ(chooseRedetection(tracked, {resultWith(large, small_gain)}, params, false).adopt, 0);
 }
 
+// A flip back (TrackerParams::flip_return_frames): the track turned over within its recent
+// frames, and the candidate is where the track was before that. It is adopted on redetect_margin,
+// though it is a flip of the track and turned far from it; a flip of where the track was, or a
+// flip of a track that did not turn over, is still only carried.
+TEST(TrackerOrientation, RedetectionTakesAFlipBackToWhereTheTrackWas) {
+  TrackerParams params;
+  ASSERT_GT(params.flip_return_frames, 0);
+  const Eigen::Matrix3d before = rotationFromVector(Eigen::Vector3d(0.1, 0.2, 0.3));
+  const Eigen::Matrix3d now = rolledOver(before);  // the track rolled over since
+  const OptimizationResult tracked = resultWith(now, 0.80);
+  const Eigen::Matrix3d back =
+      before * Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  ASSERT_TRUE(isFlip(back, now));
+  const double small = 0.80 + 0.5 * (params.redetect_margin + params.flip_margin);
+  const std::vector<Eigen::Matrix3d> recent{before, before, now};
+  RedetectionChoice choice =
+      chooseRedetection(tracked, {resultWith(back, small)}, params, false, recent);
+  EXPECT_EQ(choice.adopt, 0);
+  EXPECT_EQ(choice.carry, -1);
+  // Not on less than redetect_margin.
+  choice = chooseRedetection(tracked, {resultWith(back, 0.80 + 0.5 * params.redetect_margin)},
+                             params, false, recent);
+  EXPECT_EQ(choice.adopt, -1);
+  // Without the track's history (or switched off: the tracker passes none), a flip as before.
+  choice = chooseRedetection(tracked, {resultWith(back, 0.95)}, params, false);
+  EXPECT_EQ(choice.adopt, -1);
+  EXPECT_EQ(choice.carry, 0);
+  // A candidate reversed from where the track was is no return: carried, not adopted.
+  choice = chooseRedetection(tracked, {resultWith(reversed(before), 0.95)}, params, false, recent);
+  EXPECT_EQ(choice.adopt, -1);
+  EXPECT_EQ(choice.carry, 0);
+  // A track that has kept its orientation: a flip of it is a flip, whatever the history holds.
+  const OptimizationResult steady = resultWith(before, 0.80);
+  choice = chooseRedetection(steady, {resultWith(rolledOver(before), 0.95)}, params, false,
+                             {before, before});
+  EXPECT_EQ(choice.adopt, -1);
+  EXPECT_EQ(choice.carry, 0);
+}
+
 // The carried flip needs flip_confirm_frames wins (energy above the track's by flip_margin), not
 // necessarily consecutive: a frame above the track by less keeps it without a win; one not above
 // it by flip_keep_margin drops it, and so does reaching flip_max_frames without confirming.

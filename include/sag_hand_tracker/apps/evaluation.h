@@ -42,6 +42,7 @@ namespace sag_hand_tracker {
 struct BenchmarkOptions {
   std::vector<std::string> sequences;  // --sequences a,b (default: benchmarkSequences())
   std::vector<std::string> shapes;     // --shapes a,b (empty: all of hand_shapes.yaml)
+  int drawn_hands = 0;                 // --drawn-hands N: drawn1..drawnN added to `shapes`
   bool discard_bags = false;           // --discard-bags: remove rendered bags once tracked
   bool camera_counts = false;          // --camera-counts: the Figure 6 experiment
   int frames = 0;                      // --frames N rendered per sequence (0: full length)
@@ -148,6 +149,7 @@ struct ShapeFit {
 struct BenchmarkResults {
   std::vector<std::string> sequences;
   std::vector<std::string> shapes;
+  std::vector<std::string> shape_descriptions;  // each shape's (drawn hands: what was drawn)
   std::vector<std::string> trackers;
   int rig_cameras = 0;
   std::vector<BenchmarkRun> runs;         // sequence x tracker, all cameras

@@ -55,5 +55,19 @@ std::string handShapeFile(const std::string& name_or_file, const std::string& co
 // The names in `<config_dir>/hand_shapes.yaml`, in file order.
 std::vector<std::string> handShapeNames(const std::string& config_dir);
 
+// Hands drawn at random, for a test on hands nobody tuned the tracker on (the config's seven are
+// the ones every change was measured on). `drawn<N>` (N in 0..1000000, no leading zeros) names the
+// hand drawn with seed N: the same name gives the same hand on every machine. Within the
+// config's envelope: size 0.9-1.1, each finger 0.95-1.05, phalanx proportions from the model's
+// (t = 0) to long_distal's (t = 1, proximal -20 %, distal +50 %; thumb -15 % / +35 %) with t in
+// [-0.3, 1] and each bone jittered by up to 5 %, palm 0.9-1.1 wide and long, thickness 0.8-1.2,
+// the skin a mix of two of `skin_tones` (the config's hands'; empty: the default skin).
+// resolveHandShape knows these names, so render_bag --shape, benchmark --shapes and
+// calibrate_hand take them; a config shape may not be named so (parseHandShapes).
+constexpr int kMaxDrawnHandSeed = 1000000;
+// The seed of a `drawn<N>` name, or -1 when `name` is not one.
+int drawnHandSeed(const std::string& name);
+StudioHand drawHandShape(int seed, const std::vector<SkinAlbedo>& skin_tones);
+
 }  // namespace studio
 }  // namespace sag_hand_tracker

@@ -82,6 +82,18 @@ struct TrackerParams {
   int flip_confirm_frames = 5;
   double flip_keep_margin = 0.0;
   int flip_max_frames = 15;
+  // A flip back. The guard above protects whatever the track is, also a track that has itself
+  // turned over while following a fast turn (it slid or rolled instead): the true pose is then a
+  // flip of the track and is only carried, and a rolled track scoring within flip_margin of it
+  // kept it out. A re-detection candidate that is a flip of the track but no flip of the track's
+  // own orientation on one of its last `flip_return_frames` frames, while the track is a flip of
+  // that orientation, returns the hand to where the track was before it turned over; it is judged
+  // as no flip (adopted when better by redetect_margin, without redetect_turn_angle's margin).
+  // Since the last start or flip. On the studio's fastturn a drawn hand's track (drawn3) slid off
+  // a roll of 0.3 rad per frame, was reversed for 4 frames and came back 4 frames later; with
+  // 50 it came back on the next re-detection and no frame was reversed; the other 167 + 191 tracks
+  // of the named and 8 drawn hands were byte-identical (doc/history.md "Session 31"). 0 disables.
+  int flip_return_frames = 50;
   // A re-detection candidate turned further than `redetect_turn_angle` (radians) from the track,
   // though no flip, needs flip_margin instead of redetect_margin to be adopted: on the studio's
   // `raised` such a turn of 88 deg, 0.013 better, was the start of a rolled-over stretch. 0
@@ -267,14 +279,17 @@ Eigen::Matrix3d boundedRotation(const Eigen::Matrix3d& reference, const Eigen::M
 // first that is no flip of it, better by redetect_margin), `carry` the flipped candidate that
 // starts being carried as the alternative (the best flip, when it beats the adopted candidate, or
 // else the track, by flip_margin; while one is carried, only together with an adoption, which
-// replaces it); -1: none. A flip is never adopted here, whatever its margin.
+// replaces it); -1: none. A flip is never adopted here, whatever its margin, unless it returns
+// to an orientation of `recent` (the track's last frames, oldest first) of which the track itself
+// is a flip (TrackerParams::flip_return_frames): that one counts as no flip.
 struct RedetectionChoice {
   int adopt = -1;
   int carry = -1;
 };
 RedetectionChoice chooseRedetection(const OptimizationResult& tracked,
                                     const std::vector<OptimizationResult>& candidates,
-                                    const TrackerParams& params, bool carrying);
+                                    const TrackerParams& params, bool carrying,
+                                    const std::vector<Eigen::Matrix3d>& recent = {});
 
 // The carried flip on one frame (TrackerParams::flip_margin): its energy and the track's, both
 // optimised on this frame; `wins` and `frames` (the alternative's counts so far) are updated.
@@ -445,6 +460,7 @@ class HandTracker {
     bool forearm_present = false;
     std::optional<Eigen::Vector3d> forearm;
     std::optional<Eigen::Vector3d> alternative_forearm;
+    std::vector<Eigen::Matrix3d> recent_rotations;
     // TrackerParams::colour_adaptation: tracked frames without a start, flip or alternative; the
     // sampled frames since the colours were last updated; the samples; the model's colours (empty,
     // as in a fresh state: its start colours).
@@ -486,6 +502,8 @@ class HandTracker {
   std::optional<Eigen::Vector3d> forearm_;
   std::optional<Eigen::Vector3d> alternative_forearm_;
   int arm_reversed_streak_ = 0;
+  // The track's orientations over its last frames since a start or flip, oldest first.
+  std::vector<Eigen::Matrix3d> recent_rotations_;
   // TrackerParams::colour_adaptation (TrackState; the learnt colours are model_'s);
   // start_colours_: the model's own.
   int tracked_streak_ = 0;
