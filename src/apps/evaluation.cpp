@@ -517,8 +517,10 @@ std::string report(const BenchmarkOptions& options, const BenchmarkResults& resu
   const auto& trackers = results.trackers;
   const bool several_shapes = results.shapes.size() > 1;
   std::string shape_list;
+  bool drawn_hands = false;
   for (const std::string& shape : results.shapes) {
     shape_list += (shape_list.empty() ? "" : ", ") + ("`" + shape + "`");
+    drawn_hands = drawn_hands || studio::drawnHandSeed(shape) >= 0;
   }
   md << "# Benchmark: SAG against SoG on the synthetic studio\n\n";
   md << "Rig `" << options.rig << "` (" << results.rig_cameras << " cameras), "
@@ -526,7 +528,9 @@ std::string report(const BenchmarkOptions& options, const BenchmarkResults& resu
      << (options.frames > 0 ? std::to_string(options.frames) + " frames per sequence"
                             : std::string("full-length sequences"))
      << "; rendered hand" << (several_shapes ? "s " : " ") << shape_list
-     << " (config/hand_shapes.yaml; the trackers keep their default models"
+     << (drawn_hands ? " (config/hand_shapes.yaml, or drawn at random: listed below"
+                     : " (config/hand_shapes.yaml")
+     << "; the trackers keep their default models"
      << (results.fits.empty() ? ""
                               : "; **SAG fitted**: SAG with the model fitted by calibrate_hand's "
                                 "code to the calibration routine rendered on the same hand")
@@ -539,13 +543,11 @@ std::string report(const BenchmarkOptions& options, const BenchmarkResults& resu
         "truth's (rolled over); **wrist**: mean wrist (root position) error of the tracked frames "
         "(mm).\n\n";
   // Hands drawn at random are known by their seed only: say what was drawn.
-  bool drawn = false;
   for (size_t h = 0; h < results.shapes.size() && h < results.shape_descriptions.size(); ++h) {
     if (studio::drawnHandSeed(results.shapes[h]) < 0) continue;
     md << "- `" << results.shapes[h] << "`: " << results.shape_descriptions[h] << "\n";
-    drawn = true;
   }
-  if (drawn) md << "\n";
+  if (drawn_hands) md << "\n";
 
   // Error tables: one row per selection of runs, the columns of every tracker.
   std::vector<std::string> columns{"frames"};

@@ -571,6 +571,7 @@ TEST_F(BenchmarkTool, BenchmarkRendersAndDescribesDrawnHands) {
   EXPECT_NE(log.str().find("rendered fingerwave (hand drawn1)"), std::string::npos) << log.str();
   const std::string described = "- `drawn1`: drawn with seed 1: size ";
   EXPECT_NE(results.markdown.find(described), std::string::npos) << results.markdown;
+  EXPECT_NE(results.markdown.find("or drawn at random: listed below"), std::string::npos);
   // The ground truth's fingertips are the drawn hand's at the motion's pose, not the model's.
   const TrackingCsv gt = readTrackingCsv((dir_ / "bags" / "fingerwave__drawn1_gt.csv").string());
   ASSERT_FALSE(gt.rows.empty());
