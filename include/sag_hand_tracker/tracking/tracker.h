@@ -91,7 +91,7 @@ struct TrackerParams {
   // as no flip (adopted when better by redetect_margin, without redetect_turn_angle's margin).
   // Since the last start or flip. On the studio's fastturn a drawn hand's track (drawn3) slid off
   // a roll of 0.3 rad per frame, was reversed for 4 frames and came back 4 frames later; with
-  // 50 it came back on the next re-detection and no frame was reversed; the other 167 + 191 tracks
+  // 50 it came back on the next re-detection and no frame was reversed; the other 168 + 191 tracks
   // of the named and 8 drawn hands were byte-identical (doc/history.md "Session 31"). 0 disables.
   int flip_return_frames = 50;
   // A re-detection candidate turned further than `redetect_turn_angle` (radians) from the track,
