@@ -35,10 +35,6 @@ namespace sag_hand_tracker {
 
 const char* const kFittedTracker = "fitted";
 
-namespace {
-
-// A whole text output, written next to `path` and renamed there (atomic_output.h); the
-// benchmark's own files, replaced each run.
 void writeOutputFile(const std::string& path, const std::string& text) {
   AtomicOutputFile file(path, /*overwrite=*/true);
   {
@@ -49,6 +45,8 @@ void writeOutputFile(const std::string& path, const std::string& text) {
   }
   file.commit();
 }
+
+namespace {
 
 namespace fs = std::filesystem;
 
@@ -999,9 +997,9 @@ Options:
   --sequences a,b,..   sequences (names or motion files; default: adbadd fingercount fingerwave
                        flexex1 pinch random tigergrasp raised pronation wristflex fastturn
                        natural)
-  --shapes a,b,..      rendered hands from config/hand_shapes.yaml (default: all of them), or
-                       drawn<N>: a hand drawn at random with seed N; the trackers keep their
-                       default models
+  --shapes a,b,..      rendered hands from config/hand_shapes.yaml (default: all of them; with
+                       --rooms: the default hand), or drawn<N>: a hand drawn at random with
+                       seed N; the trackers keep their default models
   --drawn-hands N      also the hands drawn1..drawnN (without --shapes: only those): hands no
                        setting was tuned on
   --camera-counts      also track every combination of 2..N of the N cameras, on the Dexter 1
@@ -1022,15 +1020,16 @@ Options:
                        on that hand (calibrate_hand's code; DIR/models/<shape>.yaml) and track
                        every sequence of the hand with it: the tracker "fitted" beside SAG with
                        the default model (needs sag among --models); DIR/fitted.csv. With
-                       --rooms: the default hand's model fitted in the clean studio, tracked in
-                       the rooms with its own skin gate and with the generic one
+                       --rooms: each hand's model fitted in the clean studio, tracked in the
+                       rooms with its own skin gate and with the generic one
   --routine-frames N   frames of the rendered calibration routine (its full length, 125)
   --fit-sequence NAME  fit from this motion instead of the routine (with --routine-frames 75:
                        its first 3 s, what calibrate_hand gets from the start of a recording)
-  --rooms a,b|all      the studio rooms (office, kitchen, daylight) against the clean studio:
-                       skin gate and plate, without and with the room cues; foreground precision
-                       and recall, fingertip error; DIR/rooms.md, rooms.csv, rooms/*.png
-                       (sequences: adbadd,pinch unless --sequences)
+  --rooms a,b|all      the studio rooms (office, kitchen, daylight) against the clean studio,
+                       on each hand of --shapes and --drawn-hands: skin gate and plate, without
+                       and with the room cues; foreground precision and recall, fingertip
+                       error; DIR/rooms.md, rooms.csv, rooms/*.png (sequences: adbadd,pinch
+                       unless --sequences)
   --room-configs a,b   the room runs to make (skin, skin+cues, plate, plate+cues; default all)
   --help               this text
 )";
@@ -1105,10 +1104,10 @@ BenchmarkOptions parseBenchmarkArguments(const std::vector<std::string>& args) {
     throw UsageError("--room-configs selects runs of --rooms; give --rooms too");
   }
   if (!options.rooms.empty()) {
-    for (const std::string option : {"--shapes", "--drawn-hands", "--camera-counts", "--csv"}) {
+    for (const std::string option : {"--camera-counts", "--csv"}) {
       if (given(option)) {
-        throw UsageError(option + " is not used with --rooms (the rooms run the default hand " +
-                         "and write rooms.md)");
+        throw UsageError(option + " is not used with --rooms (the rooms write rooms.md and " +
+                         "rooms.csv)");
       }
     }
   }
@@ -1304,6 +1303,28 @@ static void checkBenchmarkInputs(const BenchmarkOptions& options) {
   }
 }
 
+namespace {
+
+// The rendered hands: the asked-for names (drawn<N> or config/hand_shapes.yaml's), or without
+// --shapes all of the config's list (the rooms: its default hand).
+std::vector<studio::StudioHand> benchmarkHands(const BenchmarkOptions& options,
+                                               const std::string& config) {
+  std::vector<std::string> names = options.shapes;
+  if (names.empty() && !options.rooms.empty()) names = {"default"};
+  if (names.empty()) return studio::loadHandShapes(studio::handShapesPath(config));
+  std::vector<studio::StudioHand> hands;
+  for (const std::string& shape : names) {
+    hands.push_back(studio::resolveHandShape(shape, config));
+    if (hands.back().name != shape) {
+      throw InputError("--shapes: the file " + shape + " names its shape '" + hands.back().name +
+                       "'; give the names of config/hand_shapes.yaml");
+    }
+  }
+  return hands;
+}
+
+}  // namespace
+
 BenchmarkResults runBenchmark(const BenchmarkOptions& options, std::ostream& log) {
   const auto start = std::chrono::steady_clock::now();
   BenchmarkResults results;
@@ -1318,18 +1339,22 @@ BenchmarkResults runBenchmark(const BenchmarkOptions& options, std::ostream& log
                        ": cannot create the folder: " + error.message());
     }
   }
+  const std::string config = packageConfigDir(options.config_dir);
   if (!options.rooms.empty()) {
-    // --fitted: the rooms' hand is the default one; its model fitted in the clean studio (a user
-    // who ran calibrate_hand once) brings the user's skin gate into the rooms.
-    std::string fitted_model;
-    if (options.fitted) {
-      const ShapeFit fit = fitShape(
-          options, studio::resolveHandShape("default", packageConfigDir(options.config_dir)), log);
-      if (!fit.ok)
-        throw InputError("--rooms --fitted: the fit on the default hand failed: " + fit.error);
-      fitted_model = fit.model;
+    // --fitted: each hand's model fitted in the clean studio (a user who ran calibrate_hand once)
+    // brings the user's skin gate into the rooms.
+    std::vector<RoomHand> room_hands;
+    for (const studio::StudioHand& hand : benchmarkHands(options, config)) {
+      room_hands.push_back({hand, ""});
+      if (!options.fitted) continue;
+      const ShapeFit fit = fitShape(options, hand, log);
+      if (!fit.ok) {
+        throw InputError("--rooms --fitted: the fit on the hand " + hand.name +
+                         " failed: " + fit.error);
+      }
+      room_hands.back().fitted_model = fit.model;
     }
-    results.markdown = runRoomBenchmark(options, log, fitted_model);
+    results.markdown = runRoomBenchmark(options, room_hands, log);
     results.seconds = secondsSince(start);
     return results;
   }
@@ -1338,20 +1363,7 @@ BenchmarkResults runBenchmark(const BenchmarkOptions& options, std::ostream& log
   const fs::path dir(options.out_dir);
   fs::create_directories(dir / "tracks");
 
-  // The hands: the asked-for names (or all) from the config's list.
-  const std::string config = packageConfigDir(options.config_dir);
-  std::vector<studio::StudioHand> hands;
-  if (options.shapes.empty()) {
-    hands = studio::loadHandShapes(studio::handShapesPath(config));
-  } else {
-    for (const std::string& shape : options.shapes) {
-      hands.push_back(studio::resolveHandShape(shape, config));
-      if (hands.back().name != shape) {
-        throw InputError("--shapes: the file " + shape + " names its shape '" + hands.back().name +
-                         "'; give the names of config/hand_shapes.yaml");
-      }
-    }
-  }
+  const std::vector<studio::StudioHand> hands = benchmarkHands(options, config);
   for (const studio::StudioHand& hand : hands) {
     results.shapes.push_back(hand.name);
     results.shape_descriptions.push_back(hand.description);

@@ -130,7 +130,12 @@ TEST(BenchmarkArguments, BenchmarkParsesOptionsAndRejectsBadOnes) {
             (std::vector<std::string>{"default", "drawn1"}));
   EXPECT_THROW(parseBenchmarkArguments({"--shapes", "drawn2", "--drawn-hands", "2"}), UsageError);
   EXPECT_THROW(parseBenchmarkArguments({"--drawn-hands", "0"}), UsageError);
-  EXPECT_THROW(parseBenchmarkArguments({"--rooms", "office", "--drawn-hands", "2"}), UsageError);
+  // The rooms run on the hands asked for (runRoomBenchmark; without --shapes the default hand).
+  EXPECT_EQ(parseBenchmarkArguments({"--rooms", "office", "--drawn-hands", "2"}).shapes,
+            (std::vector<std::string>{"drawn1", "drawn2"}));
+  EXPECT_EQ(parseBenchmarkArguments({"--rooms", "office", "--shapes", "stocky"}).shapes,
+            (std::vector<std::string>{"stocky"}));
+  EXPECT_TRUE(parseBenchmarkArguments({"--rooms", "office"}).shapes.empty());
   EXPECT_THROW(parseBenchmarkArguments({"--shapes", ""}), UsageError);
 
   EXPECT_THROW(parseBenchmarkArguments({"--frames", "0"}), UsageError);
@@ -205,15 +210,10 @@ TEST_F(BenchmarkTool, BenchmarkChecksItsNamesAndCsvBeforeRendering) {
             "--room-configs names 'skin' twice"},
            // Options the chosen benchmark does not use were ignored without a word.
            {{"--room-configs", "skin"}, "--room-configs selects runs of --rooms; give --rooms too"},
-           {{"--rooms", "office", "--shapes", "stocky"},
-            "--shapes is not used with --rooms (the rooms run the default hand and write "
-            "rooms.md)"},
            {{"--rooms", "office", "--camera-counts"},
-            "--camera-counts is not used with --rooms (the rooms run the default hand and write "
-            "rooms.md)"},
+            "--camera-counts is not used with --rooms (the rooms write rooms.md and rooms.csv)"},
            {{"--rooms", "office", "--csv", "r.csv"},
-            "--csv is not used with --rooms (the rooms run the default hand and write "
-            "rooms.md)"}}) {
+            "--csv is not used with --rooms (the rooms write rooms.md and rooms.csv)"}}) {
     try {
       parseBenchmarkArguments(args);
       ADD_FAILURE() << "no error for " << args[1];
@@ -602,7 +602,7 @@ TEST(BenchmarkArguments, BenchmarkParsesTheFittedOptions) {
   // The fitted runs' label must not be taken by a model file.
   EXPECT_THROW(parseBenchmarkArguments({"--fitted", "--models", "sag,/tmp/fitted.yaml"}),
                UsageError);
-  // With the rooms: the default hand's fitted model beside the --models (runRoomBenchmark).
+  // With the rooms: each hand's fitted model beside the --models (runRoomBenchmark).
   EXPECT_TRUE(parseBenchmarkArguments({"--fitted", "--rooms", "office"}).fitted);
   EXPECT_THROW(parseBenchmarkArguments({"--routine-frames", "0"}), UsageError);
   EXPECT_EQ(plain.fit_sequence, "calibration_routine");
@@ -750,4 +750,43 @@ TEST_F(BenchmarkTool, BenchmarkFittedModelColumnPerHandShape) {
     EXPECT_EQ(row.at("fitted_lower"), "0");
     EXPECT_NE(row.at("error").find("the fit needs 40"), std::string::npos) << row.at("error");
   }
+}
+
+TEST_F(BenchmarkTool, BenchmarkRunsTheRoomsOnEachHand) {
+  std::ostringstream log;
+  const BenchmarkResults results = runBenchmark(
+      options("--rooms office --room-configs skin+cues --models sag --shapes default,dark_small "
+              "--sequences pinch --frames 24"),
+      log);
+  std::vector<std::string> header;
+  const auto rows = readCsv((dir_ / "rooms.csv").string(), &header);
+  EXPECT_NE(std::find(header.begin(), header.end(), "hand"), header.end());
+  // One row per hand and room (the clean studio and the office), each hand rendered as asked.
+  std::map<std::pair<std::string, std::string>, std::map<std::string, std::string>> by_hand_room;
+  for (const auto& row : rows) by_hand_room[{row.at("hand"), row.at("room")}] = row;
+  ASSERT_EQ(rows.size(), 4u) << results.markdown;
+  for (const std::string hand : {"default", "dark_small"}) {
+    for (const std::string room : {"clean", "office"}) {
+      SCOPED_TRACE(hand + " " + room);
+      ASSERT_TRUE(by_hand_room.count({hand, room}));
+      const auto& row = by_hand_room[{hand, room}];
+      EXPECT_EQ(row.at("model"), "SAG");
+      EXPECT_EQ(number(row, "frames"), 14.0);  // 24 rendered, 10 without the hand
+      EXPECT_GT(number(row, "recall"), 0.3);
+      EXPECT_NE(log.str().find("benchmark --rooms: pinch " + hand + " " + room), std::string::npos);
+    }
+  }
+  // Another hand gives other images: not the default hand's run under another name.
+  const auto& dark_clean = by_hand_room[{"dark_small", "clean"}];
+  const auto& default_clean = by_hand_room[{"default", "clean"}];
+  EXPECT_NE(dark_clean.at("recall"), default_clean.at("recall"));
+  EXPECT_NE(dark_clean.at("error_mean_mm"), default_clean.at("error_mean_mm"));
+  // The report names the hands and pools each over the sequences, against its own clean run.
+  for (const char* part :
+       {"Hands: default (", "; dark_small (a small slim hand",
+        "## Per hand, pooled over the sequences", "| dark_small | SAG, skin + cues | ",
+        "| pinch | dark_small | office | SAG | skin | yes |"}) {
+    EXPECT_NE(results.markdown.find(part), std::string::npos) << part << "\n" << results.markdown;
+  }
+  EXPECT_EQ(readText(dir_ / "rooms.md"), results.markdown);
 }

@@ -41,7 +41,7 @@ namespace sag_hand_tracker {
 
 struct BenchmarkOptions {
   std::vector<std::string> sequences;  // --sequences a,b (default: benchmarkSequences())
-  std::vector<std::string> shapes;     // --shapes a,b (empty: all of hand_shapes.yaml)
+  std::vector<std::string> shapes;     // --shapes a,b (empty: hand_shapes.yaml's; --rooms: default)
   int drawn_hands = 0;                 // --drawn-hands N: drawn1..drawnN added to `shapes`
   bool discard_bags = false;           // --discard-bags: remove rendered bags once tracked
   bool camera_counts = false;          // --camera-counts: the Figure 6 experiment
@@ -55,13 +55,13 @@ struct BenchmarkOptions {
   std::string config_dir;  // --config-dir DIR (default: the package's config/)
   bool plots = true;       // --no-plots
   // --rooms office,kitchen,daylight|all: instead of the bags, the studio rooms against the clean
-  // studio (room_benchmark.h); its default sequences are adbadd and pinch.
+  // studio (room_benchmark.h), on each of --shapes; its default sequences are adbadd and pinch.
   std::vector<std::string> rooms;
   // --room-configs a,b: which of the room runs (skin, skin+cues, plate, plate+cues; default all).
   std::vector<std::string> room_configs{"skin", "skin+cues", "plate", "plate+cues"};
   // --fitted: per hand shape, fit the model to the calibration routine rendered on that hand and
   // track with it too (tracker "fitted"); needs "sag" among the models, the default it starts from.
-  // With --rooms: the default hand's fit, tracked in the rooms (runRoomBenchmark's fitted_model).
+  // With --rooms: each hand's fit in the clean studio, tracked in the rooms (runRoomBenchmark).
   bool fitted = false;
   int routine_frames = 0;  // --routine-frames N of the rendered routine (0: its full length)
   // --fit-sequence NAME: fit from this motion rendered on each hand (the first --routine-frames
@@ -70,6 +70,10 @@ struct BenchmarkOptions {
   std::string fit_sequence = "calibration_routine";
   bool help = false;
 };
+
+// A whole text output, written next to `path` and renamed there (atomic_output.h): the
+// benchmark's own files, replaced each run, never half-written.
+void writeOutputFile(const std::string& path, const std::string& text);
 
 // The label of the fitted models' tracker in the tables and CSVs.
 extern const char* const kFittedTracker;
