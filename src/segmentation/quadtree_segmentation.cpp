@@ -388,6 +388,12 @@ void validate(const SegmentationParams& params) {
     fail("room.skin_learning_rate must be in [0, 1]");
   }
   if (r.skin_min_cells < 1) fail("room.skin_min_cells must be >= 1");
+  if (!(r.skin_border_neutral_share >= 0.0 && r.skin_border_neutral_share <= 1.0)) {
+    fail("room.skin_border_neutral_share must be in [0, 1]");
+  }
+  if (!(r.skin_border_neutral_saturation >= 0.0 && r.skin_border_neutral_saturation <= 1.0)) {
+    fail("room.skin_border_neutral_saturation must be in [0, 1]");
+  }
   if (!(r.split_candidate_share >= 0.0 && r.split_candidate_share <= 1.0)) {
     fail("room.split_candidate_share must be in [0, 1]");
   }

@@ -98,25 +98,87 @@ std::vector<float> motionOf(const RoomCueParams& room, const std::vector<float>&
   return motion;
 }
 
+// A surface of little colour: grey, white, black, a dark grey-green table (saturation below
+// `max_saturation`, which is generous because the saturation of dark cells is noisy).
+bool isNeutral(const float* c, double max_saturation) {
+  const double high = std::max({c[0], c[1], c[2]}), low = std::min({c[0], c[1], c[2]});
+  return high <= 0.0 || (high - low) / high < max_saturation;
+}
+
 // Drops the cells farther than skin_max_distance from the learned skin colour (once learned).
-void removeUnlikeLearnedSkin(const RoomCueParams& room, const std::vector<float>& means,
-                             const RoomCueState& state, std::vector<unsigned char>& mask) {
+// A cell on the hand's outline holds skin and what lies behind it: against a neutral surface (a
+// grey table, a white wall, the black sleeve) its chromaticity lies between the skin's and grey
+// (1/3, 1/3), the nearer grey the closer the skin's brightness is to the surface's: dark skin over
+// a mid-grey table lost its fingertips to the plain test (doc/segmentation.md, "Session 32").
+// With `keep_outline` (the skin gate alone, whose border cells are then decided pixel by pixel,
+// while tracking) such a cell is kept when it is within skin_max_distance of the skin mixed with
+// up to skin_border_neutral_share of grey and lies between a cell that passes the plain test and
+// a neutral one that is no candidate (both 8-neighbours): the outline of the hand against a
+// neutral surface, not skin beside wood. `outline_kept` marks those cells.
+void removeUnlikeLearnedSkin(const SegmentationParams& params, const std::vector<float>& means,
+                             int cells_x, int cells_y, const RoomCueState& state, bool keep_outline,
+                             std::vector<unsigned char>& mask,
+                             std::vector<unsigned char>* outline_kept = nullptr) {
+  if (outline_kept) outline_kept->assign(mask.size(), 0);
   if (state.skin_frames <= 0) return;
+  const RoomCueParams& room = params.room;
   const double floor = 0.012 * 0.012;  // chromaticity noise of a cell
   const double xx = state.skin_cov[0] + floor, xy = state.skin_cov[1],
                yy = state.skin_cov[2] + floor;
   const double det = xx * yy - xy * xy;
   const double limit = room.skin_max_distance * room.skin_max_distance;
+  // Squared Mahalanobis length of (dr, dg) under the learned covariance.
+  auto distance2 = [&](double dr, double dg) {
+    return (yy * dr * dr - 2.0 * xy * dr * dg + xx * dg * dg) / det;
+  };
+  // The way from the skin towards grey, and its squared length.
+  const double vr = 1.0 / 3.0 - state.skin_mean[0], vg = 1.0 / 3.0 - state.skin_mean[1];
+  const double vv = distance2(vr, vg);
+  const double share = room.skin_border_neutral_share;
+  const bool outline = keep_outline && share > 0.0 && vv > 0.0;
+  enum : unsigned char { kNone = 0, kUnlike = 1, kSkin = 2, kMixed = 3 };
+  std::vector<unsigned char> kind(mask.size(), kNone);
+  bool any_mixed = false;
   for (size_t i = 0; i < mask.size(); ++i) {
     if (!mask[i]) continue;
+    kind[i] = kUnlike;
     double r, g;
-    if (!chromaticity(&means[3 * i], &r, &g)) {
-      mask[i] = 0;
+    if (!chromaticity(&means[3 * i], &r, &g)) continue;
+    const double dr = r - state.skin_mean[0], dg = g - state.skin_mean[1];
+    if (distance2(dr, dg) <= limit) {
+      kind[i] = kSkin;
       continue;
     }
-    const double dr = r - state.skin_mean[0], dg = g - state.skin_mean[1];
-    const double d2 = (yy * dr * dr - 2.0 * xy * dr * dg + xx * dg * dg) / det;
-    if (d2 > limit) mask[i] = 0;
+    if (!outline) continue;
+    // The nearest point of the segment skin -> skin mixed with the largest share of grey.
+    const double along = ((yy * dr - xy * dg) * vr + (xx * dg - xy * dr) * vg) / det / vv;
+    const double t = std::clamp(along, 0.0, share);
+    if (distance2(dr - t * vr, dg - t * vg) <= limit) {
+      kind[i] = kMixed;
+      any_mixed = true;
+    }
+  }
+  for (size_t i = 0; i < mask.size(); ++i) {
+    if (kind[i] == kSkin) continue;
+    bool next_to_skin = false, next_to_none = false;
+    if (kind[i] == kMixed && any_mixed) {
+      const int cx = static_cast<int>(i) % cells_x, cy = static_cast<int>(i) / cells_x;
+      for (int y = cy - 1; y <= cy + 1; ++y) {
+        for (int x = cx - 1; x <= cx + 1; ++x) {
+          if (x < 0 || y < 0 || x >= cells_x || y >= cells_y) continue;
+          const int j = y * cells_x + x;
+          next_to_skin = next_to_skin || kind[j] == kSkin;
+          next_to_none =
+              next_to_none ||
+              (kind[j] == kNone && isNeutral(&means[3 * j], room.skin_border_neutral_saturation));
+        }
+      }
+    }
+    if (!(next_to_skin && next_to_none)) {
+      mask[i] = 0;
+    } else if (outline_kept) {
+      (*outline_kept)[i] = 1;
+    }
   }
 }
 
@@ -381,7 +443,11 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
   state.motion = motion;
   state.previous_means = means;
 
-  removeUnlikeLearnedSkin(room, means, state, mask);
+  std::vector<unsigned char> outline_kept;
+  removeUnlikeLearnedSkin(params, means, cells_x, cells_y, state,
+                          /*keep_outline=*/plate == nullptr && params.refine_border_pixels &&
+                              (roi & cv::Rect(0, 0, width, height)).area() > 0,
+                          mask, &outline_kept);
 
   // The region of interest in cells.
   const cv::Rect image(0, 0, width, height);
@@ -541,7 +607,8 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
     std::vector<double> rs, gs;
     for (int i = 0; i < cells; ++i) {
       double r, g;
-      if (!mask[i] || !chromaticity(&means[3 * i], &r, &g)) continue;
+      // Not the outline's cells that only the mix with grey let through: they would widen it.
+      if (!mask[i] || outline_kept[i] || !chromaticity(&means[3 * i], &r, &g)) continue;
       // Only what has skin colour at all (in plate mode the region also holds changed
       // background).
       const float* m = &means[3 * i];
@@ -631,7 +698,7 @@ std::vector<HandCandidate> roomCandidates(const SegmentationParams& params,
   const int cells = cells_x * cells_y;
   const std::vector<float> motion =
       motionOf(params.room, means, frameGain(means, state.previous_means), state, cells);
-  removeUnlikeLearnedSkin(params.room, means, state, mask);
+  removeUnlikeLearnedSkin(params, means, cells_x, cells_y, state, /*keep_outline=*/false, mask);
   std::vector<int> labels;
   const std::vector<Component> components =
       analyseComponents(params, means, cells_x, cells_y, mask, motion, labels);

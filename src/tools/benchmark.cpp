@@ -38,6 +38,12 @@ int main(int argc, char** argv) {
     std::cout << results.markdown;
     char seconds[32];
     std::snprintf(seconds, sizeof(seconds), "%.1f", results.seconds);
+    if (!options.rooms.empty()) {
+      // The rooms write their own files (runRoomBenchmark), not the bags' tables.
+      std::cout << "benchmark: the rooms in " << seconds << " s; results in " << options.out_dir
+                << "/ (rooms.md, rooms.csv, rooms/" << (options.fitted ? ", models/" : "") << ")\n";
+      return 0;
+    }
     std::cout << "benchmark: " << results.runs.size() + results.camera_runs.size()
               << " tracking runs in " << seconds << " s; results in " << options.out_dir
               << "/ (results.md, " << (options.csv.empty() ? "results.csv" : options.csv)

@@ -80,6 +80,12 @@ struct QuadtreeParams {
 struct RoomCueParams {
   bool enabled = false;
   double skin_max_distance = 3.5;
+  // A cell on the hand's outline against a neutral surface (skin gate, while tracking): kept
+  // within skin_max_distance of the skin mixed with up to skin_border_neutral_share of grey when
+  // it lies between a cell of the learned skin and one that is no candidate and has a saturation
+  // below skin_border_neutral_saturation (0 share: off).
+  double skin_border_neutral_share = 0.6;
+  double skin_border_neutral_saturation = 0.25;
   double skin_learning_rate = 0.02;  // per frame, after the first frame with the hand
   int skin_min_cells = 12;           // foreground cells in the region needed to learn from
   double min_component_share = 0.1;
