@@ -58,6 +58,8 @@ struct QuadtreeParams {
 //      + G + B) of the foreground cells inside it is learned (mean and covariance of the cells
 //      within 0.03 of their median, then updated slowly); a cell farther than skin_max_distance
 //      (Mahalanobis) from it is not hand. Chromaticity does not change with the light's brightness.
+//      While tracking with the skin gate, a cell on the hand's outline against a neutral surface
+//      may be farther: its colour is the skin's mixed with grey (skin_border_neutral_share).
 //   2. region of interest: the tracked hand projected into this view (setRegionOfInterest, fed by
 //      TrackingPipeline with the model's silhouette grown by a margin); cells outside it are
 //      background, and inside it only connected
