@@ -38,6 +38,9 @@
 //     real camera costs the host no CPU, and with the renderer at the graph's priority the
 //     headless demo's p99 latency followed the renderer (doc/demo.md, sessions 10 and 11)
 //   model ("sag"): the skeleton the hand is rendered on; config_dir (the package's config/)
+//   hand ("default"): the rendered hand's proportions and skin: a shape of
+//     config/hand_shapes.yaml (stocky, dark_small, ..) or drawn<N>, a hand drawn at random with
+//     seed N (doc/studio.md); the ground truth is that hand's, the tracker keeps its own model
 // Rendering runs ahead on a thread of its own (ProduceAhead, at render_niceness) and the timer,
 // on a callback queue and thread of its own, publishes one rendered set per tick; neither takes
 // one of the manager's worker threads away from the segmentation and the tracker. A set that is
@@ -66,6 +69,7 @@
 #include "sag_hand_tracker/camera/calibration.h"
 #include "sag_hand_tracker/model/hand_model.h"
 #include "sag_hand_tracker/ros/conversions.h"
+#include "sag_hand_tracker/studio/hand_shapes.h"
 #include "sag_hand_tracker/studio/motion.h"
 #include "sag_hand_tracker/studio/renderer.h"
 #include "sag_hand_tracker/studio/sequence.h"
@@ -121,9 +125,15 @@ class StudioDriverNodelet : public nodelet::Nodelet {
     sensor.noise_sigma = pnh.param("noise", 2.0);
     const std::string rig_name = pnh.param<std::string>("rig", "dexter5");
     const std::string model_name = pnh.param<std::string>("model", "sag");
+    const std::string hand_name = pnh.param<std::string>("hand", "default");
     const auto setup_start = std::chrono::steady_clock::now();
     try {
       model_ = loadHandModel(resolveModelPath(model_name, config_dir));
+      try {
+        hand_ = studio::resolveHandShape(hand_name, config_dir);
+      } catch (const InputError& e) {
+        throw InputError(std::string("~hand: ") + e.what());
+      }
       rig_ = loadCameraRig(studio::resolveRigPath(rig_name, config_dir));
       if (rig_.cameras.empty()) throw InputError("the rig '" + rig_name + "' has no cameras");
       // Every motion is loaded now, so that a bad name stops the driver at start, not mid-demo.
@@ -159,9 +169,11 @@ class StudioDriverNodelet : public nodelet::Nodelet {
 
     std::string list;
     for (const std::string& name : sequence_names_) list += (list.empty() ? "" : " ") + name;
-    NODELET_INFO("studio: rig '%s' (%zu cameras, %dx%d), sequences [%s]%s at %g fps, set-up %.1f s",
-                 rig_name.c_str(), rig_.cameras.size(), rig_.cameras[0].width,
-                 rig_.cameras[0].height, list.c_str(), loop_ ? " looped" : "", fps_, setup_seconds);
+    NODELET_INFO(
+        "studio: rig '%s' (%zu cameras, %dx%d), hand '%s', sequences [%s]%s at %g fps, set-up "
+        "%.1f s",
+        rig_name.c_str(), rig_.cameras.size(), rig_.cameras[0].width, rig_.cameras[0].height,
+        hand_.name.c_str(), list.c_str(), loop_ ? " looped" : "", fps_, setup_seconds);
 
     // Rendering ahead, and the timer on its own queue and thread (see the header comment).
     motions_frame_counts_.assign(motions_.size(), 0);
@@ -303,6 +315,8 @@ class StudioDriverNodelet : public nodelet::Nodelet {
     params.empty_frames = empty_frames_;
     params.motion_blur_samples = motion_blur_;
     params.exposure = std::min(params.exposure, 1.0 / fps_);
+    params.shape = hand_.shape;
+    params.surface.skin = hand_.skin;
     sequence_index_ = index;
     sequence_ = std::make_unique<studio::StudioSequence>(model_, motions_[index], params);
     motions_frame_counts_[index] = sequence_->frameCount();  // read by the timer once announced
@@ -388,6 +402,7 @@ class StudioDriverNodelet : public nodelet::Nodelet {
   std::vector<std::string> sequence_names_;
 
   HandModel model_;
+  studio::StudioHand hand_;  // the rendered hand's shape and skin (~hand)
   CameraRig rig_;
   std::vector<std::string> joint_names_;
   std::vector<studio::Motion> motions_;
