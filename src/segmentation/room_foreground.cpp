@@ -99,7 +99,9 @@ std::vector<float> motionOf(const RoomCueParams& room, const std::vector<float>&
 }
 
 // A surface of little colour: grey, white, black, a dark grey-green table (saturation below
-// `max_saturation`, which is generous because the saturation of dark cells is noisy).
+// `max_saturation`, which is generous because the saturation of dark cells is noisy). On the
+// cell's float means as they are: rgbToHsv's other rounding moved cells at the threshold, and
+// with them single tracks.
 bool isNeutral(const float* c, double max_saturation) {
   const double high = std::max({c[0], c[1], c[2]}), low = std::min({c[0], c[1], c[2]});
   return high <= 0.0 || (high - low) / high < max_saturation;
@@ -138,7 +140,6 @@ void removeUnlikeLearnedSkin(const SegmentationParams& params, const std::vector
   const bool outline = keep_outline && share > 0.0 && vv > 0.0;
   enum : unsigned char { kNone = 0, kUnlike = 1, kSkin = 2, kMixed = 3 };
   std::vector<unsigned char> kind(mask.size(), kNone);
-  bool any_mixed = false;
   for (size_t i = 0; i < mask.size(); ++i) {
     if (!mask[i]) continue;
     kind[i] = kUnlike;
@@ -153,15 +154,12 @@ void removeUnlikeLearnedSkin(const SegmentationParams& params, const std::vector
     // The nearest point of the segment skin -> skin mixed with the largest share of grey.
     const double along = ((yy * dr - xy * dg) * vr + (xx * dg - xy * dr) * vg) / det / vv;
     const double t = std::clamp(along, 0.0, share);
-    if (distance2(dr - t * vr, dg - t * vg) <= limit) {
-      kind[i] = kMixed;
-      any_mixed = true;
-    }
+    if (distance2(dr - t * vr, dg - t * vg) <= limit) kind[i] = kMixed;
   }
   for (size_t i = 0; i < mask.size(); ++i) {
     if (kind[i] == kSkin) continue;
     bool next_to_skin = false, next_to_none = false;
-    if (kind[i] == kMixed && any_mixed) {
+    if (kind[i] == kMixed) {
       const int cx = static_cast<int>(i) % cells_x, cy = static_cast<int>(i) / cells_x;
       for (int y = cy - 1; y <= cy + 1; ++y) {
         for (int x = cx - 1; x <= cx + 1; ++x) {
@@ -443,16 +441,17 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
   state.motion = motion;
   state.previous_means = means;
 
-  std::vector<unsigned char> outline_kept;
-  removeUnlikeLearnedSkin(params, means, cells_x, cells_y, state,
-                          /*keep_outline=*/plate == nullptr && params.refine_border_pixels &&
-                              (roi & cv::Rect(0, 0, width, height)).area() > 0,
-                          mask, &outline_kept);
-
   // The region of interest in cells.
   const cv::Rect image(0, 0, width, height);
   const cv::Rect box = roi & image;
   const bool has_roi = box.area() > 0;
+
+  std::vector<unsigned char> outline_kept;
+  removeUnlikeLearnedSkin(
+      params, means, cells_x, cells_y, state,
+      /*keep_outline=*/plate == nullptr && params.refine_border_pixels && has_roi, mask,
+      &outline_kept);
+
   const int rx0 = has_roi ? box.x / cell_size : 0, ry0 = has_roi ? box.y / cell_size : 0;
   const int rx1 = has_roi ? (box.x + box.width - 1) / cell_size : cells_x - 1;
   const int ry1 = has_roi ? (box.y + box.height - 1) / cell_size : cells_y - 1;

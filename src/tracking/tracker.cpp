@@ -178,14 +178,23 @@ RedetectionChoice chooseRedetection(const OptimizationResult& tracked,
                                     const TrackerParams& params, bool carrying,
                                     const std::vector<Eigen::Matrix3d>& recent) {
   RedetectionChoice choice;
+  // The track's recent orientations of which it is itself a flip (where it was before it turned
+  // over): found once, at the first candidate that is a flip of the track.
+  std::optional<std::vector<const Eigen::Matrix3d*>> turned_from;
   for (size_t i = 0; i < candidates.size(); ++i) {
     const OptimizationResult& candidate = candidates[i];
     bool flip = isFlip(candidate.pose.rotation, tracked.pose.rotation);
     // A flip of the track that returns to where the track was before it turned over.
     bool returning = false;
     if (flip) {
-      for (const Eigen::Matrix3d& before : recent) {
-        if (isFlip(tracked.pose.rotation, before) && !isFlip(candidate.pose.rotation, before)) {
+      if (!turned_from) {
+        turned_from.emplace();
+        for (const Eigen::Matrix3d& before : recent) {
+          if (isFlip(tracked.pose.rotation, before)) turned_from->push_back(&before);
+        }
+      }
+      for (const Eigen::Matrix3d* before : *turned_from) {
+        if (!isFlip(candidate.pose.rotation, *before)) {
           returning = true;
           break;
         }
