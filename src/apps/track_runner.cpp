@@ -368,6 +368,11 @@ TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
       source = "generic (the model's colours are not the user's; calibrate_hand gives them): ";
     }
     summary.skin_gate = source + skinGateText(gate);
+    const double start_weight = pipeline.tracker().params().start_model_area_weight;
+    if (start_weight > 0.0) {
+      summary.skin_gate += "; starts scored with the model's area charged (lambda " +
+                           shortNumber(start_weight) + ", doc/segmentation.md \"Session 33\")";
+    }
   }
   summary.csv_written = commitsTrackCsv(summary, csv.rows());
   if (summary.csv_written) out.commit();

@@ -180,6 +180,14 @@ size_t PoseEnergy::numGaussians() const {
   return model_.gaussians.size() + static_cast<size_t>(params_.forearm_gaussians);
 }
 
+void PoseEnergy::setModelAreaWeight(double weight) {
+  if (!(weight >= 0.0) || !std::isfinite(weight)) {
+    throw InputError("energy: model_area_weight must be a finite number >= 0, got " +
+                     std::to_string(weight));
+  }
+  params_.model_area_weight = weight;
+}
+
 void PoseEnergy::setForearmDirection(const std::optional<Eigen::Vector3d>& direction) {
   forearm_direction_.reset();
   if (direction && direction->allFinite() && direction->norm() > 1e-9) {

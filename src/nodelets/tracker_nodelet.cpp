@@ -26,7 +26,9 @@
 //   one start or re-detection search, which give the same result as one; 1-16), room_cues
 //   (false; the launch files set it to mode == skin), multi_view (true) and recheck_interval (1)
 //   (below), skin_gate_from_model (true: publish cam<i>/skin_gate, above; false: the segmentations
-//   keep their own gate), plus the dynamic_reconfigure parameters of cfg/Tracker.cfg.
+//   keep their own gate), plus the dynamic_reconfigure parameters of cfg/Tracker.cfg (among them
+//   start_model_area_weight, which graph.launch sets with mode skin, as TrackingPipeline does
+//   offline without a plate; 0 while the skin gate is the model's own, as offline).
 //
 // Room cues (issue 11; ros/live_room_cues.h, doc/segmentation.md "The live graph"; the segmentation
 // nodelets' room_cues must be on too): after every set the tracked hand is published to each
@@ -350,6 +352,8 @@ class TrackerNodelet : public nodelet::Nodelet {
     params.min_foreground_gaussians = config.min_foreground_gaussians;
     params.min_cameras_for_start = config.min_cameras_for_start;
     std::lock_guard<std::mutex> lock(mutex_);
+    configured_start_area_weight_ = config.start_model_area_weight;
+    params.start_model_area_weight = startAreaWeightFor(model_);
     tracker_->setParams(params);
     // Read back from the tracker: what it now runs (the replay_reconfigure rostest checks it).
     NODELET_INFO("tracker: parameters set: %d optimizer iterations per set",
@@ -869,12 +873,31 @@ class TrackerNodelet : public nodelet::Nodelet {
       std::lock_guard<std::mutex> lock(mutex_);
       model_ = fit.model;
       tracker_->setModel(model_);  // tracking goes on from the current pose
+      TrackerParams params = tracker_->params();
+      params.start_model_area_weight = startAreaWeightFor(model_);
+      tracker_->setParams(params);
       model_label_ = request.save_path.empty() ? "fitted (not saved)" : request.save_path;
     }
     summary << "; the tracker now uses the fitted model";
     publishSkinGate(fit.model, request.save_path.empty() ? "~calibrate" : request.save_path);
     *message = summary.str();
     return true;
+  }
+
+  // The start's model-area weight (TrackerParams::start_model_area_weight) the tracker runs with
+  // `model`: the configured one, or 0 while the segmentations take the gate around the model's
+  // colours (publishSkinGate), which drops the wood and the photographs the weight is for
+  // (TrackingPipeline does the same offline). Caller holds mutex_.
+  double startAreaWeightFor(const HandModel& model) const {
+    if (skin_gate_from_model_ && model.colours_fitted) {
+      try {
+        personalSkinGate(model);
+        return 0.0;
+      } catch (const InputError&) {
+        // no gate from these colours: the segmentations keep the generic one
+      }
+    }
+    return configured_start_area_weight_;
   }
 
   // The segmentations' skin gate from `model`'s colours when they are the user's (latched on
@@ -1101,7 +1124,8 @@ class TrackerNodelet : public nodelet::Nodelet {
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   std::unique_ptr<image_transport::ImageTransport> it_;
   ros::Publisher joint_pub_, marker_pub_, fingertip_pub_, status_pub_;
-  bool skin_gate_from_model_ = true;  // publish cam<i>/skin_gate
+  bool skin_gate_from_model_ = true;           // publish cam<i>/skin_gate
+  double configured_start_area_weight_ = 0.0;  // cfg/Tracker.cfg start_model_area_weight
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   boost::recursive_mutex reconfigure_mutex_;
   std::unique_ptr<dynamic_reconfigure::Server<TrackerConfig>> reconfigure_;

@@ -1002,8 +1002,12 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
   result.stamp = stamp;
   result.num_cameras = static_cast<int>(observations.size());
 
+  const bool tracking = current_ && !lost_;
   PoseEnergy& energy = energy_;
   energy.setFrame(observations);
+  energy.setModelAreaWeight(
+      tracking ? params_.energy.model_area_weight
+               : std::max(params_.energy.model_area_weight, params_.start_model_area_weight));
   // The forearm's direction of the pose that this frame reports (fitForearm).
   std::optional<Eigen::Vector3d> forearm = forearm_;
   energy.setForearmPresent(forearm_present_);
@@ -1017,7 +1021,6 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
   // A re-detection that replaced the track with a pose of about its orientation: the motion
   // history that pose goes on from (see poseBeforeMotion).
   std::optional<Pose> kept_motion;
-  const bool tracking = current_ && !lost_;
   if (tracking) {
     optimized = trackFromPrediction(energy, previous_, *current_);
     toggleFingers(energy, observations, &*optimized);
@@ -1138,7 +1141,10 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
   }
 
   energy.setForearmDirection(forearm);
-  // The tracked pose, with the same forearm, has been scored already.
+  // The tracked pose, with the same forearm, has been scored already. A start is reported in the
+  // tracking energy's terms (start_model_area_weight ranked it), which the next frames' lost test
+  // and the still starts' score compare with.
+  energy.setModelAreaWeight(params_.energy.model_area_weight);
   if (tracking && !started && !flipped) {
     result.energy = std::move(tracked_terms);
   } else {

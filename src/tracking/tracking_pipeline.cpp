@@ -21,6 +21,11 @@ PipelineParams adjusted(PipelineParams params) {
   if (params.background_frames > 0) {
     params.segmentation.background.frames = params.background_frames;
   }
+  if (!(params.skin_gate_start_area_weight >= 0.0) ||
+      !std::isfinite(params.skin_gate_start_area_weight)) {
+    throw InputError("skin_gate_start_area_weight must be a finite number >= 0, got " +
+                     std::to_string(params.skin_gate_start_area_weight));
+  }
   validate(params.segmentation);
   validate(params.multi_view);
   return params;
@@ -95,7 +100,7 @@ double modelOnForeground(const PosedHand& hand, const std::vector<Camera>& camer
 
 TrackingPipeline::TrackingPipeline(const HandModel& model, const std::vector<Camera>& cameras,
                                    const PipelineParams& params)
-    : cameras_(cameras), params_(adjusted(params)), tracker_(model, params.tracker) {
+    : cameras_(cameras), params_(adjusted(params)), tracker_(model, params_.tracker) {
   if (static_cast<int>(cameras_.size()) < params_.tracker.min_cameras_for_start) {
     throw InputError("the tracker starts from at least " +
                      std::to_string(params_.tracker.min_cameras_for_start) +
@@ -109,6 +114,13 @@ TrackingPipeline::TrackingPipeline(const HandModel& model, const std::vector<Cam
     } catch (const InputError& e) {
       skin_gate_problem_ = e.what();  // the generic gate stays
     }
+  }
+  // The generic skin gate keeps the wood, the coffee and the photographs beside the hand, and the
+  // starts are scored with the model's area charged; the user's own gate drops those things.
+  if (params_.background_frames == 0 && !skin_gate_from_model_) {
+    params_.tracker.start_model_area_weight =
+        std::max(params_.tracker.start_model_area_weight, params_.skin_gate_start_area_weight);
+    tracker_.setParams(params_.tracker);
   }
   for (const Camera& camera : cameras_) {
     validateCamera(camera);

@@ -153,10 +153,16 @@ TEST_F(TrackBagTool, TrackBagSaysWhichSkinGateItUsed) {
                    shortNumber(gate.hue_min_deg) + ".." + shortNumber(gate.hue_max_deg) + " deg"),
       std::string::npos)
       << own.out;
+  // The generic gate keeps more than the hand: the starts charge the model's area (PipelineParams::
+  // skin_gate_start_area_weight); the user's own gate does not need it.
+  const std::string area_charged = "starts scored with the model's area charged (lambda " +
+                                   shortNumber(PipelineParams().skin_gate_start_area_weight) + ",";
+  EXPECT_EQ(own.out.find(area_charged), std::string::npos) << own.out;
   const ToolRun generic = run(fitted, "--background-frames 0 --generic-skin-gate", "generic.csv");
   EXPECT_NE(generic.out.find("skin gate: generic (--generic-skin-gate): hue -25..50 deg"),
             std::string::npos)
       << generic.out << generic.err;
+  EXPECT_NE(generic.out.find(area_charged), std::string::npos) << generic.out;
   const ToolRun default_model =
       run(sag_test::modelPath("sag"), "--background-frames 0", "default.csv");
   EXPECT_NE(default_model.out.find("skin gate: generic (the model's colours are not the user's"),

@@ -640,6 +640,35 @@ TEST(EnergyCannotCheat, MovingTowardACameraDoesNotBuySimilarity) {
   }
 }
 
+// The tracker scores its starts with another lambda than its tracking
+// (TrackerParams::start_model_area_weight): set on an energy, lambda scores exactly as an energy
+// built with it, and moving toward a camera then costs as above.
+TEST(EnergyCannotCheat, ModelAreaWeightSetOnAnEnergyScoresAsOneBuiltWithIt) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  const Pose truth = typicalPose(model);
+  const auto observations = modelObservations(model, truth, cameras);
+  EnergyParams dice;
+  dice.model_area_weight = 1.0;
+  PoseEnergy built(model, dice);
+  built.setFrame(observations);
+  PoseEnergy set(model, EnergyParams());
+  set.setFrame(observations);
+  const double paper_at_truth = set.evaluate(truth);
+  set.setModelAreaWeight(1.0);
+  for (double distance : {0.0, 0.1, 0.2}) {
+    const TowardCamera from_built = moveTowardCamera0(built, truth, cameras, distance);
+    const TowardCamera from_set = moveTowardCamera0(set, truth, cameras, distance);
+    EXPECT_DOUBLE_EQ(from_set.total, from_built.total) << distance;
+    EXPECT_DOUBLE_EQ(from_set.camera0, from_built.camera0) << distance;
+  }
+  EXPECT_NE(set.evaluate(truth), paper_at_truth);
+  set.setModelAreaWeight(0.0);
+  EXPECT_DOUBLE_EQ(set.evaluate(truth), paper_at_truth);
+  EXPECT_THROW(set.setModelAreaWeight(-0.5), InputError);
+  EXPECT_THROW(set.setModelAreaWeight(std::nan("")), InputError);
+}
+
 // Model Gaussians that cannot be projected into a camera that sees foreground (behind it, or
 // containing its centre) count against the pose (model_area_weight 1), and a hand behind a camera
 // scores nothing there.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <optional>
 #include <thread>
 
@@ -40,6 +41,41 @@ TEST(Tracker, StartsAutomaticallyFromHypotheses) {
   EXPECT_FALSE(result.restarted);
   const double error = meanFingertipError(result.fingertips, fingertips(model, truth));
   EXPECT_LT(error, 0.02) << "fingertip error after start " << error * 1000 << " mm";
+}
+
+// TrackerParams::start_model_area_weight: the start is ranked with the model's area charged, the
+// tracked frames after it with the energy's own normalisation, and every frame, the start
+// included, reports the latter (the lost test and the still starts' score compare with it).
+TEST(Tracker, ScoresTheStartWithTheStartAreaWeightAndTracksWithItsOwn) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  TrackerParams params;
+  params.start_model_area_weight = 1.0;
+  ASSERT_EQ(params.energy.model_area_weight, 0.0);
+  HandTracker tracker(model, params);
+  // The same start as a tracker whose energy is the Dice throughout, another than the paper's.
+  TrackerParams dice_params;
+  dice_params.energy.model_area_weight = 1.0;
+  HandTracker dice_tracker(model, dice_params);
+  HandTracker paper_tracker(model, TrackerParams());
+  PoseEnergy paper_energy(model, params.energy);
+  Pose truth = typicalPose(model);
+  for (int frame = 0; frame < 3; ++frame) {
+    truth.translation.x() += 0.003;
+    const auto observations = modelObservations(model, truth, cameras, 3.0);
+    const FrameResult result = tracker.update(observations, frame * 0.04);
+    const FrameResult dice = dice_tracker.update(observations, frame * 0.04);
+    const FrameResult paper = paper_tracker.update(observations, frame * 0.04);
+    ASSERT_TRUE(result.has_pose && dice.has_pose && paper.has_pose) << frame;
+    if (frame == 0) {
+      EXPECT_EQ(result.pose.toVector(), dice.pose.toVector());
+      EXPECT_NE(result.pose.toVector(), paper.pose.toVector());
+    }
+    paper_energy.setFrame(observations);
+    EXPECT_NEAR(result.energy.total, paper_energy.evaluate(result.pose), 1e-9) << frame;
+    EXPECT_EQ(result.status, frame == 0 ? TrackStatus::kStarted : TrackStatus::kTracking) << frame;
+    EXPECT_LT(meanFingertipError(result.fingertips, fingertips(model, truth)), 0.015) << frame;
+  }
 }
 
 // The search's candidates are independent: several threads (TrackerParams::search_threads, the

@@ -102,6 +102,45 @@ TEST(Pipeline, PipelineWithoutBackgroundFramesTracksFromTheFirstSet) {
   EXPECT_LT(meanFingertipError(processed.result.fingertips, fingertips(model, truth)), 0.03);
 }
 
+// Without a plate the generic skin gate's foreground holds more than the hand: the tracker's starts
+// are scored with the model's area charged (PipelineParams::skin_gate_start_area_weight); with a
+// plate, or with the gate around a calibrated model's colours, the tracker's own setting stays,
+// and a larger one of its own is kept.
+TEST(Pipeline, TheSkinGateScoresTheStartsWithTheModelsArea) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = renderedRig();
+  const double weight = PipelineParams().skin_gate_start_area_weight;
+  ASSERT_GT(weight, 0.0);
+  PipelineParams skin;
+  skin.background_frames = 0;
+  EXPECT_EQ(TrackingPipeline(model, cameras, skin).params().tracker.start_model_area_weight,
+            weight);
+  EXPECT_EQ(TrackingPipeline(model, cameras, skin).tracker().params().start_model_area_weight,
+            weight);
+  EXPECT_EQ(
+      TrackingPipeline(model, cameras, PipelineParams()).params().tracker.start_model_area_weight,
+      0.0);
+  skin.tracker.start_model_area_weight = weight + 1.0;
+  EXPECT_EQ(TrackingPipeline(model, cameras, skin).tracker().params().start_model_area_weight,
+            weight + 1.0);
+  skin.skin_gate_start_area_weight = 0.0;
+  skin.tracker.start_model_area_weight = 0.0;
+  EXPECT_EQ(TrackingPipeline(model, cameras, skin).tracker().params().start_model_area_weight, 0.0);
+  skin.skin_gate_start_area_weight = weight;
+  const HandModel fitted =
+      loadHandModel(std::string(SAG_SOURCE_DIR) + "/test/data/default_fitted.yaml");
+  ASSERT_TRUE(fitted.colours_fitted);
+  const TrackingPipeline own_gate(fitted, cameras, skin);
+  EXPECT_TRUE(own_gate.skinGateFromModel());
+  EXPECT_EQ(own_gate.tracker().params().start_model_area_weight, 0.0);
+  skin.skin_gate_from_model = false;
+  EXPECT_EQ(TrackingPipeline(fitted, cameras, skin).tracker().params().start_model_area_weight,
+            weight);
+  skin.skin_gate_start_area_weight = -1.0;
+  EXPECT_EQ(sag_test::inputErrorOf([&] { TrackingPipeline(model, cameras, skin); }),
+            "skin_gate_start_area_weight must be a finite number >= 0, got -1.000000");
+}
+
 TEST(Pipeline, PipelineRejectsBadInput) {
   const HandModel model = loadHandModel(modelPath("sag"));
   std::vector<Camera> cameras = renderedRig();

@@ -194,6 +194,11 @@ class PoseEnergy {
   // wrist, normalised here), whatever setForearmPresent and setForearmDirection say.
   double evaluateWithForearm(const Pose& pose, const Eigen::Vector3d& forearm_direction) const;
 
+  // lambda of E_c (EnergyParams::model_area_weight) for the next evaluations: the tracker scores
+  // its starts with another one than its tracking (TrackerParams::start_model_area_weight).
+  // Nothing computed per frame depends on it. Throws InputError unless finite and >= 0.
+  void setModelAreaWeight(double weight);
+
   // Whether the forearm's Gaussians (EnergyParams::forearm_gaussians) are part of the energy
   // (default: no), and their world direction from the wrist; empty: straight on from the palm,
   // rigid with the hand (the default). Both are kept across setFrame.

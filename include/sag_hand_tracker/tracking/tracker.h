@@ -66,6 +66,18 @@ struct TrackerParams {
   // below `lost_ratio` times its running average over the recent tracked frames.
   double lost_similarity = 0.15;
   double lost_ratio = 0.7;
+  // lambda of the energy's normalisation (EnergyParams::model_area_weight) while the tracker
+  // starts (no track, or the track was lost): the start's hypotheses are refined and ranked with
+  // the larger of this and energy.model_area_weight, the tracked frames with the latter. A start
+  // has no track to stay near, and where the foreground holds more than the hand (the skin gate's
+  // wooden table) the paper's normalisation ranks first a hand grown toward one camera inside a
+  // large blob: in the studio's kitchen the start of a hand larger than the model ended 115 mm off
+  // and climbed 20 cm off the table. Tracking with lambda 1 as well costs the hands whose
+  // foreground misses part of them (a dark hand's fingertips: the Dice curls the finger away).
+  // Every frame reports the tracking energy's terms. 0 (the default): the paper's.
+  // TrackingPipeline sets it with the generic skin gate (PipelineParams::
+  // skin_gate_start_area_weight; doc/segmentation.md, "Session 33").
+  double start_model_area_weight = 0.0;
 
   // Orientation guard (issue 9). A candidate is a *flip* of the tracked pose when its back-of-hand
   // normal or its wrist->middle-knuckle axis is more than 90 degrees from the tracked pose's (a

@@ -41,6 +41,14 @@ struct PipelineParams {
   // the segmentation then uses the skin-colour gate (ImageSegmenter::effectiveMode). When > 0 it
   // also sets segmentation.background.frames, so that the plates are ready after these sets.
   int background_frames = 10;
+  // Without a plate (background_frames 0) the generic skin gate's foreground holds more than the
+  // hand (a wooden table, a photograph, the other arm), and the tracker's starts are scored with
+  // model area charged at least this much (TrackerParams::start_model_area_weight). With a plate,
+  // or with the user's own gate (skin_gate_from_model, which drops those things), the tracker's
+  // own setting stays. 0.3: over 11 hands in the studio's rooms (doc/segmentation.md, "Session
+  // 33") the kitchen's error fell 83.7 -> 57.1 mm with the clean studio's 6.55 -> 6.09; 1 gave
+  // 48.0 mm in the kitchen but 6.83 in the clean studio (the dark hand 12.8 -> 19.2 mm).
+  double skin_gate_start_area_weight = 0.3;
   // With a model whose colours are the user's (HandModel::colours_fitted: calibrate_hand, the
   // tracker's ~calibrate), the skin gate is the one around them (personalSkinGate) instead of
   // segmentation.skin: the generic gate keeps wood, cardboard and coffee (doc/segmentation.md,
