@@ -1404,27 +1404,23 @@ TEST(StudioRooms, TheTrackStartsInTheKitchenAndStaysOnTheUsersHand) {
 // A hand larger than the model, with other phalanx proportions and brown skin (long_distal_large),
 // in the kitchen: with the skin gate the wooden table joins the hand in most views, and the start,
 // scored with the paper's normalisation, took a hand grown toward the cameras inside that blob
-// (115 mm off, then 20 cm above the table: 362 mm mean). The starts are now scored with the model's
-// area charged (PipelineParams::skin_gate_start_area_weight); the track stays on the hand.
+// (115 mm off, then 20 cm above the table: 362 mm mean over 110 frames, 300-450 mm from the start
+// on). The starts are now scored with the model's area charged (PipelineParams::
+// skin_gate_start_area_weight); the track stays on the hand (18.7 mm over 110 frames).
 TEST(StudioRooms, AHandUnlikeTheModelStartsOnItselfInTheKitchen) {
   const Motion motion = loadMotion(resolveMotionPath("adbadd", kConfigDir), model("sag"), 1);
   const RoomParams kitchen = builtinRoom("kitchen");
   RoomSequenceOptions options;
-  options.frames = 110;
+  options.frames = 60;  // the start comes at the 17th set
   options.empty_frames = 0;
   options.hand = resolveHandShape("long_distal_large", kConfigDir);
-  RoomRunConfig paper_start = skinGateWithRoomCues();
-  paper_start.pipeline.skin_gate_start_area_weight = 0.0;
   const auto results = evaluateRoomSequence(model("sag"), dexter5(), motion, &kitchen, kConfigDir,
-                                            {skinGateWithRoomCues(), paper_start}, options);
-  ASSERT_EQ(results.size(), 2u);
-  std::printf(
-      "kitchen, adbadd, long_distal_large: %d/%d frames posed, %.1f mm (the paper's start: "
-      "%.1f mm)\n",
-      results[0].frames_posed, results[0].frames, results[0].errors.mean_mm,
-      results[1].errors.mean_mm);
+                                            {skinGateWithRoomCues()}, options);
+  ASSERT_EQ(results.size(), 1u);
   const RoomRunResult& r = results[0];
-  EXPECT_GE(r.frames_posed, 90);
+  std::printf("kitchen, adbadd, long_distal_large: %d/%d frames posed, %.1f mm\n", r.frames_posed,
+              r.frames, r.errors.mean_mm);
+  EXPECT_GE(r.frames_posed, 40);
   ASSERT_GT(r.errors_mm.size(), 20u);
   double sum = 0.0;
   for (size_t i = 0; i < r.errors_mm.size(); ++i) {
