@@ -26,9 +26,11 @@
 //   one start or re-detection search, which give the same result as one; 1-16), room_cues
 //   (false; the launch files set it to mode == skin), multi_view (true) and recheck_interval (1)
 //   (below), skin_gate_from_model (true: publish cam<i>/skin_gate, above; false: the segmentations
-//   keep their own gate), plus the dynamic_reconfigure parameters of cfg/Tracker.cfg (among them
-//   start_model_area_weight, which graph.launch sets with mode skin, as TrackingPipeline does
-//   offline without a plate; 0 while the skin gate is the model's own, as offline).
+//   keep their own gate), mode (plate: the segmentations' mode; with skin the starts are scored
+//   with the model's area charged, TrackerParams::start_model_area_weight, as TrackingPipeline
+//   does offline without a plate, and 0 while the skin gate is the model's own), plus the
+//   dynamic_reconfigure parameters of cfg/Tracker.cfg (its start_model_area_weight, -1 by
+//   default, replaces the mode's weight when >= 0).
 //
 // Room cues (issue 11; ros/live_room_cues.h, doc/segmentation.md "The live graph"; the segmentation
 // nodelets' room_cues must be on too): after every set the tracked hand is published to each
@@ -117,6 +119,7 @@
 #include "sag_hand_tracker/ros/visualization.h"
 #include "sag_hand_tracker/tracking/camera_set_synchronizer.h"
 #include "sag_hand_tracker/tracking/tracker.h"
+#include "sag_hand_tracker/tracking/tracking_pipeline.h"
 #include "sag_hand_tracker/util/atomic_output.h"
 #include "sag_hand_tracker/util/timing.h"
 #include "sag_hand_tracker/util/types.h"
@@ -206,6 +209,7 @@ class TrackerNodelet : public nodelet::Nodelet {
       search_threads_ = 2;
     }
     room_cues_ = pnh.param("room_cues", false);
+    skin_mode_ = pnh.param<std::string>("mode", "plate") == "skin";
     skin_gate_from_model_ = pnh.param("skin_gate_from_model", true);
     {
       MultiViewParams multi_view;
@@ -286,7 +290,7 @@ class TrackerNodelet : public nodelet::Nodelet {
       cameras_[i].skin_gate_pub = nh.advertise<SkinGate>(cam + "/skin_gate", 1, /*latch=*/true);
     }
     plugins.unlock();
-    publishSkinGate(model_, model_name);
+    users_skin_gate_ = publishSkinGate(model_, model_name);
 
     diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
     diagnostics_->setHardwareID("sag_hand_tracker");
@@ -353,11 +357,13 @@ class TrackerNodelet : public nodelet::Nodelet {
     params.min_cameras_for_start = config.min_cameras_for_start;
     std::lock_guard<std::mutex> lock(mutex_);
     configured_start_area_weight_ = config.start_model_area_weight;
-    params.start_model_area_weight = startAreaWeightFor(model_);
+    params.start_model_area_weight = startAreaWeight();
     tracker_->setParams(params);
     // Read back from the tracker: what it now runs (the replay_reconfigure rostest checks it).
-    NODELET_INFO("tracker: parameters set: %d optimizer iterations per set",
-                 tracker_->params().optimizer.iterations);
+    NODELET_INFO(
+        "tracker: parameters set: %d optimizer iterations per set, the starts' model-area weight "
+        "%g",
+        tracker_->params().optimizer.iterations, tracker_->params().start_model_area_weight);
     if (config.reset) {
       NODELET_INFO("tracker reset requested");
       tracker_->reset();
@@ -873,38 +879,38 @@ class TrackerNodelet : public nodelet::Nodelet {
       std::lock_guard<std::mutex> lock(mutex_);
       model_ = fit.model;
       tracker_->setModel(model_);  // tracking goes on from the current pose
-      TrackerParams params = tracker_->params();
-      params.start_model_area_weight = startAreaWeightFor(model_);
-      tracker_->setParams(params);
       model_label_ = request.save_path.empty() ? "fitted (not saved)" : request.save_path;
     }
     summary << "; the tracker now uses the fitted model";
-    publishSkinGate(fit.model, request.save_path.empty() ? "~calibrate" : request.save_path);
+    const bool users_gate =
+        publishSkinGate(fit.model, request.save_path.empty() ? "~calibrate" : request.save_path);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      users_skin_gate_ = users_gate;
+      TrackerParams params = tracker_->params();
+      params.start_model_area_weight = startAreaWeight();
+      tracker_->setParams(params);
+    }
     *message = summary.str();
     return true;
   }
 
-  // The start's model-area weight (TrackerParams::start_model_area_weight) the tracker runs with
-  // `model`: the configured one, or 0 while the segmentations take the gate around the model's
-  // colours (publishSkinGate), which drops the wood and the photographs the weight is for
-  // (TrackingPipeline does the same offline). Caller holds mutex_.
-  double startAreaWeightFor(const HandModel& model) const {
-    if (skin_gate_from_model_ && model.colours_fitted) {
-      try {
-        personalSkinGate(model);
-        return 0.0;
-      } catch (const InputError&) {
-        // no gate from these colours: the segmentations keep the generic one
-      }
-    }
-    return configured_start_area_weight_;
+  // The start's model-area weight (TrackerParams::start_model_area_weight) the tracker runs
+  // with: 0 while the segmentations take the gate around the model's colours (publishSkinGate),
+  // which drops the wood and the photographs the weight is for; else the configured one, and when
+  // that is -1, TrackingPipeline's without a plate (PipelineParams::skin_gate_start_area_weight)
+  // with mode skin and 0 with the plate, as offline. Caller holds mutex_.
+  double startAreaWeight() const {
+    if (users_skin_gate_) return 0.0;
+    if (configured_start_area_weight_ >= 0.0) return configured_start_area_weight_;
+    return skin_mode_ ? PipelineParams().skin_gate_start_area_weight : 0.0;
   }
 
   // The segmentations' skin gate from `model`'s colours when they are the user's (latched on
   // cam<i>/skin_gate); colours that give no gate (personalSkinGate) are said and nothing is
-  // published.
-  void publishSkinGate(const HandModel& model, const std::string& source) {
-    if (!skin_gate_from_model_ || !model.colours_fitted) return;
+  // published. Returns whether the gate was published.
+  bool publishSkinGate(const HandModel& model, const std::string& source) {
+    if (!skin_gate_from_model_ || !model.colours_fitted) return false;
     try {
       const SkinParams gate = personalSkinGate(model);
       SkinGate msg = skinGateMsg(gate, source);
@@ -912,8 +918,10 @@ class TrackerNodelet : public nodelet::Nodelet {
       for (CameraInput& camera : cameras_) camera.skin_gate_pub.publish(msg);
       NODELET_INFO("skin gate for the segmentations from %s: %s", source.c_str(),
                    skinGateText(gate).c_str());
+      return true;
     } catch (const InputError& e) {
       NODELET_WARN("no skin gate from %s: %s", source.c_str(), e.what());
+      return false;
     }
   }
 
@@ -1124,8 +1132,10 @@ class TrackerNodelet : public nodelet::Nodelet {
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   std::unique_ptr<image_transport::ImageTransport> it_;
   ros::Publisher joint_pub_, marker_pub_, fingertip_pub_, status_pub_;
-  bool skin_gate_from_model_ = true;           // publish cam<i>/skin_gate
-  double configured_start_area_weight_ = 0.0;  // cfg/Tracker.cfg start_model_area_weight
+  bool skin_gate_from_model_ = true;            // publish cam<i>/skin_gate
+  bool skin_mode_ = false;                      // ~mode == skin: the segmentations have no plate
+  bool users_skin_gate_ = false;                // publishSkinGate published the model's own gate
+  double configured_start_area_weight_ = -1.0;  // cfg/Tracker.cfg start_model_area_weight
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   boost::recursive_mutex reconfigure_mutex_;
   std::unique_ptr<dynamic_reconfigure::Server<TrackerConfig>> reconfigure_;

@@ -608,6 +608,17 @@ TowardCamera moveTowardCamera0(const PoseEnergy& energy, const Pose& truth,
   return out;
 }
 
+// An energy with normalisation lambda (EnergyParams::model_area_weight) on `observations`.
+PoseEnergy energyWithAreaWeight(const HandModel& model,
+                                const std::vector<CameraObservation>& observations,
+                                double model_area_weight) {
+  EnergyParams params;
+  params.model_area_weight = model_area_weight;
+  PoseEnergy energy(model, params);
+  energy.setFrame(observations);
+  return energy;
+}
+
 }  // namespace
 
 // The paper's normalisation (model_area_weight 0) rewards a hand that comes closer to one camera:
@@ -618,14 +629,8 @@ TEST(EnergyCannotCheat, MovingTowardACameraDoesNotBuySimilarity) {
   const std::vector<Camera> cameras = fiveCameraRig();
   const Pose truth = typicalPose(model);
   const auto observations = modelObservations(model, truth, cameras);
-  EnergyParams paper;
-  paper.model_area_weight = 0.0;
-  PoseEnergy paper_energy(model, paper);
-  paper_energy.setFrame(observations);
-  EnergyParams dice;
-  dice.model_area_weight = 1.0;
-  PoseEnergy energy(model, dice);
-  energy.setFrame(observations);
+  const PoseEnergy paper_energy = energyWithAreaWeight(model, observations, 0.0);
+  const PoseEnergy energy = energyWithAreaWeight(model, observations, 1.0);
 
   const TowardCamera paper_at_truth = moveTowardCamera0(paper_energy, truth, cameras, 0.0);
   const TowardCamera at_truth = moveTowardCamera0(energy, truth, cameras, 0.0);
@@ -648,12 +653,8 @@ TEST(EnergyCannotCheat, ModelAreaWeightSetOnAnEnergyScoresAsOneBuiltWithIt) {
   const std::vector<Camera> cameras = fiveCameraRig();
   const Pose truth = typicalPose(model);
   const auto observations = modelObservations(model, truth, cameras);
-  EnergyParams dice;
-  dice.model_area_weight = 1.0;
-  PoseEnergy built(model, dice);
-  built.setFrame(observations);
-  PoseEnergy set(model, EnergyParams());
-  set.setFrame(observations);
+  const PoseEnergy built = energyWithAreaWeight(model, observations, 1.0);
+  PoseEnergy set = energyWithAreaWeight(model, observations, EnergyParams().model_area_weight);
   const double paper_at_truth = set.evaluate(truth);
   set.setModelAreaWeight(1.0);
   for (double distance : {0.0, 0.1, 0.2}) {
