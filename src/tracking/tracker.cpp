@@ -313,7 +313,8 @@ bool HandTracker::sameTrackState(const TrackState& a, const TrackState& b) {
                           a.alternative->frames == b.alternative->frames));
   return samePose(a.previous, b.previous) && samePose(a.current, b.current) && a.lost == b.lost &&
          a.typical_similarity == b.typical_similarity &&
-         a.frames_since_start == b.frames_since_start && same_alternative &&
+         a.frames_since_start == b.frames_since_start &&
+         a.frames_since_redetection == b.frames_since_redetection && same_alternative &&
          a.arm_reversed_streak == b.arm_reversed_streak && a.forearm_present == b.forearm_present &&
          sameVector(a.forearm, b.forearm) &&
          sameVector(a.alternative_forearm, b.alternative_forearm) &&
@@ -443,6 +444,7 @@ HandTracker::TrackState HandTracker::trackState() const {
   state.lost = lost_;
   state.typical_similarity = typical_similarity_;
   state.frames_since_start = frames_since_start_;
+  state.frames_since_redetection = frames_since_redetection_;
   state.alternative = alternative_;
   state.arm_reversed_streak = arm_reversed_streak_;
   state.forearm_present = forearm_present_;
@@ -462,6 +464,7 @@ void HandTracker::setTrackState(const TrackState& state) {
   lost_ = state.lost;
   typical_similarity_ = state.typical_similarity;
   frames_since_start_ = state.frames_since_start;
+  frames_since_redetection_ = state.frames_since_redetection;
   alternative_ = state.alternative;
   arm_reversed_streak_ = state.arm_reversed_streak;
   forearm_present_ = state.forearm_present;
@@ -1059,7 +1062,7 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
     }
 
     const bool redetect = !flipped && params_.redetect_interval > 0 &&
-                          frames_since_start_ + 1 >= params_.redetect_interval;
+                          frames_since_redetection_ + 1 >= params_.redetect_interval;
     // The forearm says the tracked hand is reversed, frame after frame: the track is lost.
     arm_reversed_streak_ =
         armSaysReversed(optimized->pose, observations) ? arm_reversed_streak_ + 1 : 0;
@@ -1118,7 +1121,7 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
           alternative_forearm_ = restart_forearms[choice.carry];
         }
       }
-      if (redetect) frames_since_start_ = 0;
+      if (redetect) frames_since_redetection_ = 0;
     }
   } else {
     std::optional<std::vector<OptimizationResult>> start = searchWithForearm(energy, observations);
@@ -1167,6 +1170,7 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
       lost_ ? TrackStatus::kLost : (started ? TrackStatus::kStarted : TrackStatus::kTracking);
 
   frames_since_start_ = started ? 0 : frames_since_start_ + 1;
+  frames_since_redetection_ = started ? 0 : frames_since_redetection_ + 1;
   // The orientations a flip may return to (TrackerParams::flip_return_frames).
   if (started || flipped) recent_rotations_.clear();
   if (params_.flip_return_frames > 0) {

@@ -749,24 +749,37 @@ TEST(Tracker, FingerTogglesCurlAFingerTheImagesShowCurled) {
   };
   // Ten frames of images that show the stack (the tracker starts on it and keeps the middle
   // straight; toggles only after toggle_min_track_frames), then one that shows the middle curled.
-  auto track = [&](double toggle_weight) {
+  // A periodic re-detection that keeps the track (redetect_interval) does not make its fingers
+  // the search's: the toggles go on after it.
+  auto track = [&](double toggle_weight, int redetect_interval) {
     TrackerParams params;
     params.toggle_silhouette_weight = toggle_weight;
+    params.redetect_interval = redetect_interval;
     HandTracker tracker(model, params);
     for (int frame = 0; frame < 10; ++frame) {
       const FrameResult result =
           tracker.update(modelObservations(model, stacked, cameras, 3.0), frame);
       EXPECT_TRUE(result.has_pose);
+      if (frame > 0) {
+        EXPECT_FALSE(result.restarted);
+      }
       if (frame == 9) {
         EXPECT_LT(middleFlexion(result.pose), 0.7);
       }
     }
     return tracker.update(modelObservations(model, one, cameras, 3.0), 10.0);
   };
-  const FrameResult toggled = track(TrackerParams().toggle_silhouette_weight);
+  const int redetect_interval = TrackerParams().redetect_interval;
+  const FrameResult toggled = track(TrackerParams().toggle_silhouette_weight, redetect_interval);
   ASSERT_TRUE(toggled.has_pose);
   EXPECT_GT(middleFlexion(toggled.pose), 2.0);
-  const FrameResult without = track(0.0);
+  // Re-detections at frames 4 and 8, within toggle_min_track_frames of frame 10; none adopted.
+  ASSERT_LT(5, TrackerParams().toggle_min_track_frames);
+  const FrameResult after_redetection = track(TrackerParams().toggle_silhouette_weight, 5);
+  ASSERT_TRUE(after_redetection.has_pose);
+  EXPECT_FALSE(after_redetection.restarted);
+  EXPECT_GT(middleFlexion(after_redetection.pose), 2.0);
+  const FrameResult without = track(0.0, redetect_interval);
   ASSERT_TRUE(without.has_pose);
   EXPECT_LT(middleFlexion(without.pose), 0.7);  // the energy's ascent alone keeps the stack
   const Fingertips truth = fingertips(model, one);

@@ -161,9 +161,11 @@ struct TrackerParams {
   // toggle_min_gain, D the silhouette score (silhouette.h) at toggle_silhouette_sigmas. A toggle
   // whose unrefined silhouette score falls by more than toggle_max_silhouette_loss (an open
   // finger seen in the images) is not refined. Not on a track that looks lost (lost_similarity,
-  // lost_ratio), nor in the first toggle_min_track_frames frames after a start, whose fingers are
-  // the search's (toggled there, the studio kitchen's track on the other arm held 4 frames longer
-  // against the user's hand). toggle_silhouette_weight 0 disables it.
+  // lost_ratio), nor in the first toggle_min_track_frames frames after a start or an adopted
+  // re-detection, whose fingers are the search's (toggled there, the studio kitchen's track on the
+  // other arm held 4 frames longer against the user's hand); a periodic re-detection that keeps
+  // the track does not stop them (until session 34 it did, for 8 of every 25 frames).
+  // toggle_silhouette_weight 0 disables it.
   double toggle_silhouette_weight = 0.5;
   double toggle_straight_flexion = 0.7;
   double toggle_mcp = 1.3;
@@ -467,6 +469,7 @@ class HandTracker {
     bool lost = false;
     double typical_similarity = 0.0;
     int frames_since_start = 0;
+    int frames_since_redetection = 0;
     std::optional<Alternative> alternative;
     int arm_reversed_streak = 0;
     bool forearm_present = false;
@@ -506,7 +509,12 @@ class HandTracker {
   std::optional<Pose> current_;
   bool lost_ = false;
   double typical_similarity_ = 0.0;  // running average while tracking (0: none yet)
+  // Frames since the track's pose came from the start routine (a start, or a re-detection adopted
+  // in its place): the toggles wait for toggle_min_track_frames of them. Frames since the last
+  // periodic re-detection (or start): redetect_interval counts these; a re-detection that keeps
+  // the track does not make its fingers the search's.
   int frames_since_start_ = 0;
+  int frames_since_redetection_ = 0;
   std::optional<Alternative> alternative_;
   // The forearm's world direction (EnergyParams::forearm_gaussians) of the track and of the
   // carried alternative, refined every frame; empty: straight on from the palm.
