@@ -203,7 +203,15 @@ RenderBagOptions parseRenderBagArguments(const std::vector<std::string>& args) {
     } else if (a == "--frames") {
       options.frames = static_cast<int>(integer(&i, 1));
     } else if (a == "--seed") {
-      options.seed = static_cast<std::uint64_t>(integer(&i, 0, 1LL << 53));
+      constexpr std::uint64_t kMaxSeed = 1ULL << 53;
+      options.seed = static_cast<std::uint64_t>(integer(&i, 0, static_cast<long long>(kMaxSeed)));
+      // Read as a double, 2^53 + 1 rounds to 2^53 and passes the bound: digits compare exactly.
+      const std::string& text = args[i];
+      const std::string digits = text.substr(std::min(text.find_first_not_of('0'), text.size()));
+      if (digits.find_first_not_of("0123456789") == std::string::npos &&
+          (digits.size() > 16 || (!digits.empty() && std::stoull(digits) > kMaxSeed))) {
+        throw UsageError(a + " must be at most " + std::to_string(kMaxSeed));
+      }
     } else if (a == "--motion-blur") {
       options.motion_blur = static_cast<int>(integer(&i, 1, 1000));
     } else if (a == "--exposure") {

@@ -80,6 +80,18 @@ class ModelParser {
   }
 
  private:
+  // Roll, pitch, yaw in degrees (zero when absent), each within one turn either way: 1e308 deg
+  // passed as finite and turned into whatever sin and cos give such a number.
+  static Eigen::Vector3d anglesDegrees(const YamlValue& node, const std::string& key) {
+    if (!node.has(key)) return Eigen::Vector3d::Zero();
+    const YamlValue value = node[key];
+    const Eigen::Vector3d angles = value.vector3();
+    if (!(angles.cwiseAbs().maxCoeff() <= 360.0)) {
+      value.fail("angles must be within [-360, 360] degrees");
+    }
+    return angles;
+  }
+
   void parseBones(const YamlValue& bones, HandModel* model) {
     const std::size_t count = bones.size(kMaxModelBones);
     std::set<std::string> dof_names;
@@ -107,7 +119,7 @@ class ModelParser {
         node["offset"].fail("is more than " + std::to_string(kMaxLengthMetres) +
                             " m from its parent's origin");
       }
-      bone.rest_rotation = rpyDegrees(node.vector3Or("rest_rpy_deg", Eigen::Vector3d::Zero()));
+      bone.rest_rotation = rpyDegrees(anglesDegrees(node, "rest_rpy_deg"));
       bone.length = node.has("length") ? node["length"].number(0.0, kMaxLengthMetres) : 0.0;
       if (node.has("dofs")) {
         const YamlValue dofs = node["dofs"];
@@ -192,8 +204,7 @@ class ModelParser {
         sigma_node.fail("standard deviations must be at most " + std::to_string(kMaxLengthMetres) +
                         " m");
       }
-      const Eigen::Matrix3d rotation =
-          rpyDegrees(node.vector3Or("rpy_deg", Eigen::Vector3d::Zero()));
+      const Eigen::Matrix3d rotation = rpyDegrees(anglesDegrees(node, "rpy_deg"));
       gaussian.cov = rotation * sigma.cwiseAbs2().asDiagonal() * rotation.transpose();
       const YamlValue hsv = node["hsv"];
       gaussian.hsv = hsv.vector3();

@@ -96,7 +96,14 @@ std::string typeOfBytes(const rosbag::MessageInstance& message) {
 struct ParentLink {
   std::string parent;
   Eigen::Isometry3d parent_to_child;  // tf: the pose of the child frame in the parent frame
+  int message = 0;                    // the /tf_static message (1, 2, ...) that gave it
+  std::string conflict;  // a later message that gave this frame another pose (empty: none)
 };
+
+// Re-recorded static transforms (a latched publisher seen twice) repeat the same pose to within
+// float rounding; a camera that moved differs by far more.
+constexpr double kSamePoseMetres = 1e-6;
+constexpr double kSamePoseRadians = 1e-6;
 
 }  // namespace
 
@@ -746,16 +753,49 @@ void BagReader::Impl::readExtrinsics() {
     }
   }
   const bool has_tf_static = tf_view.size() > 0;
+  int message_number = 0;
   for (const rosbag::MessageInstance& message : tf_view) {
+    ++message_number;
     const tf2_msgs::TFMessage::ConstPtr tf = read<tf2_msgs::TFMessage>(message);
     if (!tf) fail(std::string(kTfStaticTopic) + " does not hold tf2_msgs/TFMessage");
     for (const geometry_msgs::TransformStamped& transform : tf->transforms) {
       const std::string parent = stripSlash(transform.header.frame_id);
       const std::string child = stripSlash(transform.child_frame_id);
+      ParentLink link{parent, Eigen::Isometry3d::Identity(), message_number, {}};
       try {
-        links[child] = ParentLink{parent, toIsometry(transform.transform)};
+        link.parent_to_child = toIsometry(transform.transform);
       } catch (const InputError& error) {
         fail(std::string(kTfStaticTopic) + " " + parent + " -> " + child + ": " + error.what());
+      }
+      // tf2 keeps the last static transform of a frame without a word; a camera whose pose
+      // changes within the bag has no one pose to track with. Noted here, refused below if the
+      // frame is on a camera's chain.
+      const auto known = links.find(child);
+      if (known == links.end()) {
+        links.emplace(child, std::move(link));
+        continue;
+      }
+      ParentLink& first = known->second;
+      const double metres =
+          (link.parent_to_child.translation() - first.parent_to_child.translation()).norm();
+      const double radians = Eigen::AngleAxisd(first.parent_to_child.linear().transpose() *
+                                               link.parent_to_child.linear())
+                                 .angle();
+      if (first.conflict.empty() && (link.parent != first.parent || !(metres <= kSamePoseMetres) ||
+                                     !(radians <= kSamePoseRadians))) {
+        std::ostringstream conflict;
+        conflict << "messages " << first.message << " and " << message_number << " of "
+                 << kTfStaticTopic << " give '" << child << "' two poses (";
+        if (link.parent != first.parent) {
+          conflict << "under '" << first.parent << "' and under '" << link.parent << "'";
+        } else {
+          char amounts[96];
+          std::snprintf(amounts, sizeof amounts, "%.1f mm and %.2f deg apart", 1000.0 * metres,
+                        radians * 180.0 / M_PI);
+          conflict << amounts;
+        }
+        conflict << "): a camera's extrinsics must not change within a bag";
+        first.conflict = conflict.str();
       }
     }
   }
@@ -775,6 +815,9 @@ void BagReader::Impl::readExtrinsics() {
     while (current != options.root_frame) {
       const auto link = links.find(current);
       if (link == links.end()) break;
+      if (!link->second.conflict.empty()) {
+        fail("camera " + cameraName(ids[i]) + ": " + link->second.conflict);
+      }
       current_to_camera = link->second.parent_to_child * current_to_camera;
       current = link->second.parent;
       if (!visited.insert(current).second) {

@@ -521,6 +521,56 @@ TEST_F(BagFiles, BagErrorMissingExtrinsics) {
                 ": the cameras are in different tf trees: cam0 under 'world', cam2 under 'table'");
 }
 
+// tf2 keeps the last of two static transforms to one frame without a word; a camera has one pose.
+TEST_F(BagFiles, BagErrorCameraWithTwoPosesInTfStatic) {
+  Camera moved = cameras_[1];
+  moved.world_to_camera.translation().x() += 0.05;
+  Camera turned = cameras_[1];
+  turned.world_to_camera.linear() =
+      Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitY()).toRotationMatrix() *
+      turned.world_to_camera.linear();
+  turned.world_to_camera.translation() = -turned.world_to_camera.linear() * cameras_[1].centre();
+  const auto write = [&](const std::string& name, const std::vector<Camera>& later,
+                         const std::string& later_root) {
+    BagWriter writer(path(name));
+    writer.writeStaticTransforms("world", cameras_, frameTime(0));
+    writer.writeStaticTransforms(later_root, later, frameTime(1));
+    // A frame no camera hangs from may change: it is not read.
+    tf2_msgs::TFMessage other;
+    other.transforms.resize(1);
+    other.transforms[0].header.frame_id = "world";
+    other.transforms[0].child_frame_id = "gripper";
+    other.transforms[0].transform.rotation.w = 1.0;
+    writer.write("/tf_static", frameTime(2), other);
+    other.transforms[0].transform.translation.z = 0.3;
+    writer.write("/tf_static", frameTime(3), other);
+    for (int id = 0; id < 3; ++id) {
+      writer.writeCameraImage(cameras_[id], makeImage(id, 0), frameTime(0));
+    }
+    return path(name);
+  };
+  EXPECT_EQ(readError(write("moved.bag", {moved}, "world")),
+            path("moved.bag") +
+                ": camera cam1: messages 1 and 2 of /tf_static give 'cam1_optical_frame' two "
+                "poses (50.0 mm and 0.00 deg apart): a camera's extrinsics must not change "
+                "within a bag");
+  EXPECT_EQ(readError(write("turned.bag", {turned}, "world")),
+            path("turned.bag") +
+                ": camera cam1: messages 1 and 2 of /tf_static give 'cam1_optical_frame' two "
+                "poses (0.0 mm and 0.57 deg apart): a camera's extrinsics must not change "
+                "within a bag");
+  EXPECT_EQ(readError(write("reparented.bag", {cameras_[1]}, "table")),
+            path("reparented.bag") +
+                ": camera cam1: messages 1 and 2 of /tf_static give 'cam1_optical_frame' two "
+                "poses (under 'world' and under 'table'): a camera's extrinsics must not change "
+                "within a bag");
+  // The same poses recorded twice (a latched publisher seen by two recordings) are one pose.
+  const std::string repeated = write("repeated.bag", cameras_, "world");
+  BagReader reader(repeated, BagReaderOptions());
+  ASSERT_EQ(reader.cameras().size(), 3u);
+  EXPECT_TRUE(reader.cameras()[1].world_to_camera.isApprox(cameras_[1].world_to_camera, 1e-9));
+}
+
 TEST_F(BagFiles, BagErrorMonoImages) {
   const std::string bag = writeEditedBag("mono.bag", [](int, int id, sensor_msgs::Image* image,
                                                         sensor_msgs::CameraInfo*, bool*, bool*) {

@@ -266,6 +266,15 @@ TEST(RenderBagArguments, OutOfRangeNumbersRepeatedOptionsAndPreviewNamesAreUsage
   EXPECT_EQ(message({"--frames", "1e99"}), "--frames must be at most 1000000");
   EXPECT_EQ(message({"--motion-blur", "1e99"}), "--motion-blur must be at most 1000");
   EXPECT_EQ(message({"--seed", "1e99"}), "--seed must be at most 9007199254740992");
+  // Read as a double, 2^53 + 1 was 2^53 and passed.
+  EXPECT_EQ(message({"--seed", "9007199254740993"}), "--seed must be at most 9007199254740992");
+  EXPECT_EQ(message({"--seed", "99999999999999999999999"}),
+            "--seed must be at most 9007199254740992");
+  EXPECT_EQ(parseRenderBagArguments(
+                {"--sequence", "pinch", "--out", "x.bag", "--seed", "9007199254740991"})
+                .seed,
+            9007199254740991ULL);
+  EXPECT_EQ(message({"--seed", "-1"}), "--seed needs an integer >= 0");
   EXPECT_EQ(message({"--preview-frame", "1e99"}), "--preview-frame must be at most 1000000");
   EXPECT_EQ(message({"--hand-scale", "1e99"}), "--hand-scale must be within [0.3, 3], got '1e99'");
   EXPECT_EQ(message({"--palm-width", "0.1"}), "--palm-width must be within [0.3, 3], got '0.1'");

@@ -79,6 +79,23 @@ TEST(InputValidation, ModelBoneOffsetIsLimitedToAMetre) {
   EXPECT_TRUE(contains(message, "key 'bones[1].offset': is more than 1")) << message;
 }
 
+// Session 30 found them only required to be finite (1e308 deg was read).
+TEST(InputValidation, ModelAnglesAreWithinOneTurn) {
+  std::string message = modelError("rest_rpy_deg: \\[([-0-9.]+),", "rest_rpy_deg: [1e308,");
+  EXPECT_TRUE(std::regex_search(
+      message, std::regex("key 'bones\\[[0-9]+\\]\\.rest_rpy_deg': angles must be within "
+                          "\\[-360, 360\\] degrees")))
+      << message;
+  message = modelError("sigma: \\[([0-9.]+), ([0-9.]+), ([0-9.]+)\\]",
+                       "sigma: [$1, $2, $3], rpy_deg: [0, -361, 0]");
+  EXPECT_TRUE(contains(message, "key 'gaussians[0].rpy_deg': angles must be within [-360, 360]"))
+      << message;
+  const std::string turned = std::regex_replace(
+      builtinModelText(), std::regex("sigma: \\[([0-9.]+), ([0-9.]+), ([0-9.]+)\\]"),
+      "sigma: [$1, $2, $3], rpy_deg: [0, -360, 10]", std::regex_constants::format_first_only);
+  EXPECT_NO_THROW(parseHandModel(turned, "hand.yaml"));
+}
+
 TEST(InputValidation, ModelBoneWithoutOffsetIsRefused) {
   const std::string message = modelError("    offset: \\[0.022, 0.022, -0.008\\]\n", "");
   EXPECT_TRUE(contains(message, "key 'bones[1].offset': missing")) << message;
