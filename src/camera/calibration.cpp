@@ -225,6 +225,7 @@ CameraRig parseCameraRig(const std::string& yaml_text, const std::string& source
                          const CalibrationLoader& load_calibration) {
   const YamlDocument document(yaml_text, source, "rig file");
   const YamlValue root = document.root();
+  root.allowOnly({"root_frame", "cameras"});  // a misspelt key was ignored without a word
   CameraRig rig;
   const YamlValue root_frame = root["root_frame"];
   rig.root_frame = root_frame.text();

@@ -82,6 +82,17 @@ TEST_F(HandModelWriter, WrittenModelLoadsBackTheSame) {
   expectSameModel(model, loadFromText(this, formatHandModel(model, "a comment"), path("m.yaml")));
 }
 
+// calibrate_hand wrote the name bare: "my hand: v2" failed to load back after the whole fit, and
+// "hand #2" came back as "hand" (the rest a YAML comment).
+TEST_F(HandModelWriter, AnyPrintableNameRoundTrips) {
+  HandModel model = handModel();
+  for (const std::string name : {"my hand: v2", "hand #2", "*hand", "[left]", "say \"hi\" \\ \\n",
+                                 "- x", "'single'", "yes", "~", "  spaced  ", "Håndmodell ✋"}) {
+    model.name = name;
+    EXPECT_EQ(loadFromText(this, formatHandModel(model), path("named.yaml")).name, name) << name;
+  }
+}
+
 // A fitted model's colours are the user's: the file says so, and the tracker then keeps them.
 TEST_F(HandModelWriter, FittedColoursAreMarkedAndRoundTrip) {
   HandModel model = handModel();

@@ -96,6 +96,29 @@ TEST(InputValidation, ModelAnglesAreWithinOneTurn) {
   EXPECT_NO_THROW(parseHandModel(turned, "hand.yaml"));
 }
 
+// Session 34: misspelt top-level keys of a model or a rig were ignored without a word.
+TEST(InputValidation, ModelAndRigTopLevelKeysAreKnownOnes) {
+  std::string message =
+      modelError("projection: perspective", "projection: perspective\ncolors: fitted");
+  EXPECT_TRUE(contains(message, "key 'colors': unknown key (expected one of: name, handedness"))
+      << message;
+  message = rigError(R"(root_frame: world
+root_frme: x
+cameras:
+  - {name: cam0, calibration: c.yaml, translation: [0, 0, 0], rotation: [0, 0, 0, 1]}
+)");
+  EXPECT_TRUE(contains(message,
+                       "rig.yaml:2: key 'root_frme': unknown key (expected one of: "
+                       "root_frame, cameras)"))
+      << message;
+}
+
+TEST(InputValidation, ModelNameIsPrintableText) {
+  const std::string message = modelError("name: ([a-z_]+)", "name: \"sag\\x07right\"");
+  EXPECT_TRUE(contains(message, "key 'name': must be printable text (no control characters)"))
+      << message;
+}
+
 TEST(InputValidation, ModelBoneWithoutOffsetIsRefused) {
   const std::string message = modelError("    offset: \\[0.022, 0.022, -0.008\\]\n", "");
   EXPECT_TRUE(contains(message, "key 'bones[1].offset': missing")) << message;
