@@ -42,9 +42,11 @@ const char* const kImageType = "sensor_msgs/Image";
 const char* const kCameraInfoType = "sensor_msgs/CameraInfo";
 const char* const kTfType = "tf2_msgs/TFMessage";
 const char* const kTfStaticTopic = "/tf_static";
-// An image that starts a set of its own while another camera's set without it lies closer than
-// this (but beyond the stamp tolerance) is a stamp mismatch: the cameras are not stamped together.
-// Half the frame period at 25 fps; at higher rates a camera that skips a frame can be counted too.
+// An image that starts a set of its own while another camera's set without it lies within half
+// its camera's frame period, and at least this (but beyond the stamp tolerance), is a stamp
+// mismatch: the cameras are not stamped together. Half the frame period at 25 fps; at higher
+// rates a camera that skips a frame can be counted too. Inclusive: a camera exactly half a period
+// late is as far from both neighbouring sets and was missed (20 ms at 25 fps, 40 at 12.5).
 constexpr std::int64_t kNearStampNs = 20000000;
 // A camera's stamps that leap forward by more than this (a clock set forward, a paused recording)
 // are reported: the tracker takes the frames as consecutive.
@@ -153,6 +155,7 @@ struct BagReader::Impl {
   std::map<std::int64_t, PendingSet> pending;
   std::vector<std::int64_t> last_stamp;    // per camera, newest stamp seen
   std::vector<std::uint64_t> frames_read;  // per camera, its images read so far (frame numbers)
+  std::vector<std::int64_t> frame_period;  // per camera, its shortest step between stamps so far
   bool yielded_any = false;
   std::int64_t last_yielded = 0;
   BagReaderStatistics stats;
@@ -578,6 +581,7 @@ void BagReader::Impl::open() {
   end = view->end();
   last_stamp.assign(ids.size(), std::numeric_limits<std::int64_t>::min());
   frames_read.assign(ids.size(), 0);
+  frame_period.assign(ids.size(), std::numeric_limits<std::int64_t>::max());
 }
 
 std::vector<int> BagReader::Impl::discoverCameras() {
@@ -912,8 +916,12 @@ void BagReader::Impl::noteNearStamps(const std::function<std::string()>& image, 
                                      std::int64_t stamp) {
   // This image starts a set of its own; another camera's set close by that lacks it means the
   // cameras are not stamped together (closer than the tolerance it would have joined it).
-  auto neighbour = pending.lower_bound(stamp - kNearStampNs + 1);
-  for (; neighbour != pending.end() && neighbour->first < stamp + kNearStampNs; ++neighbour) {
+  const std::int64_t period = frame_period[camera];
+  const std::int64_t near = period == std::numeric_limits<std::int64_t>::max()
+                                ? kNearStampNs
+                                : std::max(kNearStampNs, period / 2);
+  auto neighbour = pending.lower_bound(stamp - near);
+  for (; neighbour != pending.end() && neighbour->first <= stamp + near; ++neighbour) {
     if (neighbour->first == stamp) continue;
     const std::vector<CameraImage>& images = neighbour->second.images;
     if (neighbour->second.has(camera) || images.empty()) continue;
@@ -992,6 +1000,10 @@ bool BagReader::Impl::step(FrameSet* set) {
       stats.first_forward_jump =
           named() + " at " + formatStamp(stamp) + " after " + formatStamp(last_stamp[camera]);
     }
+    if (last_stamp[camera] != std::numeric_limits<std::int64_t>::min() &&
+        stamp > last_stamp[camera]) {
+      frame_period[camera] = std::min(frame_period[camera], stamp - last_stamp[camera]);
+    }
     if (yielded_any && stamp <= last_yielded) {
       ++stats.dropped_images;  // too late: its set is gone
       if (stamp == last_stamp[camera]) noteDuplicateStamp(named, stamp);
@@ -1031,8 +1043,8 @@ std::string toleranceText(const BagReaderStatistics& stats, const std::string& o
 
 std::string nearStampText(const BagReaderStatistics& stats, const std::string& option) {
   return std::to_string(stats.near_stamp_mismatches) + " images more than " +
-         toleranceText(stats, option) + " but less than " + shortNumber(1e-6 * kNearStampNs) +
-         " ms from another camera's set";
+         toleranceText(stats, option) + " but at most half their camera's frame period (" +
+         shortNumber(1e-6 * kNearStampNs) + " ms or more) from another camera's set";
 }
 
 std::string plural(std::uint64_t count, const std::string& word) {

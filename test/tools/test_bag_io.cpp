@@ -1366,6 +1366,46 @@ TEST_F(BagFiles, BagReportsStampsThatNearlyMatchAndStampsGoingBackwards) {
   EXPECT_EQ(tolerant.statistics().backward_stamps, 1u);
 }
 
+// A camera exactly half a frame period late is as far from both neighbouring sets: it was missed
+// (20 ms at 25 fps, 40 ms at 12.5), and calibrate_hand fitted a hand of thickness x 0.70 from its
+// sets of one camera. A camera that drops a frame is not out of step.
+TEST_F(BagFiles, BagCountsACameraHalfAFrameLateAsOutOfStep) {
+  auto read = [&](const std::string& name, double period, double cam1_late, int dropped_frame) {
+    {
+      BagWriter writer(path(name));
+      writer.writeStaticTransforms("world", cameras_, frameTime(0));
+      for (int frame = 0; frame < 10; ++frame) {
+        for (int id = 0; id < 3; ++id) {
+          if (id == 2 && frame == dropped_frame) continue;
+          const ros::Time stamp =
+              frameTime(0) + ros::Duration(frame * period + (id == 1 ? cam1_late : 0.0));
+          writer.writeCameraImage(cameras_[id], makeImage(id, frame), stamp);
+        }
+      }
+    }
+    BagReader reader(path(name));
+    FrameSet set;
+    long sets = 0;
+    while (reader.next(&set)) ++sets;
+    return std::make_pair(reader.statistics(), sets);
+  };
+  for (const auto& [period, late] : {std::pair{0.04, 0.02}, std::pair{0.08, 0.04}}) {
+    const auto [stats, sets] = read("late.bag", period, late, -1);
+    EXPECT_GE(stats.near_stamp_mismatches, 9u) << period;
+    EXPECT_TRUE(camerasOutOfStep(stats, sets)) << period;
+    ASSERT_FALSE(stampWarnings(stats, "").empty());
+    EXPECT_NE(stampWarnings(stats, "").back().find(
+                  "but at most half their camera's frame period (20 ms or more) from another "
+                  "camera's set"),
+              std::string::npos)
+        << stampWarnings(stats, "").back();
+  }
+  const auto [dropped, dropped_sets] = read("dropped.bag", 0.04, 0.0, 4);
+  EXPECT_EQ(dropped.near_stamp_mismatches, 0u);
+  EXPECT_EQ(dropped_sets, 10);
+  EXPECT_FALSE(camerasOutOfStep(dropped, dropped_sets));
+}
+
 // A camera whose stamps leap forward by hours (a clock set forward mid-recording) was tracked on
 // without a word; the first leap is named (backward ones already were).
 TEST_F(BagFiles, BagNamesStampsThatJumpForwardByMoreThan10Seconds) {
