@@ -150,12 +150,43 @@ void checkDistortionInvertible(const Camera& camera, const std::string& who) {
       in, normalised, K_cv, camera.distortion, cv::noArray(), cv::noArray(),
       cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-12));
   std::vector<cv::Point3d> rays;
+  double widest = 0.0;  // the largest undistorted radius over the grid (normalised)
   for (const cv::Point2d& p : normalised) {
     if (!std::isfinite(p.x) || !std::isfinite(p.y)) {
       throw InputError(who + ": the distortion coefficients cannot be inverted over the image " +
                        "(undistorted pixels are not finite)");
     }
     rays.emplace_back(p.x, p.y, 1.0);
+    widest = std::max(widest, std::hypot(p.x, p.y));
+  }
+  // A lens whose radial mapping turns back inside the image folds it over: several rays meet at
+  // one pixel, and the grid's round trip below still passes (k1 0.1, k4 100 sent every pixel 21
+  // px from the centre to a ray 87-89.9 deg off the axis). The distorted radius
+  // r (1 + k1 r^2 + k2 r^4 + k3 r^6) / (1 + k4 r^2 + k5 r^4 + k6 r^6) must grow with r up to the
+  // widest ray the image's pixels undistort to.
+  const std::vector<double>& d = camera.distortion;
+  auto coefficient = [&d](size_t i) { return i < d.size() ? d[i] : 0.0; };
+  const double k1 = coefficient(0), k2 = coefficient(1), k3 = coefficient(4), k4 = coefficient(5),
+               k5 = coefficient(6), k6 = coefficient(7);
+  auto distortedRadius = [&](double r) {
+    const double r2 = r * r;
+    return r * (1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))) / (1.0 + r2 * (k4 + r2 * (k5 + r2 * k6)));
+  };
+  constexpr int kSteps = 1000;
+  double previous = 0.0;
+  for (int step = 1; step <= kSteps; ++step) {
+    const double r = std::tan(std::atan(widest) * step / kSteps);  // even steps of the ray's angle
+    const double distorted = distortedRadius(r);
+    if (!(distorted > previous)) {
+      char where[160];
+      std::snprintf(where, sizeof(where),
+                    "the lens folds the image over: its radial mapping stops growing %.1f deg off "
+                    "the axis, inside the image's widest ray at %.1f deg",
+                    std::atan(r) * 180.0 / M_PI, std::atan(widest) * 180.0 / M_PI);
+      throw InputError(who + ": the distortion coefficients cannot be inverted over the image (" +
+                       where + ")");
+    }
+    previous = distorted;
   }
   std::vector<cv::Point2d> back;
   cv::projectPoints(rays, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), K_cv, camera.distortion, back);
