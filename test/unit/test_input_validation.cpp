@@ -96,6 +96,16 @@ TEST(InputValidation, ModelAnglesAreWithinOneTurn) {
   EXPECT_NO_THROW(parseHandModel(turned, "hand.yaml"));
 }
 
+// Session 34: a frame_id "cam1\n\x1b[31mred\0x" in an error printed a live terminal escape, and
+// the message ended at the NUL.
+TEST(InputValidation, ErrorsWriteControlCharactersAsEscapes) {
+  const std::string frame("cam1\n\x1b[31mred\0x", 15);
+  const InputError error("frame '" + frame + "' is not in /tf_static");
+  EXPECT_EQ(std::string(error.what()),
+            "frame 'cam1\n\\x1b[31mred\\x00x' is not in /tf_static");
+  EXPECT_EQ(std::string(InputError("Håndmodell ✋ café").what()), "Håndmodell ✋ café");
+}
+
 // Session 34: misspelt top-level keys of a model or a rig were ignored without a word.
 TEST(InputValidation, ModelAndRigTopLevelKeysAreKnownOnes) {
   std::string message =

@@ -41,9 +41,31 @@ struct ProjectedGaussian {
 };
 
 // Thrown for bad input (model files, cameras, ...): the message names the problem.
+// Control characters of the input it quotes (a frame_id, an encoding, an option's value) are
+// written as \xNN: raw, an escape sequence reached the user's terminal and a NUL cut the message.
+// Line breaks and tabs stay: some messages list their points on lines of their own.
 class InputError : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit InputError(const std::string& what) : std::runtime_error(printable(what)) {}
+  explicit InputError(const char* what) : InputError(std::string(what)) {}
+
+ private:
+  static std::string printable(const std::string& text) {
+    std::string out;
+    out.reserve(text.size());
+    static const char kHex[] = "0123456789abcdef";
+    for (const char c : text) {
+      const unsigned char u = static_cast<unsigned char>(c);
+      if ((u < 0x20 && c != '\n' && c != '\t') || u == 0x7f) {
+        out += "\\x";
+        out += kHex[u >> 4];
+        out += kHex[u & 15];
+      } else {
+        out += c;
+      }
+    }
+    return out;
+  }
 };
 
 constexpr int kNumFingers = 5;  // thumb, index, middle, ring, pinky
