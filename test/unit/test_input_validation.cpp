@@ -101,8 +101,7 @@ TEST(InputValidation, ModelAnglesAreWithinOneTurn) {
 TEST(InputValidation, ErrorsWriteControlCharactersAsEscapes) {
   const std::string frame("cam1\n\x1b[31mred\0x", 15);
   const InputError error("frame '" + frame + "' is not in /tf_static");
-  EXPECT_EQ(std::string(error.what()),
-            "frame 'cam1\n\\x1b[31mred\\x00x' is not in /tf_static");
+  EXPECT_EQ(std::string(error.what()), "frame 'cam1\n\\x1b[31mred\\x00x' is not in /tf_static");
   EXPECT_EQ(std::string(InputError("Håndmodell ✋ café").what()), "Håndmodell ✋ café");
 }
 
