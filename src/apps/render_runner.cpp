@@ -324,13 +324,11 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
                                   studio::handShapeFile(options.shape, config)};
   const CameraRig rig = loadCameraRig(rig_path, &inputs);
   // Before any output is opened: no output may be an input or another output.
+  checkDistinctOutputs(
+      {{"--out", options.out}, {"--gt-csv", options.gt_csv}, {"--preview", options.preview}});
   checkOutputPath(options.out, inputs);
-  inputs.push_back(options.out);
   checkOutputPath(options.gt_csv, inputs, "--gt-csv");
-  if (!options.preview.empty()) {
-    inputs.push_back(options.gt_csv);
-    checkOutputPath(options.preview, inputs, "--preview");
-  }
+  if (!options.preview.empty()) checkOutputPath(options.preview, inputs, "--preview");
   checkOutputIsNew(options.out, options.overwrite);
   checkOutputIsNew(options.gt_csv, options.overwrite, "--gt-csv");
   if (!options.preview.empty()) checkOutputIsNew(options.preview, options.overwrite, "--preview");

@@ -40,6 +40,22 @@ void checkOutputPath(const std::string& out, const std::vector<std::string>& inp
   }
 }
 
+void checkDistinctOutputs(const std::vector<std::pair<std::string, std::string>>& outputs) {
+  std::error_code error;
+  for (std::size_t b = 0; b < outputs.size(); ++b) {
+    if (outputs[b].second.empty()) continue;
+    for (std::size_t a = 0; a < b; ++a) {
+      if (outputs[a].second.empty()) continue;
+      if (fs::weakly_canonical(outputs[a].second, error) ==
+          fs::weakly_canonical(outputs[b].second, error)) {
+        throw InputError(outputs[b].first + " " + outputs[b].second + " is also " +
+                         outputs[a].first + " " + outputs[a].second +
+                         "; each output needs a file of its own");
+      }
+    }
+  }
+}
+
 void checkOutputIsNew(const std::string& out, bool overwrite, const std::string& option,
                       const std::string& refusal) {
   std::error_code error;

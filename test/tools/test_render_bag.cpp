@@ -195,7 +195,10 @@ TEST_F(RenderBagTool, BadInputGetsAOneLineErrorAndNonZeroExit) {
        1, "--out " + path("cam1_copy.yaml") + " is the input " + path("cam1_copy.yaml")},
       {"--sequence nosuch" + out, 1, "motion nosuch: does not exist"},
       {"--sequence pinch --out '" + path("same") + "' --gt-csv '" + path("same") + "'", 1,
-       "--gt-csv " + path("same") + " is the input " + path("same")},
+       "--gt-csv " + path("same") + " is also --out " + path("same") +
+           "; each output needs a file of its own"},
+      {"--sequence pinch --gt-csv '" + path("g.png") + "' --preview '" + path("g.png") + "'" + out,
+       1, "--preview " + path("g.png") + " is also --gt-csv " + path("g.png")},
       {"--sequence '" + path("bad_motion.yaml") + "' --out '" + path("bad_motion.yaml") + "'", 1,
        "--out " + path("bad_motion.yaml") + " is the input"},
       {"--sequence pinch --rig nosuchrig" + out, 1, "no camera rig 'nosuchrig'"},

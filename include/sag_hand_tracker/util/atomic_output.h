@@ -5,6 +5,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace sag_hand_tracker {
@@ -15,6 +16,11 @@ namespace sag_hand_tracker {
 // anything is opened.
 void checkOutputPath(const std::string& out, const std::vector<std::string>& inputs,
                      const std::string& option = "--out");
+
+// Throws InputError "<option b> <path b> is also <option a> <path a>; each output needs a file of
+// its own" when two of `outputs` ({option, path}; empty paths are skipped) name one file. Call it
+// with checkOutputPath, before anything is opened.
+void checkDistinctOutputs(const std::vector<std::pair<std::string, std::string>>& outputs);
 
 // Throws InputError "<option> <out><refusal>" when something is at `out` (any symlink counts, even
 // a dangling one: replacing it would put a regular file where the user had a link) and `overwrite`
