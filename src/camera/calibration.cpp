@@ -62,12 +62,6 @@ std::string formatList(const std::vector<double>& values) {
 }
 
 // A YAML scalar for a string, quoted when plain style would change its meaning.
-std::string formatString(const std::string& value) {
-  YAML::Emitter out;
-  out << value;
-  return out.c_str();
-}
-
 void writeMatrix(std::ostream& out, const std::string& key, int rows, int cols,
                  const std::vector<double>& data) {
   out << key << ":\n  rows: " << rows << "\n  cols: " << cols << "\n  data: " << formatList(data)
@@ -208,7 +202,7 @@ std::string cameraCalibrationToYaml(const Camera& camera) {
   std::ostringstream out;
   out << "image_width: " << camera.width << "\n";
   out << "image_height: " << camera.height << "\n";
-  out << "camera_name: " << formatString(camera.name) << "\n";
+  out << "camera_name: " << yamlString(camera.name) << "\n";
   writeMatrix(out, "camera_matrix", 3, 3, k);
   out << "distortion_model: " << model << "\n";
   writeMatrix(out, "distortion_coefficients", 1, static_cast<int>(distortion.size()), distortion);
@@ -294,7 +288,7 @@ void saveCameraRig(const std::string& path, const CameraRig& rig) {
   out << "# Camera rig: the transform root_frame -> <name>_optical_frame of every camera, as tf\n"
       << "# publishes it (translation in metres, rotation as quaternion [qx, qy, qz, qw]), and\n"
       << "# its camera_calibration_parsers file relative to this file.\n";
-  out << "root_frame: " << formatString(rig.root_frame) << "\n";
+  out << "root_frame: " << yamlString(rig.root_frame) << "\n";
   out << "cameras:\n";
   for (const Camera& camera : rig.cameras) {
     if (camera.name.empty()) throw InputError(path + ": a camera of the rig has no name");
@@ -307,8 +301,8 @@ void saveCameraRig(const std::string& path, const CameraRig& rig) {
     Eigen::Quaterniond q(root_to_optical.rotation());
     if (q.w() < 0.0) q.coeffs() = -q.coeffs();
     const Eigen::Vector3d t = root_to_optical.translation();
-    out << "  - name: " << formatString(camera.name) << "\n";
-    out << "    calibration: " << formatString(file) << "\n";
+    out << "  - name: " << yamlString(camera.name) << "\n";
+    out << "    calibration: " << yamlString(file) << "\n";
     out << "    translation: " << formatList({t.x(), t.y(), t.z()}) << "\n";
     out << "    rotation: " << formatList({q.x(), q.y(), q.z(), q.w()}) << "\n";
   }

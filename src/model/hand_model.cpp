@@ -5,7 +5,6 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <fstream>
 #include <iomanip>
 #include <map>
@@ -42,8 +41,7 @@ class ModelParser {
     const YamlValue name = root["name"];
     model.name = name.text();
     // The name is written back by calibrate_hand; a control character has no place in it.
-    if (std::any_of(model.name.begin(), model.name.end(),
-                    [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; })) {
+    if (std::any_of(model.name.begin(), model.name.end(), isControlCharacter)) {
       name.fail("must be printable text (no control characters)");
     }
     const YamlValue handedness = root["handedness"];
@@ -434,25 +432,6 @@ std::string axisName(const Eigen::Vector3d& axis) {
   throw InputError("a joint axis that is not a bone axis (x, y or z) cannot be written");
 }
 
-// `text` as a double-quoted YAML scalar: a name like "my hand: v2" or "hand #2" was written bare
-// and read back as malformed YAML or as "hand".
-std::string yamlQuoted(const std::string& text) {
-  std::string quoted = "\"";
-  for (const char c : text) {
-    if (c == '"' || c == '\\') {
-      quoted += '\\';
-      quoted += c;
-    } else if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) {
-      char escaped[8];
-      std::snprintf(escaped, sizeof escaped, "\\x%02x", static_cast<unsigned char>(c));
-      quoted += escaped;
-    } else {
-      quoted += c;
-    }
-  }
-  return quoted + "\"";
-}
-
 }  // namespace
 
 std::string formatHandModel(const HandModel& model, const std::string& comment) {
@@ -462,7 +441,7 @@ std::string formatHandModel(const HandModel& model, const std::string& comment) 
     std::istringstream lines(comment);
     for (std::string line; std::getline(lines, line);) out << "# " << line << "\n";
   }
-  out << "name: " << yamlQuoted(model.name) << "\n";
+  out << "name: " << yamlString(model.name) << "\n";
   out << "handedness: " << (model.handedness == Handedness::kRight ? "right" : "left") << "\n";
   out << "projection: "
       << (model.projection == ProjectionMode::kPerspective ? "perspective" : "scaled_orthographic")

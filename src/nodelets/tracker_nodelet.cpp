@@ -903,7 +903,7 @@ class TrackerNodelet : public nodelet::Nodelet {
   double startAreaWeight() const {
     if (users_skin_gate_) return 0.0;
     if (configured_start_area_weight_ >= 0.0) return configured_start_area_weight_;
-    return skin_mode_ ? PipelineParams().skin_gate_start_area_weight : 0.0;
+    return startModelAreaWeight(PipelineParams(), skin_mode_);  // the tracker's default: 0
   }
 
   // The segmentations' skin gate from `model`'s colours when they are the user's (latched on

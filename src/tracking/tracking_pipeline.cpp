@@ -98,6 +98,12 @@ double modelOnForeground(const PosedHand& hand, const std::vector<Camera>& camer
   return core > 0.0 ? on_foreground / core : 0.0;
 }
 
+double startModelAreaWeight(const PipelineParams& params, bool generic_skin_gate_without_plate) {
+  return generic_skin_gate_without_plate
+             ? std::max(params.tracker.start_model_area_weight, params.skin_gate_start_area_weight)
+             : params.tracker.start_model_area_weight;
+}
+
 TrackingPipeline::TrackingPipeline(const HandModel& model, const std::vector<Camera>& cameras,
                                    const PipelineParams& params)
     : cameras_(cameras), params_(adjusted(params)), tracker_(model, params_.tracker) {
@@ -117,9 +123,10 @@ TrackingPipeline::TrackingPipeline(const HandModel& model, const std::vector<Cam
   }
   // The generic skin gate keeps the wood, the coffee and the photographs beside the hand, and the
   // starts are scored with the model's area charged; the user's own gate drops those things.
-  if (params_.background_frames == 0 && !skin_gate_from_model_) {
-    params_.tracker.start_model_area_weight =
-        std::max(params_.tracker.start_model_area_weight, params_.skin_gate_start_area_weight);
+  const double start_weight =
+      startModelAreaWeight(params_, params_.background_frames == 0 && !skin_gate_from_model_);
+  if (start_weight != params_.tracker.start_model_area_weight) {
+    params_.tracker.start_model_area_weight = start_weight;
     tracker_.setParams(params_.tracker);
   }
   for (const Camera& camera : cameras_) {

@@ -132,6 +132,12 @@ std::optional<YamlValue> presentMember(const YamlValue& map, const std::string& 
 
 }  // namespace
 
+std::string yamlString(const std::string& value) {
+  YAML::Emitter out;
+  out << value;
+  return out.c_str();
+}
+
 std::string readYamlFileText(const std::string& path, const std::string& kind,
                              std::size_t max_bytes) {
   std::error_code error;

@@ -84,6 +84,12 @@ constexpr double kModelCoreRadius = 0.5;
 double modelOnForeground(const PosedHand& hand, const std::vector<Camera>& cameras,
                          const std::vector<cv::Mat>& foregrounds);
 
+// The starts' model-area weight (TrackerParams::start_model_area_weight) the tracker runs with:
+// with the generic skin gate and no plate (`generic_skin_gate_without_plate`) at least
+// params.skin_gate_start_area_weight, else params.tracker's own. TrackingPipeline and the live
+// tracker nodelet decide it here.
+double startModelAreaWeight(const PipelineParams& params, bool generic_skin_gate_without_plate);
+
 class TrackingPipeline {
  public:
   // One segmenter per camera. Throws InputError for fewer cameras than the automatic start needs

@@ -40,6 +40,12 @@ struct ProjectedGaussian {
   bool valid = false;  // false when the projection is undefined (camera inside, behind, ...)
 };
 
+// ASCII control characters (0x00-0x1f, 0x7f): never part of a name, never echoed raw.
+inline bool isControlCharacter(char c) {
+  const unsigned char u = static_cast<unsigned char>(c);
+  return u < 0x20 || u == 0x7f;
+}
+
 // Thrown for bad input (model files, cameras, ...): the message names the problem.
 // Control characters of the input it quotes (a frame_id, an encoding, an option's value) are
 // written as \xNN: raw, an escape sequence reached the user's terminal and a NUL cut the message.
@@ -55,8 +61,8 @@ class InputError : public std::runtime_error {
     out.reserve(text.size());
     static const char kHex[] = "0123456789abcdef";
     for (const char c : text) {
-      const unsigned char u = static_cast<unsigned char>(c);
-      if ((u < 0x20 && c != '\n' && c != '\t') || u == 0x7f) {
+      if (isControlCharacter(c) && c != '\n' && c != '\t') {
+        const unsigned char u = static_cast<unsigned char>(c);
         out += "\\x";
         out += kHex[u >> 4];
         out += kHex[u & 15];

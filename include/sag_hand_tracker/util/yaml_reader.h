@@ -60,6 +60,10 @@ class YamlDocument {
 std::string readYamlFileText(const std::string& path, const std::string& kind,
                              std::size_t max_bytes = kMaxYamlFileBytes);
 
+// `value` as a YAML scalar, quoted and escaped where plain text would not read back the same
+// (yaml-cpp's emitter): how the model and rig writers put names and paths into their files.
+std::string yamlString(const std::string& value);
+
 class YamlValue {
  public:
   YamlValue(const YamlDocument* document, YAML::Node node, std::string key, int line);
