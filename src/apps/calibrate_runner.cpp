@@ -173,16 +173,10 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
   // 1. Track the routine with the start model, as track_bag does, keeping what the tracker saw.
   PipelineParams pipeline_params;
   pipeline_params.background_frames = options.background_frames;
+  pipeline_params.tracker = calibrationTrackerParams();
   // The start model's colours, as before the tracker learnt colours (session 8): the fit takes
   // its own from the images, at its own poses.
   pipeline_params.tracker.colour_adaptation.enabled = false;
-  // Whole ascents, no races (TrackerParams::counter_turn_race_share, redetect_race_iterations): a
-  // routine is tracked once, and its poses decide the fit; with the counter-turn race the studio's
-  // long_thin hand was fitted with its index finger 6.2 % short, without it within 5 %
-  // (doc/history.md "Session 17").
-  pipeline_params.tracker.counter_turn_race_share = 0.0;
-  pipeline_params.tracker.redetect_race_iterations = 0;
-  pipeline_params.tracker.energy = calibrationEnergyParams();
   TrackingPipeline pipeline(start, reader.cameras(), pipeline_params);
   std::vector<CalibrationFrame> frames;
   FrameSet set;

@@ -24,6 +24,13 @@ ForearmGaussians forearmGaussians(const EnergyParams& params, const Eigen::Vecto
 }
 namespace {
 
+void checkOcclusionDepthScale(double scale) {
+  if (!(scale >= 0.0) || !std::isfinite(scale)) {
+    throw InputError("energy: occlusion_depth_scale must be a finite number >= 0 (m), got " +
+                     std::to_string(scale));
+  }
+}
+
 // A model Gaussian projected into one camera, with the Jacobian of (mean_x, mean_y, cov_xx,
 // cov_xy, cov_yy) with respect to (mu_c, unique Sigma_c) when a gradient is wanted.
 struct ProjectionWithJacobian {
@@ -70,10 +77,8 @@ EvaluationScratch& evaluationScratch() {
 PoseEnergy::PoseEnergy(const HandModel& model, const EnergyParams& params)
     : model_(model), params_(params), ancestor_dofs_(model.ancestorJointDofs()) {
   validateHandModel(model_);
-  for (int j = 0; j < kNumJointDof; ++j) {
-    const bool thumb = model_.joints[j].name.rfind("thumb_", 0) == 0;
-    range_weights_[j] = thumb ? params_.thumb_range_weight : params_.joint_range_weight;
-  }
+  range_weights_.fill(params_.joint_range_weight);
+  for (const int j : thumbJoints(model_)) range_weights_[j] = params_.thumb_range_weight;
   for (int pip = 0; pip < kNumJointDof; ++pip) {
     const std::string& name = model_.joints[pip].name;
     const size_t at = name.rfind("_pip_flex");
@@ -165,10 +170,7 @@ PoseEnergy::PoseEnergy(const HandModel& model, const EnergyParams& params)
         std::to_string(params_.wrist_weight) + ", tolerance " +
         std::to_string(params_.wrist_tolerance) + ", scale " + std::to_string(params_.wrist_scale));
   }
-  if (!(params_.occlusion_depth_scale >= 0.0) || !std::isfinite(params_.occlusion_depth_scale)) {
-    throw InputError("energy: occlusion_depth_scale must be a finite number >= 0 (m), got " +
-                     std::to_string(params_.occlusion_depth_scale));
-  }
+  checkOcclusionDepthScale(params_.occlusion_depth_scale);
 }
 
 double PoseEnergy::modelWeight(size_t p) const {
@@ -186,6 +188,11 @@ void PoseEnergy::setModelAreaWeight(double weight) {
                      std::to_string(weight));
   }
   params_.model_area_weight = weight;
+}
+
+void PoseEnergy::setOcclusionDepthScale(double scale) {
+  checkOcclusionDepthScale(scale);
+  params_.occlusion_depth_scale = scale;
 }
 
 void PoseEnergy::setForearmDirection(const std::optional<Eigen::Vector3d>& direction) {

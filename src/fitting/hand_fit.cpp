@@ -96,6 +96,15 @@ EnergyParams calibrationEnergyParams() {
   return params;
 }
 
+TrackerParams calibrationTrackerParams() {
+  TrackerParams params;
+  params.counter_turn_race_share = 0.0;
+  params.redetect_race_iterations = 0;
+  params.curled_refine_iterations = 0;
+  params.energy = calibrationEnergyParams();
+  return params;
+}
+
 HandShapeParameters HandShapeParameters::identity(const HandModel& model) {
   HandShapeParameters shape;
   shape.bone_length.assign(model.bones.size(), 1.0);

@@ -292,6 +292,14 @@ std::array<LongFingerJoints, kNumFingers - 1> longFingerJoints(const HandModel& 
   return joints;
 }
 
+std::vector<int> thumbJoints(const HandModel& model) {
+  std::vector<int> joints;
+  for (size_t j = 0; j < model.joints.size(); ++j) {
+    if (model.joints[j].name.rfind("thumb_", 0) == 0) joints.push_back(static_cast<int>(j));
+  }
+  return joints;
+}
+
 std::vector<std::vector<int>> HandModel::ancestorJointDofs() const {
   std::vector<std::vector<int>> result(bones.size());
   for (size_t b = 0; b < bones.size(); ++b) {

@@ -30,7 +30,8 @@
 //   with the model's area charged, TrackerParams::start_model_area_weight, as TrackingPipeline
 //   does offline without a plate, and 0 while the skin gate is the model's own), plus the
 //   dynamic_reconfigure parameters of cfg/Tracker.cfg (its start_model_area_weight, -1 by
-//   default, replaces the mode's weight when >= 0).
+//   default, replaces the mode's weight when >= 0; its curled_refine_iterations, -1 by default,
+//   the curled hand's refinement: as offline, on with mode plate and off with mode skin).
 //
 // Room cues (issue 11; ros/live_room_cues.h, doc/segmentation.md "The live graph"; the segmentation
 // nodelets' room_cues must be on too): after every set the tracked hand is published to each
@@ -54,7 +55,8 @@
 // Live calibration (~calibrate, srv/Calibrate.srv, doc/calibration.md "Live"): the call collects
 // the sets of the next `duration` seconds (image stamps) as CalibrationFrames (the observations
 // the tracker gets and its pose, for sets with a tracked hand) while tracking goes on (with the
-// wrist prior off meanwhile, as calibrate_hand tracks a routine: calibrationEnergyParams), checks
+// wrist prior and the curled hand's refinement off meanwhile, as calibrate_hand tracks a routine:
+// calibrationTrackerParams), checks
 // the routine (checkCalibrationRoutine), fits (fitHandModel: the same fit as calibrate_hand,
 // colours sampled from the image SoGs, which carry them) on a thread of its own, optionally writes
 // the model file (atomic; never replaces a file), then rebuilds the HandTracker with the fitted
@@ -352,6 +354,10 @@ class TrackerNodelet : public nodelet::Nodelet {
     params.energy.correct_colour_cast = config.correct_colour_cast;
     params.colour_adaptation.enabled = config.colour_adaptation;
     params.energy.model_weight = config.model_weight;
+    params.curled_refine_iterations =
+        config.curled_refine_iterations >= 0
+            ? config.curled_refine_iterations
+            : curledRefineIterations(PipelineParams(), skin_mode_);  // as offline
     params.lost_similarity = config.lost_similarity;
     params.min_foreground_gaussians = config.min_foreground_gaussians;
     params.min_cameras_for_start = config.min_cameras_for_start;
@@ -717,10 +723,16 @@ class TrackerNodelet : public nodelet::Nodelet {
 
   // The tracker's wrist prior (EnergyParams::wrist_weight), its other parameters as they are (a
   // reconfigure may have changed them meanwhile). Caller holds mutex_.
-  void setWristWeight(double weight) {
+  // The wrist prior's weight and the curled hand's refinement, which a routine is tracked without
+  // (calibrationTrackerParams) and which come back after it. Caller holds mutex_.
+  void setRoutineTracking(double wrist_weight, int curled_refine_iterations) {
     TrackerParams params = tracker_->params();
-    if (params.energy.wrist_weight == weight) return;
-    params.energy.wrist_weight = weight;
+    if (params.energy.wrist_weight == wrist_weight &&
+        params.curled_refine_iterations == curled_refine_iterations) {
+      return;
+    }
+    params.energy.wrist_weight = wrist_weight;
+    params.curled_refine_iterations = curled_refine_iterations;
     tracker_->setParams(params);
   }
 
@@ -757,9 +769,12 @@ class TrackerNodelet : public nodelet::Nodelet {
       recording_.emplace();
       recording_->duration = request.duration;
       // The routine is tracked as calibrate_hand tracks it: without the wrist prior
-      // (calibrationEnergyParams, doc/calibration.md "Session 26"); the prior is back after it.
+      // (doc/calibration.md "Session 26") and the curled hand's refinement
+      // (calibrationTrackerParams); both are back after it.
       const double wrist_weight = tracker_->params().energy.wrist_weight;
-      setWristWeight(calibrationEnergyParams().wrist_weight);
+      const int refine_iterations = tracker_->params().curled_refine_iterations;
+      const TrackerParams routine = calibrationTrackerParams();
+      setRoutineTracking(routine.energy.wrist_weight, routine.curled_refine_iterations);
       setCalibrationState("collecting");
       NODELET_INFO("calibrate: collecting %.1f s of camera sets", request.duration);
       // Sets come at the camera rate; a replay may run slower than real time, so the wall-clock
@@ -771,7 +786,7 @@ class TrackerNodelet : public nodelet::Nodelet {
       recording = std::move(*recording_);
       recording_.reset();
       awaiting_late_.clear();
-      setWristWeight(wrist_weight);
+      setRoutineTracking(wrist_weight, refine_iterations);
     }
     response->sets = recording.sets;
     response->tracked_frames = static_cast<int>(recording.frames.size());

@@ -13,6 +13,9 @@ PoseVector initialSteps(const OptimizerParams& params) {
   steps.segment<3>(kRootTranslation).setConstant(params.translation_step);
   steps.segment<3>(kRootRotation).setConstant(params.rotation_step);
   steps.segment<kNumJointDof>(kFirstJointDof).setConstant(params.joint_step);
+  for (const int joint : params.held_joints) {
+    if (joint >= 0 && joint < kNumJointDof) steps[kFirstJointDof + joint] = 0.0;
+  }
   return steps;
 }
 

@@ -425,6 +425,7 @@ HandTracker::HandTracker(const HandModel& model, const TrackerParams& params)
       params_(params),
       energy_(model, params.energy),
       finger_joints_(longFingerJoints(model)),
+      thumb_joints_(thumbJoints(model)),
       start_colours_(modelColours(model)) {}
 
 HandTracker::~HandTracker() = default;
@@ -526,6 +527,7 @@ void HandTracker::setModel(const HandModel& model) {
   model_ = model;
   energy_ = PoseEnergy(model_, params_.energy);
   finger_joints_ = longFingerJoints(model_);
+  thumb_joints_ = thumbJoints(model_);
   start_colours_ = modelColours(model_);
   forgetLearntColours();
   if (current_) clampToLimits(model_, &*current_);
@@ -1000,6 +1002,28 @@ bool HandTracker::toggleFingers(const PoseEnergy& energy,
   return true;
 }
 
+bool HandTracker::refineCurledFingers(PoseEnergy& energy, OptimizationResult* result) const {
+  if (params_.curled_refine_iterations <= 0 ||
+      !(meanFingerFlexion(model_, result->pose) >= params_.curled_refine_flexion)) {
+    return false;
+  }
+  const double area_weight = energy.params().model_area_weight;
+  const double occlusion = energy.params().occlusion_depth_scale;
+  energy.setModelAreaWeight(params_.curled_refine_model_area_weight);
+  energy.setOcclusionDepthScale(params_.curled_refine_occlusion_depth_scale);
+  OptimizerParams optimizer = params_.optimizer;
+  optimizer.iterations = params_.curled_refine_iterations;
+  optimizer.translation_step = 0.0;  // the root is held: only the fingers' shape is in question
+  optimizer.rotation_step = 0.0;
+  optimizer.held_joints = thumb_joints_;
+  const Pose refined = optimizePose(energy, result->pose, optimizer).pose;
+  energy.setModelAreaWeight(area_weight);
+  energy.setOcclusionDepthScale(occlusion);
+  result->pose = refined;
+  result->energy = energy.evaluate(refined);
+  return true;
+}
+
 FrameResult HandTracker::step(const std::vector<CameraObservation>& observations, double stamp) {
   FrameResult result;
   result.stamp = stamp;
@@ -1027,6 +1051,7 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
   if (tracking) {
     optimized = trackFromPrediction(energy, previous_, *current_);
     toggleFingers(energy, observations, &*optimized);
+    refineCurledFingers(energy, &*optimized);
     forearm = fitForearm(energy, &*optimized, forearm);
     energy.setForearmDirection(forearm);
     energy.evaluate(optimized->pose, nullptr, &tracked_terms);

@@ -104,6 +104,12 @@ double startModelAreaWeight(const PipelineParams& params, bool generic_skin_gate
              : params.tracker.start_model_area_weight;
 }
 
+int curledRefineIterations(const PipelineParams& params, bool without_plate) {
+  return without_plate && !params.curled_refine_without_plate
+             ? 0
+             : params.tracker.curled_refine_iterations;
+}
+
 TrackingPipeline::TrackingPipeline(const HandModel& model, const std::vector<Camera>& cameras,
                                    const PipelineParams& params)
     : cameras_(cameras), params_(adjusted(params)), tracker_(model, params_.tracker) {
@@ -125,8 +131,11 @@ TrackingPipeline::TrackingPipeline(const HandModel& model, const std::vector<Cam
   // starts are scored with the model's area charged; the user's own gate drops those things.
   const double start_weight =
       startModelAreaWeight(params_, params_.background_frames == 0 && !skin_gate_from_model_);
-  if (start_weight != params_.tracker.start_model_area_weight) {
+  const int refine_iterations = curledRefineIterations(params_, params_.background_frames == 0);
+  if (start_weight != params_.tracker.start_model_area_weight ||
+      refine_iterations != params_.tracker.curled_refine_iterations) {
     params_.tracker.start_model_area_weight = start_weight;
+    params_.tracker.curled_refine_iterations = refine_iterations;
     tracker_.setParams(params_.tracker);
   }
   for (const Camera& camera : cameras_) {

@@ -670,6 +670,36 @@ TEST(EnergyCannotCheat, ModelAreaWeightSetOnAnEnergyScoresAsOneBuiltWithIt) {
   EXPECT_THROW(set.setModelAreaWeight(std::nan("")), InputError);
 }
 
+// The tracker refines curled hands with occlusion switched on for a few iterations
+// (TrackerParams::curled_refine_*): an energy whose occlusion is set scores and climbs as one built
+// with it, and set back to 0 as the paper's again.
+TEST(Energy, OcclusionSetOnAnEnergyScoresAsOneBuiltWithIt) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  Pose fist = typicalPose(model);
+  for (const LongFingerJoints& finger : longFingerJoints(model)) {
+    fist.joints[finger.mcp_flex] = 1.3;  // fingers in front of the palm: occlusion counts
+    fist.joints[finger.pip_flex] = 1.5;
+  }
+  const auto observations = modelObservations(model, fist, cameras);
+  EnergyParams occluding;
+  occluding.occlusion_depth_scale = 0.01;
+  PoseEnergy built(model, occluding);
+  built.setFrame(observations);
+  PoseEnergy set(model, EnergyParams());
+  set.setFrame(observations);
+  const double paper = set.evaluate(fist);
+  set.setOcclusionDepthScale(0.01);
+  PoseVector built_gradient, set_gradient;
+  EXPECT_DOUBLE_EQ(set.evaluate(fist, &set_gradient), built.evaluate(fist, &built_gradient));
+  EXPECT_TRUE(set_gradient.isApprox(built_gradient));
+  EXPECT_NE(set.evaluate(fist), paper);
+  set.setOcclusionDepthScale(0.0);
+  EXPECT_DOUBLE_EQ(set.evaluate(fist), paper);
+  EXPECT_THROW(set.setOcclusionDepthScale(-0.01), InputError);
+  EXPECT_THROW(set.setOcclusionDepthScale(std::nan("")), InputError);
+}
+
 // Model Gaussians that cannot be projected into a camera that sees foreground (behind it, or
 // containing its centre) count against the pose (model_area_weight 1), and a hand behind a camera
 // scores nothing there.

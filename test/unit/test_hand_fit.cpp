@@ -381,11 +381,7 @@ std::vector<Recording> renderAndTrack(const std::string& motion_name,
   const studio::StudioSequence sequence(handModel(), motion, params);
   PipelineParams pipeline_params;
   pipeline_params.background_frames = params.empty_frames;
-  if (routine) {  // as calibrate_hand tracks a routine
-    pipeline_params.tracker.counter_turn_race_share = 0.0;
-    pipeline_params.tracker.redetect_race_iterations = 0;
-    pipeline_params.tracker.energy = calibrationEnergyParams();
-  }
+  if (routine) pipeline_params.tracker = calibrationTrackerParams();  // as calibrate_hand
   std::vector<TrackingPipeline> pipelines;
   for (const HandModel& model : models) pipelines.emplace_back(model, dexter5(), pipeline_params);
   std::vector<Recording> recordings(models.size());

@@ -204,3 +204,37 @@ TEST(Optimizer, RefinesTheForearmsDirectionWithinTheWristsBound) {
   EXPECT_LE(angle(refineForearmDirection(energy, truth, bent, search), straight), 10.0 + 1e-6);
   EXPECT_LE(angle(refineForearmDirection(energy, truth, -straight, search), straight), 10.0 + 1e-6);
 }
+
+// The curled hand's refinement (TrackerParams::curled_refine_*) holds the root (its steps 0) and
+// the thumb (OptimizerParams::held_joints): from a perturbed start those stay exactly where they
+// started while the other joints climb toward the truth.
+TEST(Optimizer, HeldJointsAndAZeroRootStepStayWhereTheyStart) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  const Pose truth = typicalPose(model);
+  PoseEnergy energy(model, EnergyParams());
+  energy.setFrame(modelObservations(model, truth, cameras, 2.5));
+  std::mt19937 rng(5);
+  Pose start = perturbed(model, truth, rng);
+  start.translation = truth.translation;
+  start.rotation = truth.rotation;
+  OptimizerParams params;
+  params.translation_step = 0.0;
+  params.rotation_step = 0.0;
+  params.held_joints = thumbJoints(model);
+  ASSERT_EQ(params.held_joints.size(), 4u);
+  const OptimizationResult result = optimizePose(energy, start, params);
+  EXPECT_EQ(result.pose.translation, start.translation);
+  EXPECT_EQ(result.pose.rotation, start.rotation);
+  double moved = 0.0;
+  for (int j = 0; j < kNumJointDof; ++j) {
+    const bool held = std::count(params.held_joints.begin(), params.held_joints.end(), j) > 0;
+    if (held) {
+      EXPECT_EQ(result.pose.joints[j], start.joints[j]) << model.joints[j].name;
+    } else {
+      moved += std::abs(result.pose.joints[j] - start.joints[j]);
+    }
+  }
+  EXPECT_GT(moved, 0.5);  // the free joints did climb
+  EXPECT_GT(result.energy, energy.evaluate(start));
+}

@@ -102,6 +102,28 @@ TEST(Pipeline, PipelineWithoutBackgroundFramesTracksFromTheFirstSet) {
   EXPECT_LT(meanFingertipError(processed.result.fingertips, fingertips(model, truth)), 0.03);
 }
 
+// The curled hand's refinement (TrackerParams::curled_refine_*) runs with the plate and, until it
+// is measured in the rooms, not without one (PipelineParams::curled_refine_without_plate).
+TEST(Pipeline, TheCurledHandsRefinementRunsWithThePlate) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = renderedRig();
+  const int iterations = TrackerParams().curled_refine_iterations;
+  ASSERT_GT(iterations, 0);
+  EXPECT_EQ(TrackingPipeline(model, cameras, PipelineParams())
+                .tracker()
+                .params()
+                .curled_refine_iterations,
+            iterations);
+  PipelineParams skin;
+  skin.background_frames = 0;
+  EXPECT_EQ(TrackingPipeline(model, cameras, skin).tracker().params().curled_refine_iterations, 0);
+  EXPECT_EQ(curledRefineIterations(skin, true), 0);
+  skin.curled_refine_without_plate = true;
+  EXPECT_EQ(TrackingPipeline(model, cameras, skin).tracker().params().curled_refine_iterations,
+            iterations);
+  EXPECT_EQ(curledRefineIterations(skin, true), iterations);
+}
+
 // Without a plate the generic skin gate's foreground holds more than the hand: the tracker's starts
 // are scored with the model's area charged (PipelineParams::skin_gate_start_area_weight); with a
 // plate, or with the gate around a calibrated model's colours, the tracker's own setting stays,

@@ -198,6 +198,9 @@ class PoseEnergy {
   // its starts with another one than its tracking (TrackerParams::start_model_area_weight).
   // Nothing computed per frame depends on it. Throws InputError unless finite and >= 0.
   void setModelAreaWeight(double weight);
+  // EnergyParams::occlusion_depth_scale for the next evaluations (0: no occlusion): the tracker
+  // refines curled fingers with occlusion and the model's area (TrackerParams::curled_refine_*).
+  void setOcclusionDepthScale(double scale);
 
   // Whether the forearm's Gaussians (EnergyParams::forearm_gaussians) are part of the energy
   // (default: no), and their world direction from the wrist; empty: straight on from the palm,

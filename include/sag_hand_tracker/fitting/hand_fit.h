@@ -19,6 +19,7 @@
 #include "sag_hand_tracker/model/hand_model.h"
 #include "sag_hand_tracker/model/pose.h"
 #include "sag_hand_tracker/optimization/optimizer.h"
+#include "sag_hand_tracker/tracking/tracker.h"
 
 namespace sag_hand_tracker {
 
@@ -105,6 +106,14 @@ RoutineCheck checkCalibrationRoutine(const HandModel& model,
 // are biased by the start model: with the prior, the studio's long_thin hand (palm 15 % shorter,
 // fingers 15 % longer) was fitted with every finger bone 6 % short (doc/history.md "Session 26").
 EnergyParams calibrationEnergyParams();
+
+// The tracker calibration tracks a routine with: whole ascents, no races
+// (TrackerParams::counter_turn_race_share, redetect_race_iterations), no curled hand's refinement
+// (curled_refine_iterations 0) and calibrationEnergyParams. A routine is tracked once and its poses
+// decide the fit: with the counter-turn race the studio's long_thin hand was fitted with its index
+// finger 6.2 % short (doc/history.md "Session 17"), with the refinement every finger 6.1 % short
+// ("Session 35").
+TrackerParams calibrationTrackerParams();
 
 struct HandFitParams {
   EnergyParams energy = calibrationEnergyParams();

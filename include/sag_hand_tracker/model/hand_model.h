@@ -80,6 +80,8 @@ struct LongFingerJoints {
 };
 // Index to pinky (fingerNames()[1..4]), looked up by name once for work done per frame.
 std::array<LongFingerJoints, kNumFingers - 1> longFingerJoints(const HandModel& model);
+// The thumb's joint indices (names beginning "thumb_"), in parameter order.
+std::vector<int> thumbJoints(const HandModel& model);
 
 // Loads a model from YAML. Throws InputError naming the file, the key and the line. The file is
 // at most kMaxYamlFileBytes, with at most kMaxModelGaussians Gaussians (input_limits.h).

@@ -30,6 +30,8 @@ struct OptimizerParams {
   double rotation_step = 0.04;
   double joint_step = 0.08;
   bool clamp_to_limits = true;
+  // Joints (0..kNumJointDof-1) held where they start: their step is 0.
+  std::vector<int> held_joints;
 };
 
 struct OptimizationResult {

@@ -175,6 +175,29 @@ struct TrackerParams {
   double toggle_silhouette_sigmas = 1.3;
   double toggle_max_silhouette_loss = 0.01;
   int toggle_min_track_frames = 8;
+  // Curled fingers refined with occlusion and the model's area (issue 9, doc/history.md
+  // "Session 35: fists refined with the root held"). On `fingercount`'s curled frames (default
+  // hand) the tracker's ascent, started at the true pose, slides the palm 3-5 mm and opens the
+  // middle and ring MCP by 0.21-0.22 rad together; with the root held the same ascent keeps them
+  // (0.01-0.08 rad), and the track was 0.44-0.52 rad short. So after each tracked frame whose mean
+  // finger flexion (meanFingerFlexion) is at least curled_refine_flexion, the long fingers' joints
+  // get curled_refine_iterations more iterations with the root and the thumb held, scored with
+  // occlusion at curled_refine_occlusion_depth_scale (m; a finger curled under the palm earns
+  // nothing where it is hidden) and lambda curled_refine_model_area_weight (a finger straightened
+  // over the background costs); the frame reports the paper's energy of the result. The thumb is
+  // held because that energy folds it (IP +0.42 rad from the truth), and a thumb folded into the
+  // fist no longer tells its side: with it free one `fastturn` track reversed. Benchmark (168 named
+  // tracks): default model 13.06 -> 12.22 mm pooled, `fingercount` 24.97 -> 22.82, no frame
+  // reversed or rolled over; fitted models 9.96 -> 9.43, one of their tracks rolled over; drawn9-16
+  // 11.89 -> 11.05, fitted 9.35 -> 8.56. Tracking with that energy throughout costs open hands
+  // and hands unlike the model (session 11); with lambda 0.3 from a flexion of 1.2 or 1.4, tracks
+  // rolled over. TrackingPipeline runs it with
+  // the background plate only (PipelineParams::curled_refine_without_plate), calibrate_hand not
+  // while it tracks a routine (calibrationTrackerParams). 0 iterations disables it.
+  int curled_refine_iterations = 10;
+  double curled_refine_flexion = 1.6;
+  double curled_refine_model_area_weight = 1.0;
+  double curled_refine_occlusion_depth_scale = 0.01;
   // Forearm cue: a camera whose segmentation found at least `min_arm_cells` sleeve cells
   // (ImageSoG::arm_cells) votes on which end of the hand is the wrist. Start hypotheses and
   // re-detections that point the wrist away from the arm (mean vote below `-arm_vote_threshold`)
@@ -432,6 +455,10 @@ class HandTracker {
   // result->pose was replaced.
   bool toggleFingers(const PoseEnergy& energy, const std::vector<CameraObservation>& observations,
                      OptimizationResult* result) const;
+  // TrackerParams::curled_refine_*: refines the long fingers of a curled hand, the root and the
+  // thumb held, with occlusion and the model's area; `energy` is left as it was. Returns whether
+  // it refined.
+  bool refineCurledFingers(PoseEnergy& energy, OptimizationResult* result) const;
   // Refines the forearm's direction for result->pose from `from` (empty: straight on from the
   // palm) and scores the result with it; returns the direction.
   Eigen::Vector3d fitForearm(const PoseEnergy& energy, OptimizationResult* result,
@@ -505,6 +532,7 @@ class HandTracker {
   TrackerParams params_;
   PoseEnergy energy_;  // the frame's energy; rebuilt only when the parameters change
   std::array<LongFingerJoints, kNumFingers - 1> finger_joints_;  // of model_ (toggleFingers)
+  std::vector<int> thumb_joints_;                                // of model_ (refineCurledFingers)
   std::optional<Pose> previous_;
   std::optional<Pose> current_;
   bool lost_ = false;

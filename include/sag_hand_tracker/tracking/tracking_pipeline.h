@@ -55,6 +55,11 @@ struct PipelineParams {
   // "Session 22"). false: segmentation.skin whatever the model.
   bool skin_gate_from_model = true;
   PersonalSkinGateParams personal_skin_gate;
+  // The curled hand's refinement (TrackerParams::curled_refine_*) without a plate (the skin gate,
+  // the rooms): off unless true. It was measured on the plate's foreground only; in the kitchen
+  // with the generic gate it refined 8 frames of a track that had curled an open hand, and that
+  // track went 27.6 -> 49.1 mm (StudioRooms.AHandUnlikeTheModelStartsOnItselfInTheKitchen).
+  bool curled_refine_without_plate = false;
 };
 
 // The box around a posed hand in one camera's image (pixels, clipped to the image; empty when the
@@ -89,6 +94,11 @@ double modelOnForeground(const PosedHand& hand, const std::vector<Camera>& camer
 // params.skin_gate_start_area_weight, else params.tracker's own. TrackingPipeline and the live
 // tracker nodelet decide it here.
 double startModelAreaWeight(const PipelineParams& params, bool generic_skin_gate_without_plate);
+
+// The curled hand's refinement iterations (TrackerParams::curled_refine_iterations) the tracker
+// runs with: params.tracker's own with a plate, 0 without one (`without_plate`) unless
+// params.curled_refine_without_plate. TrackingPipeline and the live tracker nodelet decide it here.
+int curledRefineIterations(const PipelineParams& params, bool without_plate);
 
 class TrackingPipeline {
  public:
