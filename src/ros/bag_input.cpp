@@ -829,8 +829,18 @@ void BagReader::Impl::readExtrinsics() {
       }
     }
     if (!options.root_frame.empty() && current != options.root_frame) {
-      fail(missing + "no " + kTfStaticTopic + " chain from '" + options.root_frame + "' to '" +
-           frame + "' (its tree's root is '" + current + "')");
+      // The extrinsics are there: the chosen root frame is not one they can be expressed in.
+      const bool in_tree = links.count(options.root_frame) > 0 ||
+                           std::any_of(links.begin(), links.end(), [&](const auto& entry) {
+                             return entry.second.parent == options.root_frame;
+                           });
+      if (!in_tree) {
+        fail("root frame '" + options.root_frame + "' is not a frame of " + kTfStaticTopic +
+             " (the cameras' tree's root is '" + current + "')");
+      }
+      fail("root frame '" + options.root_frame + "' is not above camera " + cameraName(ids[i]) +
+           " ('" + frame + "') in " + kTfStaticTopic +
+           ": it must be above every camera, e.g. the tree's root '" + current + "'");
     }
     tops[i] = current;
     top_to_camera[i] = current_to_camera;

@@ -430,8 +430,15 @@ TEST_F(BagFiles, BagComposesTfChains) {
   BagReaderOptions elsewhere;
   elsewhere.root_frame = "table";
   EXPECT_NE(readError(bag, elsewhere)
-                .find("missing extrinsics for camera cam0: no /tf_static chain from 'table' to "
-                      "'cam0_optical_frame' (its tree's root is 'world')"),
+                .find("root frame 'table' is not a frame of /tf_static (the cameras' tree's root "
+                      "is 'world')"),
+            std::string::npos);
+  // A frame of the tree that is not above every camera: camera 1's mount holds only camera 1.
+  BagReaderOptions beside;
+  beside.root_frame = "mount1";
+  EXPECT_NE(readError(bag, beside)
+                .find("root frame 'mount1' is not above camera cam0 ('cam0_optical_frame') in "
+                      "/tf_static: it must be above every camera, e.g. the tree's root 'world'"),
             std::string::npos);
 }
 
