@@ -1019,8 +1019,7 @@ bool HandTracker::refineCurledFingers(PoseEnergy& energy, OptimizationResult* re
   const Pose refined = optimizePose(energy, result->pose, optimizer).pose;
   energy.setModelAreaWeight(area_weight);
   energy.setOcclusionDepthScale(occlusion);
-  result->pose = refined;
-  result->energy = energy.evaluate(refined);
+  result->pose = refined;  // result->energy: the caller scores the frame's pose once, at its end
   return true;
 }
 
@@ -1051,10 +1050,11 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
   if (tracking) {
     optimized = trackFromPrediction(energy, previous_, *current_);
     toggleFingers(energy, observations, &*optimized);
-    refineCurledFingers(energy, &*optimized);
+    const bool refined = refineCurledFingers(energy, &*optimized);
     forearm = fitForearm(energy, &*optimized, forearm);
     energy.setForearmDirection(forearm);
     energy.evaluate(optimized->pose, nullptr, &tracked_terms);
+    if (refined) optimized->energy = tracked_terms.total;  // the paper's energy of the refined pose
 
     // The carried flip hypothesis: tracked like the main one; it takes over after
     // `flip_confirm_frames` frames with an energy clearly above the track's (judgeAlternative).

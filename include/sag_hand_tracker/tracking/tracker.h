@@ -191,9 +191,9 @@ struct TrackerParams {
   // reversed or rolled over; fitted models 9.96 -> 9.43, one of their tracks rolled over; drawn9-16
   // 11.89 -> 11.05, fitted 9.35 -> 8.56. Tracking with that energy throughout costs open hands
   // and hands unlike the model (session 11); with lambda 0.3 from a flexion of 1.2 or 1.4, tracks
-  // rolled over. TrackingPipeline runs it with
-  // the background plate only (PipelineParams::curled_refine_without_plate), calibrate_hand not
-  // while it tracks a routine (calibrationTrackerParams). 0 iterations disables it.
+  // rolled over. TrackingPipeline runs it with the background plate only
+  // (PipelineParams::curled_refine_without_plate), calibrate_hand not while it tracks a routine
+  // (calibrationTrackerParams). 0 iterations disables it.
   int curled_refine_iterations = 10;
   double curled_refine_flexion = 1.6;
   double curled_refine_model_area_weight = 1.0;
@@ -457,7 +457,7 @@ class HandTracker {
                      OptimizationResult* result) const;
   // TrackerParams::curled_refine_*: refines the long fingers of a curled hand, the root and the
   // thumb held, with occlusion and the model's area; `energy` is left as it was. Returns whether
-  // it refined.
+  // it refined; then result->energy is not the refined pose's (the caller scores it).
   bool refineCurledFingers(PoseEnergy& energy, OptimizationResult* result) const;
   // Refines the forearm's direction for result->pose from `from` (empty: straight on from the
   // palm) and scores the result with it; returns the direction.
