@@ -62,6 +62,7 @@ struct EvaluationScratch {
   std::vector<double> depths, visibility, d_visibility;  // EnergyParams::occlusion_depth_scale
   std::vector<char> valid;
   std::vector<ProjectedGradient> visibility_gradient;
+  std::vector<Occlusion> occlusions;  // softVisibility's pairs, for the gradient
 };
 
 // E_qq: D_qq with d(c_q, c_q) = 1.
@@ -409,7 +410,9 @@ double PoseEnergy::evaluateIn(const Pose& pose, bool with_forearm,
       overlapRow(overlap_terms[p], q, range, pairs.weights.data() + p * n,
                  params_.max_mahalanobis_sq, weighted.data() + p * n);
     }
-    if (occluding) softVisibility(visibility_inputs, &visibility);
+    if (occluding) {
+      softVisibility(visibility_inputs, &visibility, with_gradient ? &scratch.occlusions : nullptr);
+    }
     for (size_t p = 0; p < num_gaussians; ++p) {
       if (!valid[p]) continue;
       T* row = weighted.data() + p * n;
@@ -460,7 +463,7 @@ double PoseEnergy::evaluateIn(const Pose& pose, bool with_forearm,
                           d_area * modelWeight(p) * 2.0 * M_PI * overlap_terms[p].sqrt_det;
       }
       visibility_gradient.assign(num_gaussians, ProjectedGradient::Zero());
-      accumulateVisibilityGradient(visibility_inputs, visibility, d_visibility,
+      accumulateVisibilityGradient(visibility_inputs, visibility, scratch.occlusions, d_visibility,
                                    &visibility_gradient);
     }
 

@@ -7,14 +7,6 @@
 namespace sag_hand_tracker {
 namespace {
 
-// How much of p the Gaussian r hides (a = s_rp c_pr), with what the derivatives need.
-struct Occlusion {
-  double amount;            // a
-  double behind;            // 1 - s_rp
-  double u_x, u_y;          // (S_p + S_r)^-1 d
-  double g_xx, g_xy, g_yy;  // d log c / d S_p as a symmetric matrix: -1/2 T^-1 + 1/2 u u^T
-};
-
 std::optional<Occlusion> occlusion(const VisibilityInputs& in, size_t p, size_t r) {
   if (r == p || !(*in.valid)[r] || !(*in.may_hide)[p * in.may_hide_stride + r]) return std::nullopt;
   const OverlapTerm& tp = (*in.terms)[p];
@@ -24,6 +16,8 @@ std::optional<Occlusion> occlusion(const VisibilityInputs& in, size_t p, size_t 
   const double inv_det = 1.0 / (t_xx * t_yy - t_xy * t_xy);
   const double dx = tp.mean_x - tr.mean_x, dy = tp.mean_y - tr.mean_y;
   Occlusion o;
+  o.p = p;
+  o.r = r;
   o.u_x = (t_yy * dx - t_xy * dy) * inv_det;
   o.u_y = (t_xx * dy - t_xy * dx) * inv_det;
   const double mahalanobis_sq = dx * o.u_x + dy * o.u_y;
@@ -42,15 +36,18 @@ std::optional<Occlusion> occlusion(const VisibilityInputs& in, size_t p, size_t 
 
 }  // namespace
 
-void softVisibility(const VisibilityInputs& in, std::vector<double>* visibility) {
+void softVisibility(const VisibilityInputs& in, std::vector<double>* visibility,
+                    std::vector<Occlusion>* pairs) {
   const size_t n = in.terms->size();
   visibility->assign(n, 0.0);
+  if (pairs) pairs->clear();
   for (size_t p = 0; p < n; ++p) {
     if (!(*in.valid)[p]) continue;
     double log_visible = 0.0;
     for (size_t r = 0; r < n; ++r) {
       if (const std::optional<Occlusion> o = occlusion(in, p, r)) {
         log_visible += std::log1p(-o->amount);
+        if (pairs) pairs->push_back(*o);
       }
     }
     (*visibility)[p] = std::exp(log_visible);
@@ -58,36 +55,32 @@ void softVisibility(const VisibilityInputs& in, std::vector<double>* visibility)
 }
 
 void accumulateVisibilityGradient(const VisibilityInputs& in, const std::vector<double>& visibility,
+                                  const std::vector<Occlusion>& pairs,
                                   const std::vector<double>& d_visibility,
                                   std::vector<ProjectedGradient>* gradient) {
-  const size_t n = in.terms->size();
-  for (size_t p = 0; p < n; ++p) {
-    if (!(*in.valid)[p] || d_visibility[p] == 0.0) continue;
-    // dv_p = v_p sum_r -a / (1 - a) d log a, d log a = (1 - s) / depth_scale (dz_p - dz_r)
-    // + d log c, with d log c / d mu_p = -u = -d log c / d mu_r, d log c / d S_p = G and
-    // d log c / d S_r = G + 1/2 S_r^-1.
-    const double scale = d_visibility[p] * visibility[p];
-    ProjectedGradient& gp = (*gradient)[p];
-    for (size_t r = 0; r < n; ++r) {
-      const std::optional<Occlusion> o = occlusion(in, p, r);
-      if (!o) continue;
-      const OverlapTerm& tr = (*in.terms)[r];
-      const double k = -scale * o->amount / (1.0 - o->amount);
-      const double d_depth = k * o->behind / in.depth_scale;
-      ProjectedGradient& gr = (*gradient)[r];
-      gp[0] -= k * o->u_x;
-      gp[1] -= k * o->u_y;
-      gp[2] += k * o->g_xx;
-      gp[3] += k * 2.0 * o->g_xy;
-      gp[4] += k * o->g_yy;
-      gp[5] += d_depth;
-      gr[0] += k * o->u_x;
-      gr[1] += k * o->u_y;
-      gr[2] += k * (o->g_xx + 0.5 * tr.inv_xx);
-      gr[3] += k * (2.0 * o->g_xy + tr.inv_xy);
-      gr[4] += k * (o->g_yy + 0.5 * tr.inv_yy);
-      gr[5] -= d_depth;
-    }
+  // dv_p = v_p sum_r -a / (1 - a) d log a, d log a = (1 - s) / depth_scale (dz_p - dz_r)
+  // + d log c, with d log c / d mu_p = -u = -d log c / d mu_r, d log c / d S_p = G and
+  // d log c / d S_r = G + 1/2 S_r^-1.
+  for (const Occlusion& o : pairs) {
+    if (d_visibility[o.p] == 0.0) continue;
+    const double scale = d_visibility[o.p] * visibility[o.p];
+    const OverlapTerm& tr = (*in.terms)[o.r];
+    const double k = -scale * o.amount / (1.0 - o.amount);
+    const double d_depth = k * o.behind / in.depth_scale;
+    ProjectedGradient& gp = (*gradient)[o.p];
+    ProjectedGradient& gr = (*gradient)[o.r];
+    gp[0] -= k * o.u_x;
+    gp[1] -= k * o.u_y;
+    gp[2] += k * o.g_xx;
+    gp[3] += k * 2.0 * o.g_xy;
+    gp[4] += k * o.g_yy;
+    gp[5] += d_depth;
+    gr[0] += k * o.u_x;
+    gr[1] += k * o.u_y;
+    gr[2] += k * (o.g_xx + 0.5 * tr.inv_xx);
+    gr[3] += k * (2.0 * o.g_xy + tr.inv_xy);
+    gr[4] += k * (o.g_yy + 0.5 * tr.inv_yy);
+    gr[5] -= d_depth;
   }
 }
 

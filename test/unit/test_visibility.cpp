@@ -115,12 +115,13 @@ TEST(Visibility, GradientMatchesCentralDifferences) {
     s.valid.assign(kCount, 1);
     s.may_hide = may_hide;
     std::vector<double> v;
-    softVisibility(s.inputs(kScale), &v);
+    std::vector<Occlusion> pairs;
+    softVisibility(s.inputs(kScale), &v, &pairs);
     double sum = 0.0;
     for (int p = 0; p < kCount; ++p) sum += g[p] * v[p];
     if (gradient) {
       gradient->assign(kCount, ProjectedGradient::Zero());
-      accumulateVisibilityGradient(s.inputs(kScale), v, g, gradient);
+      accumulateVisibilityGradient(s.inputs(kScale), v, pairs, g, gradient);
     }
     return sum;
   };

@@ -32,16 +32,28 @@ struct VisibilityInputs {
   double depth_scale;  // > 0
   double max_mahalanobis_sq;
 };
-void softVisibility(const VisibilityInputs& inputs, std::vector<double>* visibility);
+// How much of p the Gaussian r hides (a = s_rp c_pr), with what the derivatives need.
+struct Occlusion {
+  size_t p, r;              // p hidden by r
+  double amount;            // a
+  double behind;            // 1 - s_rp
+  double u_x, u_y;          // (S_p + S_r)^-1 d
+  double g_xx, g_xy, g_yy;  // d log c / d S_p as a symmetric matrix: -1/2 T^-1 + 1/2 u u^T
+};
+// With `pairs`, also every pair that hides, p by p: what accumulateVisibilityGradient needs, so
+// that an evaluation with a gradient computes each pair's exponentials once.
+void softVisibility(const VisibilityInputs& inputs, std::vector<double>* visibility,
+                    std::vector<Occlusion>* pairs = nullptr);
 
 // Derivatives with respect to one projected Gaussian: its 2D mean (x, y), the unique entries of
 // its 2D covariance (xx, xy as one entry, yy; OverlapGradient's convention) and its depth.
 using ProjectedGradient = Eigen::Matrix<double, 6, 1>;
 
 // Adds to `gradient` (one entry per Gaussian) the derivatives of sum_p g_p v_p for the given
-// g_p = dE/dv_p (`visibility` from softVisibility).
+// g_p = dE/dv_p (`visibility` and `pairs` from one softVisibility).
 void accumulateVisibilityGradient(const VisibilityInputs& inputs,
                                   const std::vector<double>& visibility,
+                                  const std::vector<Occlusion>& pairs,
                                   const std::vector<double>& d_visibility,
                                   std::vector<ProjectedGradient>* gradient);
 

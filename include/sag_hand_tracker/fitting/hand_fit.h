@@ -118,7 +118,11 @@ TrackerParams calibrationTrackerParams();
 struct HandFitParams {
   EnergyParams energy = calibrationEnergyParams();
   // Pose re-optimisation after each shape change, warm-started from the frame's current pose.
-  OptimizerParams pose_optimizer{6};
+  OptimizerParams pose_optimizer = [] {
+    OptimizerParams params;
+    params.iterations = 6;
+    return params;
+  }();
   int initial_pose_iterations = 30;  // refining the tracked poses once before the search
   int max_frames = 16;               // frames used by the fit, evenly spread over the recording
   // With open_hand_frames the fit uses only the frames with an open hand (mean MCP + PIP flexion
