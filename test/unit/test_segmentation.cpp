@@ -938,18 +938,24 @@ TEST(Skin, DarkUnsaturatedRuleSeparatesSleeveFromSkin) {
 
 // The subsampled integral image (segmentation_internal.h) gives the exact sums of R, G, B and of
 // their squares over rectangles on its grid (every third left and top line from the image's
-// corner, every other right and bottom line after them), for several image sizes and grid steps.
+// corner, every other right and bottom line after them), for several image sizes and grid steps;
+// and on white images, whose 16 x 16 blocks fill the 16-bit block sums of the horizontal pass to
+// 65280 and whose bands of 256 rows fill its column sums.
 TEST(ColourIntegral, GivesTheExactSumsOverGridRectangles) {
   std::mt19937 random(7);
   std::uniform_int_distribution<int> byte(0, 255);
   struct Size {
     int width, height, step;
+    bool white;
   };
-  for (const Size& size : {Size{96, 64, 4}, Size{37, 23, 4}, Size{50, 29, 8}, Size{19, 17, 2},
-                           Size{13, 11, 1}, Size{70, 40, 16}, Size{3, 5, 4}}) {
+  for (const Size& size :
+       {Size{96, 64, 4, false}, Size{37, 23, 4, false}, Size{50, 29, 8, false},
+        Size{19, 17, 2, false}, Size{13, 11, 1, false}, Size{70, 40, 16, false},
+        Size{3, 5, 4, false}, Size{70, 40, 16, true}, Size{33, 300, 256, true}}) {
     cv::Mat rgb(size.height, size.width, CV_8UC3);
     for (auto it = rgb.begin<cv::Vec3b>(); it != rgb.end<cv::Vec3b>(); ++it) {
-      *it = cv::Vec3b(byte(random), byte(random), byte(random));
+      *it = size.white ? cv::Vec3b(255, 255, 255)
+                       : cv::Vec3b(byte(random), byte(random), byte(random));
     }
     detail::ColourIntegral integral;
     integral.compute(rgb, size.step);
