@@ -96,12 +96,32 @@ EnergyParams calibrationEnergyParams() {
   return params;
 }
 
+RoutineTracking RoutineTracking::of(const TrackerParams& params) {
+  RoutineTracking routine;
+  routine.counter_turn_race_share = params.counter_turn_race_share;
+  routine.redetect_race_iterations = params.redetect_race_iterations;
+  routine.curled_refine_iterations = params.curled_refine_iterations;
+  routine.wrist_weight = params.energy.wrist_weight;
+  return routine;
+}
+
+void RoutineTracking::applyTo(TrackerParams* params) const {
+  params->counter_turn_race_share = counter_turn_race_share;
+  params->redetect_race_iterations = redetect_race_iterations;
+  params->curled_refine_iterations = curled_refine_iterations;
+  params->energy.wrist_weight = wrist_weight;
+}
+
+bool RoutineTracking::operator==(const RoutineTracking& other) const {
+  return counter_turn_race_share == other.counter_turn_race_share &&
+         redetect_race_iterations == other.redetect_race_iterations &&
+         curled_refine_iterations == other.curled_refine_iterations &&
+         wrist_weight == other.wrist_weight;
+}
+
 TrackerParams calibrationTrackerParams() {
   TrackerParams params;
-  params.counter_turn_race_share = 0.0;
-  params.redetect_race_iterations = 0;
-  params.curled_refine_iterations = 0;
-  params.energy = calibrationEnergyParams();
+  RoutineTracking().applyTo(&params);
   return params;
 }
 

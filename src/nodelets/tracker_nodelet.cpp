@@ -54,15 +54,14 @@
 //
 // Live calibration (~calibrate, srv/Calibrate.srv, doc/calibration.md "Live"): the call collects
 // the sets of the next `duration` seconds (image stamps) as CalibrationFrames (the observations
-// the tracker gets and its pose, for sets with a tracked hand) while tracking goes on (with the
-// wrist prior and the curled hand's refinement off meanwhile, as calibrate_hand tracks a routine:
-// calibrationTrackerParams), checks
-// the routine (checkCalibrationRoutine), fits (fitHandModel: the same fit as calibrate_hand,
-// colours sampled from the image SoGs, which carry them) on a thread of its own, optionally writes
-// the model file (atomic; never replaces a file), then rebuilds the HandTracker with the fitted
-// model under mutex_. The service has its own callback queue and two threads: a call waiting for
-// its frames or its fit takes none of the manager's worker threads, and a second call is answered
-// (refused) at once.
+// the tracker gets and its pose, for sets with a tracked hand) while tracking goes on (tracked
+// meanwhile as calibrate_hand tracks a routine, RoutineTracking: whole ascents instead of races,
+// no wrist prior, no curled hand's refinement), checks the routine (checkCalibrationRoutine), fits
+// (fitHandModel: the same fit as calibrate_hand, colours sampled from the image SoGs, which carry
+// them) on a thread of its own, optionally writes the model file (atomic; never replaces a file),
+// then rebuilds the HandTracker with the fitted model under mutex_. The service has its own
+// callback queue and two threads: a call waiting for its frames or its fit takes none of the
+// manager's worker threads, and a second call is answered (refused) at once.
 //
 // Synchronization: CameraSetSynchronizer (tracking/camera_set_synchronizer.h; message_filters'
 // synchronizers take at most 9 inputs): a set is processed as soon as every camera that is not
@@ -721,18 +720,13 @@ class TrackerNodelet : public nodelet::Nodelet {
     return finish(success, message);
   }
 
-  // The tracker's wrist prior (EnergyParams::wrist_weight), its other parameters as they are (a
-  // reconfigure may have changed them meanwhile). Caller holds mutex_.
-  // The wrist prior's weight and the curled hand's refinement, which a routine is tracked without
-  // (calibrationTrackerParams) and which come back after it. Caller holds mutex_.
-  void setRoutineTracking(double wrist_weight, int curled_refine_iterations) {
+  // Sets what a routine is tracked without (RoutineTracking), or back what the tracker had; its
+  // other parameters stay as they are (a reconfigure may have changed them meanwhile). Caller
+  // holds mutex_.
+  void setRoutineTracking(const RoutineTracking& routine) {
     TrackerParams params = tracker_->params();
-    if (params.energy.wrist_weight == wrist_weight &&
-        params.curled_refine_iterations == curled_refine_iterations) {
-      return;
-    }
-    params.energy.wrist_weight = wrist_weight;
-    params.curled_refine_iterations = curled_refine_iterations;
+    if (RoutineTracking::of(params) == routine) return;
+    routine.applyTo(&params);
     tracker_->setParams(params);
   }
 
@@ -768,13 +762,10 @@ class TrackerNodelet : public nodelet::Nodelet {
       start_model = model_;
       recording_.emplace();
       recording_->duration = request.duration;
-      // The routine is tracked as calibrate_hand tracks it: without the wrist prior
-      // (doc/calibration.md "Session 26") and the curled hand's refinement
-      // (calibrationTrackerParams); both are back after it.
-      const double wrist_weight = tracker_->params().energy.wrist_weight;
-      const int refine_iterations = tracker_->params().curled_refine_iterations;
-      const TrackerParams routine = calibrationTrackerParams();
-      setRoutineTracking(routine.energy.wrist_weight, routine.curled_refine_iterations);
+      // The routine is tracked as calibrate_hand tracks it (RoutineTracking: whole ascents, no
+      // wrist prior, no curled hand's refinement); the tracker's own settings are back after it.
+      const RoutineTracking live = RoutineTracking::of(tracker_->params());
+      setRoutineTracking(RoutineTracking());
       setCalibrationState("collecting");
       NODELET_INFO("calibrate: collecting %.1f s of camera sets", request.duration);
       // Sets come at the camera rate; a replay may run slower than real time, so the wall-clock
@@ -786,7 +777,7 @@ class TrackerNodelet : public nodelet::Nodelet {
       recording = std::move(*recording_);
       recording_.reset();
       awaiting_late_.clear();
-      setRoutineTracking(wrist_weight, refine_iterations);
+      setRoutineTracking(live);
     }
     response->sets = recording.sets;
     response->tracked_frames = static_cast<int>(recording.frames.size());

@@ -114,6 +114,46 @@ TEST_F(HandModelWriter, MirroredAndRotatedGaussiansRoundTrip) {
   expectSameModel(model, loadFromText(this, text, path("left.yaml")));
 }
 
+// A routine is tracked without the races, the curled hand's refinement and the wrist prior
+// (RoutineTracking): calibrate_hand's tracker is the default one with those off, and the live
+// ~calibrate switches a running tracker to them and back without touching what a reconfigure set.
+TEST(RoutineTracking, SwitchesATrackerToTheRoutineAndBack) {
+  const TrackerParams defaults;
+  ASSERT_GT(defaults.counter_turn_race_share, 0.0);
+  ASSERT_GT(defaults.redetect_race_iterations, 0);
+  ASSERT_GT(defaults.curled_refine_iterations, 0);
+  ASSERT_GT(defaults.energy.wrist_weight, 0.0);
+  const TrackerParams offline = calibrationTrackerParams();
+  EXPECT_EQ(offline.counter_turn_race_share, 0.0);
+  EXPECT_EQ(offline.redetect_race_iterations, 0);
+  EXPECT_EQ(offline.curled_refine_iterations, 0);
+  EXPECT_EQ(offline.energy.wrist_weight, calibrationEnergyParams().wrist_weight);
+  EXPECT_EQ(offline.energy.wrist_weight, 0.0);
+  EXPECT_EQ(offline.optimizer.iterations, defaults.optimizer.iterations);
+
+  TrackerParams live;  // as the live graph runs it, reconfigured
+  live.optimizer.iterations = 10;
+  live.energy.model_area_weight = 0.7;
+  live.curled_refine_iterations = 6;
+  const RoutineTracking saved = RoutineTracking::of(live);
+  EXPECT_FALSE(saved == RoutineTracking());
+  TrackerParams during = live;
+  RoutineTracking().applyTo(&during);
+  EXPECT_TRUE(RoutineTracking::of(during) == RoutineTracking());
+  EXPECT_EQ(during.counter_turn_race_share, 0.0);
+  EXPECT_EQ(during.curled_refine_iterations, 0);
+  EXPECT_EQ(during.energy.wrist_weight, 0.0);
+  EXPECT_EQ(during.optimizer.iterations, 10);
+  EXPECT_EQ(during.energy.model_area_weight, 0.7);
+  during.energy.model_area_weight = 0.5;  // a reconfigure while the routine is collected
+  saved.applyTo(&during);
+  EXPECT_EQ(during.counter_turn_race_share, live.counter_turn_race_share);
+  EXPECT_EQ(during.redetect_race_iterations, live.redetect_race_iterations);
+  EXPECT_EQ(during.curled_refine_iterations, 6);
+  EXPECT_EQ(during.energy.wrist_weight, live.energy.wrist_weight);
+  EXPECT_EQ(during.energy.model_area_weight, 0.5);
+}
+
 TEST(HandShape, IdentityKeepsTheModel) {
   const HandModel& model = handModel();
   const HandModel same = applyHandShape(model, HandShapeParameters::identity(model));

@@ -107,12 +107,27 @@ RoutineCheck checkCalibrationRoutine(const HandModel& model,
 // fingers 15 % longer) was fitted with every finger bone 6 % short (doc/history.md "Session 26").
 EnergyParams calibrationEnergyParams();
 
-// The tracker calibration tracks a routine with: whole ascents, no races
+// What calibration tracks a routine without, of a tracker's parameters: whole ascents, no races
 // (TrackerParams::counter_turn_race_share, redetect_race_iterations), no curled hand's refinement
-// (curled_refine_iterations 0) and calibrationEnergyParams. A routine is tracked once and its poses
-// decide the fit: with the counter-turn race the studio's long_thin hand was fitted with its index
-// finger 6.2 % short (doc/history.md "Session 17"), with the refinement every finger 6.1 % short
-// ("Session 35").
+// (curled_refine_iterations 0) and no wrist prior (calibrationEnergyParams). A routine is tracked
+// once and its poses decide the fit: with the counter-turn race the studio's long_thin hand was
+// fitted with its index finger 6.2 % short (doc/history.md "Session 17"), with the refinement every
+// finger 6.1 % short ("Session 35"). of() reads them from a tracker's parameters and applyTo()
+// sets them, so that the live ~calibrate can switch a running tracker to them and back, whatever
+// else a reconfigure changed meanwhile.
+struct RoutineTracking {
+  double counter_turn_race_share = 0.0;
+  int redetect_race_iterations = 0;
+  int curled_refine_iterations = 0;
+  double wrist_weight = calibrationEnergyParams().wrist_weight;
+
+  static RoutineTracking of(const TrackerParams& params);
+  void applyTo(TrackerParams* params) const;
+  bool operator==(const RoutineTracking& other) const;
+};
+
+// The tracker calibrate_hand tracks a routine with: the default tracker with RoutineTracking's
+// values.
 TrackerParams calibrationTrackerParams();
 
 struct HandFitParams {
