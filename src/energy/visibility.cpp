@@ -7,30 +7,53 @@
 namespace sag_hand_tracker {
 namespace {
 
-std::optional<Occlusion> occlusion(const VisibilityInputs& in, size_t p, size_t r) {
-  if (r == p || !(*in.valid)[r] || !(*in.may_hide)[p * in.may_hide_stride + r]) return std::nullopt;
+// What a pair of projected Gaussians p, r shares whichever of them hides the other: T = S_p + S_r,
+// u = T^-1 d with d = mu_p - mu_r (negated, bit for bit, for d = mu_r - mu_p), the Mahalanobis
+// distance and c's factors sqrt(1 / |T|) and exp(-1/2 d^T T^-1 d). Empty beyond
+// max_mahalanobis_sq.
+struct PairGeometry {
+  double t_xx, t_xy, t_yy, inv_det;
+  double u_x, u_y;
+  double root_inv_det, gaussian;
+};
+
+std::optional<PairGeometry> pairGeometry(const VisibilityInputs& in, size_t p, size_t r) {
   const OverlapTerm& tp = (*in.terms)[p];
   const OverlapTerm& tr = (*in.terms)[r];
-  const double t_xx = tp.cov_xx + tr.cov_xx, t_xy = tp.cov_xy + tr.cov_xy;
-  const double t_yy = tp.cov_yy + tr.cov_yy;
-  const double inv_det = 1.0 / (t_xx * t_yy - t_xy * t_xy);
+  PairGeometry g;
+  g.t_xx = tp.cov_xx + tr.cov_xx;
+  g.t_xy = tp.cov_xy + tr.cov_xy;
+  g.t_yy = tp.cov_yy + tr.cov_yy;
+  g.inv_det = 1.0 / (g.t_xx * g.t_yy - g.t_xy * g.t_xy);
   const double dx = tp.mean_x - tr.mean_x, dy = tp.mean_y - tr.mean_y;
+  g.u_x = (g.t_yy * dx - g.t_xy * dy) * g.inv_det;
+  g.u_y = (g.t_xx * dy - g.t_xy * dx) * g.inv_det;
+  const double mahalanobis_sq = dx * g.u_x + dy * g.u_y;
+  if (!(mahalanobis_sq <= in.max_mahalanobis_sq)) return std::nullopt;
+  g.root_inv_det = std::sqrt(g.inv_det);
+  g.gaussian = std::exp(-0.5 * mahalanobis_sq);
+  return g;
+}
+
+// How much r hides of p, from their PairGeometry (u as seen from p: `sign` -1 when the geometry
+// was computed from r).
+Occlusion occlusion(const VisibilityInputs& in, size_t p, size_t r, const PairGeometry& g,
+                    double sign) {
+  const OverlapTerm& tr = (*in.terms)[r];
   Occlusion o;
   o.p = p;
   o.r = r;
-  o.u_x = (t_yy * dx - t_xy * dy) * inv_det;
-  o.u_y = (t_xx * dy - t_xy * dx) * inv_det;
-  const double mahalanobis_sq = dx * o.u_x + dy * o.u_y;
-  if (!(mahalanobis_sq <= in.max_mahalanobis_sq)) return std::nullopt;
-  const double covered = tr.sqrt_det * std::sqrt(inv_det) * std::exp(-0.5 * mahalanobis_sq);
+  o.u_x = sign * g.u_x;
+  o.u_y = sign * g.u_y;
+  const double covered = tr.sqrt_det * g.root_inv_det * g.gaussian;
   const double depth_difference = (*in.depths)[p] - (*in.depths)[r];
   const double in_front = 1.0 / (1.0 + std::exp(-depth_difference / in.depth_scale));
   // Below 1, so that no Gaussian is hidden entirely (log v_p stays finite).
   o.amount = std::min(in_front * covered, 1.0 - 1e-9);
   o.behind = 1.0 - in_front;
-  o.g_xx = -0.5 * t_yy * inv_det + 0.5 * o.u_x * o.u_x;
-  o.g_xy = 0.5 * t_xy * inv_det + 0.5 * o.u_x * o.u_y;
-  o.g_yy = -0.5 * t_xx * inv_det + 0.5 * o.u_y * o.u_y;
+  o.g_xx = -0.5 * g.t_yy * g.inv_det + 0.5 * o.u_x * o.u_x;
+  o.g_xy = 0.5 * g.t_xy * g.inv_det + 0.5 * o.u_x * o.u_y;
+  o.g_yy = -0.5 * g.t_xx * g.inv_det + 0.5 * o.u_y * o.u_y;
   return o;
 }
 
@@ -41,14 +64,38 @@ void softVisibility(const VisibilityInputs& in, std::vector<double>* visibility,
   const size_t n = in.terms->size();
   visibility->assign(n, 0.0);
   if (pairs) pairs->clear();
+  // Each pair's geometry once, for both directions ([p * n + r]: r hides p); then each v_p, its
+  // log summed over r in order.
+  thread_local std::vector<Occlusion> table;
+  thread_local std::vector<char> hides;
+  table.resize(n * n);
+  hides.assign(n * n, 0);
+  for (size_t p = 0; p < n; ++p) {
+    if (!(*in.valid)[p]) continue;
+    for (size_t r = p + 1; r < n; ++r) {
+      if (!(*in.valid)[r]) continue;
+      const bool r_hides_p = (*in.may_hide)[p * in.may_hide_stride + r] != 0;
+      const bool p_hides_r = (*in.may_hide)[r * in.may_hide_stride + p] != 0;
+      if (!r_hides_p && !p_hides_r) continue;
+      const std::optional<PairGeometry> geometry = pairGeometry(in, p, r);
+      if (!geometry) continue;
+      if (r_hides_p) {
+        table[p * n + r] = occlusion(in, p, r, *geometry, 1.0);
+        hides[p * n + r] = 1;
+      }
+      if (p_hides_r) {
+        table[r * n + p] = occlusion(in, r, p, *geometry, -1.0);
+        hides[r * n + p] = 1;
+      }
+    }
+  }
   for (size_t p = 0; p < n; ++p) {
     if (!(*in.valid)[p]) continue;
     double log_visible = 0.0;
     for (size_t r = 0; r < n; ++r) {
-      if (const std::optional<Occlusion> o = occlusion(in, p, r)) {
-        log_visible += std::log1p(-o->amount);
-        if (pairs) pairs->push_back(*o);
-      }
+      if (!hides[p * n + r]) continue;
+      log_visible += std::log1p(-table[p * n + r].amount);
+      if (pairs) pairs->push_back(table[p * n + r]);
     }
     (*visibility)[p] = std::exp(log_visible);
   }
