@@ -6,6 +6,7 @@
 #include <random>
 
 #include "sag_hand_tracker/optimization/optimizer.h"
+#include "sag_hand_tracker/tracking/tracker.h"
 #include "test_support/synthetic_scene.h"
 
 using namespace sag_hand_tracker;
@@ -55,6 +56,27 @@ void energyBenchmark(benchmark::State& state, const std::string& model_name, boo
   state.counters["image_gaussians_per_camera"] = static_cast<double>(state.range(0));
 }
 
+// The curled-hand refinement's evaluation (TrackerParams::curled_refine_*): a fist, scored with
+// occlusion (the soft depth order over every pair of Gaussians that may hide each other) and the
+// model's area.
+void BM_EnergyGradientSagOccludedFist(benchmark::State& state) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  Pose pose = typicalPose(model);
+  for (const LongFingerJoints& finger : longFingerJoints(model)) {
+    pose.joints[finger.mcp_flex] = 1.3;
+    pose.joints[finger.pip_flex] = 1.6;
+  }
+  const TrackerParams tracker;
+  EnergyParams params;
+  params.occlusion_depth_scale = tracker.curled_refine_occlusion_depth_scale;
+  params.model_area_weight = tracker.curled_refine_model_area_weight;
+  PoseEnergy energy(model, params);
+  energy.setFrame(worstCaseObservations(model, pose, static_cast<int>(state.range(0))));
+  PoseVector gradient;
+  for (auto _ : state) benchmark::DoNotOptimize(energy.evaluate(pose, &gradient));
+  state.counters["image_gaussians_per_camera"] = static_cast<double>(state.range(0));
+}
+
 void BM_EnergyGradientSag(benchmark::State& state) { energyBenchmark(state, "sag", true); }
 void BM_EnergyGradientSog(benchmark::State& state) { energyBenchmark(state, "sog", true); }
 void BM_EnergyOnlySag(benchmark::State& state) { energyBenchmark(state, "sag", false); }
@@ -79,6 +101,7 @@ void BM_OptimizeFrameSag(benchmark::State& state) {
 BENCHMARK(BM_EnergyGradientSag)->Arg(500)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_EnergyGradientSog)->Arg(500)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_EnergyOnlySag)->Arg(500)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_EnergyGradientSagOccludedFist)->Arg(500)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_OptimizeFrameSag)
     ->ArgNames({"image_gaussians", "iterations"})
     ->Args({500, 10})
