@@ -53,41 +53,40 @@ void ColourIntegral::compute(const cv::Mat& rgb, int grid_step) {
     std::uint32_t* out = data.data() + j * row_entries;
     std::uint32_t acc[kLanes] = {0, 0, 0, 0, 0, 0, 0, 0};
     for (int k = 0; k < kLanes; ++k) out[k] = 0;
-    // Steps 2-16: the block sums of the whole blocks by doubling, element-wise (vectorised):
-    // after the passes at offsets 3, 6, ..., 3 step / 2, element 3x + c holds the sum over pixels
-    // x .. x + step - 1 of channel c. A block of 16 x 16 pixels of 255 still fits 16 bits. The last
-    // block, cut by the border, is summed first, from the column sums as they were.
-    const bool doubling = step >= 2 && step <= 16;
+    // Adds the column sums of pixels [x0, x1) to to[0..5].
+    auto add_columns = [&](int x0, int x1, std::uint32_t* to) {
+      for (int x = x0; x < x1; ++x) {
+        for (int c = 0; c < 3; ++c) {
+          to[c] += sum[3 * x + c];
+          to[3 + c] += sum_sq[3 * x + c];
+        }
+      }
+    };
+    // Steps up to 16: the sums of the whole blocks by doubling, element-wise (vectorised): after
+    // the passes at offsets 3, 6, ..., 3 step / 2, element 3x + c holds the sum over pixels
+    // x .. x + step - 1 of channel c (a block of 16 x 16 pixels of 255 still fits 16 bits). The
+    // last block, cut by the border, is summed first, from the column sums as they were. Larger
+    // steps add the columns block by block.
+    const bool doubling = step <= 16;
     const int whole_blocks = doubling ? width / step : 0;
     std::uint32_t cut[6] = {0, 0, 0, 0, 0, 0};
-    for (int x = whole_blocks * step; doubling && x < width; ++x) {
-      for (int c = 0; c < 3; ++c) {
-        cut[c] += sum[3 * x + c];
-        cut[3 + c] += sum_sq[3 * x + c];
-      }
-    }
-    for (int offset = 3; doubling && offset < 3 * step; offset *= 2) {
-      for (int e = 0; e + offset < elements; ++e) {
-        sum[e] = static_cast<std::uint16_t>(sum[e] + sum[e + offset]);
-        sum_sq[e] += sum_sq[e + offset];
+    if (doubling) {
+      add_columns(whole_blocks * step, width, cut);
+      for (int offset = 3; offset < 3 * step; offset *= 2) {
+        for (int e = 0; e + offset < elements; ++e) {
+          sum[e] = static_cast<std::uint16_t>(sum[e] + sum[e + offset]);
+          sum_sq[e] += sum_sq[e + offset];
+        }
       }
     }
     for (int i = 1; i < cols; ++i) {
-      const int x0 = (i - 1) * step, x1 = std::min(i * step, width);
+      const int x0 = (i - 1) * step;
       if (i <= whole_blocks) {
-        for (int c = 0; c < 3; ++c) {
-          acc[c] += sum[3 * x0 + c];
-          acc[3 + c] += sum_sq[3 * x0 + c];
-        }
+        add_columns(x0, x0 + 1, acc);  // the block's sums, at its first column
       } else if (doubling) {
         for (int k = 0; k < 6; ++k) acc[k] += cut[k];
       } else {
-        for (int x = x0; x < x1; ++x) {
-          for (int c = 0; c < 3; ++c) {
-            acc[c] += sum[3 * x + c];
-            acc[3 + c] += sum_sq[3 * x + c];
-          }
-        }
+        add_columns(x0, std::min(i * step, width), acc);
       }
       const std::uint32_t* up = above + i * kLanes;
       std::uint32_t* o = out + i * kLanes;
