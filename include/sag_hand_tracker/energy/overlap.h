@@ -70,13 +70,15 @@ inline OverlapGeometryOf<T> overlapGeometry(const OverlapTermOf<T>& p, T mean_x,
 }
 
 // D_pq; 0 beyond `max_mahalanobis_sq` (the pair then contributes < exp(-max/2) of its peak).
-// Branch-free so that loops over q vectorise.
+// Branch-free so that loops over q vectorise. The exponent is clamped with std::min, not with the
+// `far` select: under -ffast-math GCC folds that select into the one after exp, and exp then
+// underflows on far pairs, where glibc's vector exp calls its scalar fallback lane by lane.
 template <typename T>
 inline T overlapValue(const OverlapTermOf<T>& p, const OverlapGeometryOf<T>& g, T variance_q,
                       T max_mahalanobis_sq) {
   const T peak = T(2.0 * M_PI) * p.sqrt_det * variance_q * std::sqrt(g.inv_det_s);
   const bool far = g.mahalanobis_sq > max_mahalanobis_sq;
-  const T value = peak * std::exp(T(-0.5) * (far ? max_mahalanobis_sq : g.mahalanobis_sq));
+  const T value = peak * std::exp(T(-0.5) * std::min(g.mahalanobis_sq, max_mahalanobis_sq));
   return far ? T(0) : value;
 }
 
