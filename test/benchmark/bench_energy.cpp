@@ -3,8 +3,10 @@
 // projection as a foreground segmentation would.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <random>
 
+#include "sag_hand_tracker/energy/overlap.h"
 #include "sag_hand_tracker/optimization/optimizer.h"
 #include "sag_hand_tracker/tracking/tracker.h"
 #include "test_support/synthetic_scene.h"
@@ -77,6 +79,40 @@ void BM_EnergyGradientSagOccludedFist(benchmark::State& state) {
   state.counters["image_gaussians_per_camera"] = static_cast<double>(state.range(0));
 }
 
+// One model Gaussian's overlap row (overlapRow) over a column of image Gaussians that are all in
+// its x range (overlapRange) but mostly beyond max_mahalanobis_sq in y: a finger across the
+// image of a bare forearm. The far pairs must cost what the near ones do (overlapValue clamps
+// the exponent; an exp that underflows takes glibc's scalar path lane by lane).
+void BM_OverlapRowFarPairs(benchmark::State& state) {
+  ProjectedGaussian finger;
+  finger.mean = Eigen::Vector2d(160.0, 120.0);
+  finger.cov << 16.0, 0.0, 0.0, 16.0;
+  finger.valid = true;
+  const OverlapTerm term = prepareOverlapTerm(finger);
+  ImageGaussianArrays column;
+  std::mt19937 rng(1);
+  std::uniform_real_distribution<float> x(150.0f, 170.0f), y(0.0f, 240.0f);
+  const int count = static_cast<int>(state.range(0));
+  for (int i = 0; i < count; ++i) {
+    column.mean_x.push_back(x(rng));
+    column.mean_y.push_back(y(rng));
+    column.variance.push_back(4.0f);
+    column.self_overlap.push_back(2.0 * M_PI * 4.0);
+  }
+  std::sort(column.mean_x.begin(), column.mean_x.end());
+  column.max_variance = 4.0;
+  const double max_mahalanobis_sq = EnergyParams().max_mahalanobis_sq;
+  const OverlapRange range = overlapRange(term, column, max_mahalanobis_sq);
+  const std::vector<float> weights(count, 1.0f);
+  std::vector<float> row(count, 0.0f);
+  for (auto _ : state) {
+    overlapRow(term, column, range, weights.data(), max_mahalanobis_sq, row.data());
+    benchmark::DoNotOptimize(row.data());
+    benchmark::ClobberMemory();
+  }
+  state.counters["pairs_in_range"] = range.end - range.begin;
+}
+
 void BM_EnergyGradientSag(benchmark::State& state) { energyBenchmark(state, "sag", true); }
 void BM_EnergyGradientSog(benchmark::State& state) { energyBenchmark(state, "sog", true); }
 void BM_EnergyOnlySag(benchmark::State& state) { energyBenchmark(state, "sag", false); }
@@ -102,6 +138,7 @@ BENCHMARK(BM_EnergyGradientSag)->Arg(500)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_EnergyGradientSog)->Arg(500)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_EnergyOnlySag)->Arg(500)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_EnergyGradientSagOccludedFist)->Arg(500)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_OverlapRowFarPairs)->Arg(512)->Unit(benchmark::kNanosecond);
 BENCHMARK(BM_OptimizeFrameSag)
     ->ArgNames({"image_gaussians", "iterations"})
     ->Args({500, 10})
