@@ -4,9 +4,12 @@
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
+#include <opencv2/imgproc.hpp>
 #include <random>
 
+#include "sag_hand_tracker/energy/hand_projection.h"
 #include "sag_hand_tracker/energy/overlap.h"
+#include "sag_hand_tracker/energy/silhouette.h"
 #include "sag_hand_tracker/optimization/optimizer.h"
 #include "sag_hand_tracker/tracking/tracker.h"
 #include "test_support/synthetic_scene.h"
@@ -132,8 +135,43 @@ void BM_OptimizeFrameSag(benchmark::State& state) {
   }
 }
 
+// The finger toggles' silhouette score of one pose (TrackerParams::toggle_silhouette_sigmas):
+// the model's ellipses filled in 5 cameras, then the Dice against each camera's foreground.
+void BM_SilhouetteScore(benchmark::State& state) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const Pose pose = typicalPose(model);
+  const auto observations = modelObservations(model, pose, fiveCameraRig(), 4.0);
+  SilhouetteScorer scorer(observations, TrackerParams().toggle_silhouette_sigmas);
+  for (auto _ : state) benchmark::DoNotOptimize(scorer.score(model, pose));
+}
+
+// One ellipse of a finger (30 x 12 pixels) or of the palm (70 x 50) filled row by row
+// (fillEllipse, arg 0) and by cv::ellipse's polygon (arg 1), which the silhouettes used before.
+void BM_FillEllipse(benchmark::State& state) {
+  const cv::RotatedRect box(
+      cv::Point2f(160.3f, 120.6f),
+      state.range(0) == 0 ? cv::Size2f(30.0f, 12.0f) : cv::Size2f(70.0f, 50.0f), 33.0f);
+  cv::Mat mask(240, 320, CV_8UC1, cv::Scalar(0));
+  for (auto _ : state) {
+    if (state.range(1) == 0) {
+      benchmark::DoNotOptimize(fillEllipse(box, &mask));
+    } else {
+      cv::ellipse(mask, box, cv::Scalar(255), cv::FILLED);
+    }
+    benchmark::ClobberMemory();
+  }
+}
+
 }  // namespace
 
+BENCHMARK(BM_SilhouetteScore)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_FillEllipse)
+    ->ArgNames({"palm", "opencv"})
+    ->Args({0, 0})
+    ->Args({0, 1})
+    ->Args({1, 0})
+    ->Args({1, 1})
+    ->Unit(benchmark::kNanosecond);
 BENCHMARK(BM_EnergyGradientSag)->Arg(500)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_EnergyGradientSog)->Arg(500)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_EnergyOnlySag)->Arg(500)->Unit(benchmark::kMicrosecond);

@@ -1,8 +1,12 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
+#include <cmath>
+#include <limits>
+#include <opencv2/imgproc.hpp>
 #include <random>
 
+#include "sag_hand_tracker/energy/hand_projection.h"
 #include "sag_hand_tracker/energy/projection.h"
 #include "test_support/synthetic_scene.h"
 
@@ -290,4 +294,70 @@ TEST(Projection, ProjectDistortedIsTheInverseOfUndistortPixel) {
   camera.distortion.clear();
   ASSERT_TRUE(camera.projectDistorted(Eigen::Vector3d(0.1, 0.0, 0.5), &pixel));
   EXPECT_NEAR(pixel.x(), 420.0, 1e-9);
+}
+
+// fillEllipse sets exactly the pixels whose centres lie inside the ellipse, and returns their
+// bounding rectangle: random ellipses of 0.2 to 80 pixels, at any angle, some cut by the border.
+TEST(FillEllipse, SetsExactlyThePixelCentresInside) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> centre(-30.0, 110.0), axis(0.2, 80.0), angle(-180, 180);
+  for (int trial = 0; trial < 300; ++trial) {
+    const cv::RotatedRect box(cv::Point2f(centre(rng), centre(rng)),
+                              cv::Size2f(axis(rng), axis(rng)), angle(rng));
+    cv::Mat mask(64, 96, CV_8UC1, cv::Scalar(0));
+    const cv::Rect filled = fillEllipse(box, &mask);
+    const double a = 0.5 * box.size.width, b = 0.5 * box.size.height;
+    const double t = box.angle * M_PI / 180.0;
+    cv::Rect expected;
+    for (int y = 0; y < mask.rows; ++y) {
+      for (int x = 0; x < mask.cols; ++x) {
+        const double dx = x - box.center.x, dy = y - box.center.y;
+        const double u = std::cos(t) * dx + std::sin(t) * dy;
+        const double v = -std::sin(t) * dx + std::cos(t) * dy;
+        const double level = (u / a) * (u / a) + (v / b) * (v / b);
+        const bool set = mask.at<std::uint8_t>(y, x) == 255;
+        if (set) expected |= cv::Rect(x, y, 1, 1);
+        if (std::fabs(level - 1.0) < 1e-6) continue;  // on the boundary, within rounding
+        ASSERT_EQ(set, level < 1.0)
+            << "trial " << trial << " pixel " << x << "," << y << " level " << level;
+        ASSERT_TRUE(set || mask.at<std::uint8_t>(y, x) == 0);
+      }
+    }
+    EXPECT_EQ(filled, expected) << "trial " << trial;
+  }
+}
+
+// The same ellipse as cv::ellipse draws (axes, angle and pixel convention): on ellipses of 6 to 60
+// pixels the two differ only along the outline, by less than its length in pixels.
+TEST(FillEllipse, AgreesWithOpenCvsEllipseUpToTheOutline) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> centre(20.0, 80.0), axis(6.0, 60.0), angle(-180, 180);
+  for (int trial = 0; trial < 100; ++trial) {
+    const cv::RotatedRect box(cv::Point2f(centre(rng), centre(rng)),
+                              cv::Size2f(axis(rng), axis(rng)), angle(rng));
+    cv::Mat ours(100, 100, CV_8UC1, cv::Scalar(0)), opencv = ours.clone();
+    fillEllipse(box, &ours);
+    cv::ellipse(opencv, box, cv::Scalar(255), cv::FILLED);
+    const double a = 0.5 * box.size.width, b = 0.5 * box.size.height;
+    const double outline = M_PI * (3.0 * (a + b) - std::sqrt((3.0 * a + b) * (a + 3.0 * b)));
+    EXPECT_LT(cv::countNonZero(ours != opencv), outline) << "trial " << trial;
+    EXPECT_GT(cv::countNonZero(ours & opencv), 0.8 * M_PI * a * b) << "trial " << trial;
+  }
+}
+
+TEST(FillEllipse, DegenerateEllipsesSetNothing) {
+  cv::Mat mask(20, 20, CV_8UC1, cv::Scalar(0));
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  for (const cv::RotatedRect& box :
+       {cv::RotatedRect(cv::Point2f(10, 10), cv::Size2f(0, 5), 0),
+        cv::RotatedRect(cv::Point2f(10, 10), cv::Size2f(-3, 5), 0),
+        cv::RotatedRect(cv::Point2f(nan, 10), cv::Size2f(3, 5), 0),
+        cv::RotatedRect(cv::Point2f(10, 10), cv::Size2f(inf, 5), 0),
+        cv::RotatedRect(cv::Point2f(10, 10), cv::Size2f(3, 5), nan),
+        cv::RotatedRect(cv::Point2f(10.5f, 10.5f), cv::Size2f(0.4f, 0.4f), 0),  // between centres
+        cv::RotatedRect(cv::Point2f(-50, 10), cv::Size2f(10, 10), 0)}) {
+    EXPECT_TRUE(fillEllipse(box, &mask).empty());
+  }
+  EXPECT_EQ(cv::countNonZero(mask), 0);
 }
