@@ -66,6 +66,7 @@ constexpr double kSilhouetteOutlinePixels = 0.4;
 }  // namespace
 
 cv::Rect fillEllipse(const cv::RotatedRect& box, cv::Mat* mask) {
+  if (mask->type() != CV_8UC1) throw InputError("fillEllipse: the mask is not CV_8UC1");
   const double a = 0.5 * box.size.width, b = 0.5 * box.size.height;
   const double cx = box.center.x, cy = box.center.y;
   if (!(a > 0.0) || !(b > 0.0) || !std::isfinite(a) || !std::isfinite(b) || !std::isfinite(cx) ||
@@ -81,8 +82,11 @@ cv::Rect fillEllipse(const cv::RotatedRect& box, cv::Mat* mask) {
   const double B = c * s * (inv_a2 - inv_b2);
   const double C = s * s * inv_a2 + c * c * inv_b2;
   const double half_height = std::sqrt(a * a * s * s + b * b * c * c);
-  const int y0 = static_cast<int>(std::max(0.0, std::ceil(cy - half_height)));
-  const int y1 = static_cast<int>(std::min(mask->rows - 1.0, std::floor(cy + half_height)));
+  // Clamped to the image in double first: an ellipse far outside must not overflow an int.
+  const double top = std::max(0.0, std::ceil(cy - half_height));
+  const double bottom = std::min(mask->rows - 1.0, std::floor(cy + half_height));
+  if (!(top <= bottom)) return {};
+  const int y0 = static_cast<int>(top), y1 = static_cast<int>(bottom);
   int x_min = mask->cols, x_max = -1, y_min = mask->rows, y_max = -1;
   for (int y = y0; y <= y1; ++y) {
     const double dy = y - cy;
@@ -90,9 +94,10 @@ cv::Rect fillEllipse(const cv::RotatedRect& box, cv::Mat* mask) {
     if (!(discriminant >= 0.0)) continue;
     const double half_width = std::sqrt(discriminant) / A;
     const double middle = cx - B * dy / A;
-    const int xl = static_cast<int>(std::max(0.0, std::ceil(middle - half_width)));
-    const int xr = static_cast<int>(std::min(mask->cols - 1.0, std::floor(middle + half_width)));
-    if (xl > xr) continue;
+    const double left = std::max(0.0, std::ceil(middle - half_width));
+    const double right = std::min(mask->cols - 1.0, std::floor(middle + half_width));
+    if (!(left <= right)) continue;
+    const int xl = static_cast<int>(left), xr = static_cast<int>(right);
     std::memset(mask->ptr<std::uint8_t>(y) + xl, 255, static_cast<std::size_t>(xr - xl + 1));
     x_min = std::min(x_min, xl);
     x_max = std::max(x_max, xr);

@@ -356,8 +356,13 @@ TEST(FillEllipse, DegenerateEllipsesSetNothing) {
         cv::RotatedRect(cv::Point2f(10, 10), cv::Size2f(inf, 5), 0),
         cv::RotatedRect(cv::Point2f(10, 10), cv::Size2f(3, 5), nan),
         cv::RotatedRect(cv::Point2f(10.5f, 10.5f), cv::Size2f(0.4f, 0.4f), 0),  // between centres
-        cv::RotatedRect(cv::Point2f(-50, 10), cv::Size2f(10, 10), 0)}) {
+        cv::RotatedRect(cv::Point2f(-50, 10), cv::Size2f(10, 10), 0),
+        cv::RotatedRect(cv::Point2f(1e30f, 1e30f), cv::Size2f(1e20f, 3), 45),  // far off
+        cv::RotatedRect(cv::Point2f(10, 1e30f), cv::Size2f(3, 5), 0)}) {
     EXPECT_TRUE(fillEllipse(box, &mask).empty());
   }
   EXPECT_EQ(cv::countNonZero(mask), 0);
+  cv::Mat colour(20, 20, CV_8UC3, cv::Scalar::all(0));
+  EXPECT_THROW(fillEllipse(cv::RotatedRect(cv::Point2f(10, 10), cv::Size2f(3, 5), 0), &colour),
+               InputError);
 }

@@ -41,7 +41,7 @@ bool ellipseBox(const ProjectedGaussian& g, double sigmas, double margin_pixels,
 // solved from the ellipse's equation. Exact, where cv::ellipse fills a polygon of up to 72 edges
 // (4 under 3 pixels) and draws its outline too; 6 to 14 times faster than it on a hand's
 // ellipses (BM_FillEllipse). Returns the rectangle of the pixels set (empty: none, e.g. an
-// ellipse between pixel centres).
+// ellipse between pixel centres); throws InputError for a mask of another type.
 cv::Rect fillEllipse(const cv::RotatedRect& box, cv::Mat* mask);
 
 // The posed model's own silhouette in one camera (CV_8UC1 at image size, 255 inside): every model
