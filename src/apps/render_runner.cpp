@@ -99,6 +99,8 @@ std::string renderBagUsage() {
          "  --gt-csv FILE      ground-truth CSV (default: OUT.bag with the extension .gt.csv)\n"
          "  --fps F            frame rate, 25 (Dexter 1, default) or 60\n"
          "  --frames N         number of frames (default: the motion's duration * fps)\n"
+         "  --empty-frames N   frames of the empty studio before the hand (default 10; 0 in\n"
+         "                     a room without them): 0 for a hand in view from the first frame\n"
          "  --seed S           seed of the motion's random parts and the sensor noise (default 1)\n"
          "  --motion-blur N    sub-frames averaged per frame (default 1: none)\n"
          "  --exposure T       exposure time in seconds for motion blur (default 0.010)\n"
@@ -135,8 +137,8 @@ std::string renderBagUsage() {
          "                     refused before anything is rendered, and a file that appears\n"
          "                     there during the run is kept too)\n"
          "  --quiet            no progress bar\n"
-         "The first 10 frames show the empty studio (for the background plate); ground truth is\n"
-         "written for the frames with the hand.\n";
+         "The first 10 frames (--empty-frames) show the empty studio (for the background plate);\n"
+         "ground truth is written for the frames with the hand.\n";
 }
 
 RenderBagOptions parseRenderBagArguments(const std::vector<std::string>& args) {
@@ -202,6 +204,8 @@ RenderBagOptions parseRenderBagArguments(const std::vector<std::string>& args) {
         throw UsageError("--fps must be in (0, 1000]");
     } else if (a == "--frames") {
       options.frames = static_cast<int>(integer(&i, 1));
+    } else if (a == "--empty-frames") {
+      options.empty_frames = static_cast<int>(integer(&i, 0));
     } else if (a == "--seed") {
       constexpr std::uint64_t kMaxSeed = 1ULL << 53;
       options.seed = static_cast<std::uint64_t>(integer(&i, 0, static_cast<long long>(kMaxSeed)));
@@ -366,6 +370,7 @@ RenderBagSummary renderStudioBag(const RenderBagOptions& options, ProgressBar* p
     room_params = studio::builtinRoom(options.room);
     if (!room_params.hand_free_frames) params.empty_frames = 0;
   }
+  if (options.empty_frames >= 0) params.empty_frames = options.empty_frames;
   const studio::StudioSequence sequence(model, std::move(motion), params);
   std::unique_ptr<studio::StudioRoom> room;
   studio::StudioSceneParams scene;

@@ -24,14 +24,16 @@
 //   got no pose on the frame path meanwhile are published late, below), worker_niceness (10: a
 //   re-detecting worker's nice value above the frame path's; 0-19), search_threads (2: threads of
 //   one start or re-detection search, which give the same result as one; 1-16), room_cues
-//   (false; the launch files set it to mode == skin), multi_view (true) and recheck_interval (1)
-//   (below), skin_gate_from_model (true: publish cam<i>/skin_gate, above; false: the segmentations
-//   keep their own gate), mode (plate: the segmentations' mode; with skin the starts are scored
-//   with the model's area charged, TrackerParams::start_model_area_weight, as TrackingPipeline
-//   does offline without a plate, and 0 while the skin gate is the model's own), plus the
-//   dynamic_reconfigure parameters of cfg/Tracker.cfg (its start_model_area_weight, -1 by
-//   default, replaces the mode's weight when >= 0; its curled_refine_iterations, -1 by default,
-//   the curled hand's refinement: as offline, on with mode plate and off with mode skin).
+//   (false; the launch files set it to mode == skin), multi_view (true), recheck_interval (1),
+//   still_hypotheses (3; 0-16, 0 = a still scene never starts) and still_retry_seconds (0.5)
+//   (below), skin_gate_from_model (true: publish cam<i>/skin_gate, above; false: the
+//   segmentations keep their own gate), mode (plate: the segmentations' mode; with skin the
+//   starts are scored with the model's area charged, TrackerParams::start_model_area_weight, as
+//   TrackingPipeline does offline without a plate, and 0 while the skin gate is the model's own),
+//   plus the dynamic_reconfigure parameters of cfg/Tracker.cfg (its start_model_area_weight, -1
+//   by default, replaces the mode's weight when it is at least 0; its curled_refine_iterations,
+//   -1 by default, the curled hand's refinement: as offline, on with mode plate and off with
+//   mode skin).
 //
 // Room cues (issue 11; ros/live_room_cues.h, doc/segmentation.md "The live graph"; the segmentation
 // nodelets' room_cues must be on too): after every set the tracked hand is published to each
@@ -41,7 +43,14 @@
 // attach their hand candidates, and the multi-view check (MultiViewParams, `multi_view` =
 // MultiViewParams::enabled) keeps in every camera only the Gaussians of the candidate that
 // triangulates with the other views, or none; every recheck_interval sets the tracked hand is
-// checked against the same choice and the track is reset when the choice replaces it.
+// checked against the same choice and the track is reset when the choice replaces it. When
+// nothing moving agrees (a hand held still from the first image), each of up to still_hypotheses
+// places where still candidates agree is started by a tracker of its own on the frame path
+// (startOnStillScene, as track_bag does; about 25 ms each) and the best becomes the track,
+// provisional until the hand has moved 5 cm (re-checked every set meanwhile). After a set whose
+// still places held no hand (a face, a photograph), the next try waits still_retry_seconds of
+// image time, so that a still room costs the frame path one such set per interval, not every set
+// (track_bag tries every set).
 //
 // Late results (catch-up, TrackerParams::catch_up_seconds): a set that got no pose while the
 // worker had the search (no track, or it was lost) was published with a status without pose; its
@@ -222,7 +231,20 @@ class TrackerNodelet : public nodelet::Nodelet {
                       multi_view.recheck_interval, fallback);
         multi_view.recheck_interval = fallback;
       }
+      multi_view.still_hypotheses = pnh.param("still_hypotheses", multi_view.still_hypotheses);
+      if (multi_view.still_hypotheses < 0 || multi_view.still_hypotheses > 16) {
+        const int fallback = MultiViewParams().still_hypotheses;
+        NODELET_ERROR("still_hypotheses must be in [0, 16] (got %d); using %d",
+                      multi_view.still_hypotheses, fallback);
+        multi_view.still_hypotheses = fallback;
+      }
       room_ = LiveRoomCues(multi_view);
+      still_retry_seconds_ = pnh.param("still_retry_seconds", still_retry_seconds_);
+      if (!(still_retry_seconds_ >= 0.0 && still_retry_seconds_ <= 60.0)) {
+        NODELET_ERROR("still_retry_seconds must be in [0, 60] (got %g); using 0.5",
+                      still_retry_seconds_);
+        still_retry_seconds_ = 0.5;
+      }
     }
     const std::string model_name = pnh.param<std::string>("model", "sag");
     const std::string handedness = pnh.param<std::string>("handedness", "right");
@@ -478,15 +500,27 @@ class TrackerNodelet : public nodelet::Nodelet {
         ++skipped_inputs_;
       }
     }
-    if (room_cues_) applyRoomCues(&observations, &views);
+    LiveStillTrials still;
+    // A still scene is tried again only still_retry_seconds after a try that found no hand (or
+    // when the stamps went back).
+    const bool still_due = !last_still_try_ || stamp.toSec() < *last_still_try_ ||
+                           stamp.toSec() - *last_still_try_ >= still_retry_seconds_;
+    if (room_cues_) applyRoomCues(&observations, &views, still_due ? &still : nullptr);
     for (CameraObservation& observation : observations) {
       undistortImageSoG(observation.camera, &observation.sog);
     }
     FrameResult result;
     std::vector<FrameResult> late_results;
+    bool still_start = false;
     try {
-      result = tracker_->update(observations, stamp.toSec(), set.stamp_ns);
-      late_results = tracker_->takeLateResults();
+      if (!still.sogs.empty()) {
+        still_start = startOnStillScene(still, stamp.toSec(), set.stamp_ns, &observations, &result);
+        last_still_try_ = still_start ? std::nullopt : std::optional<double>(stamp.toSec());
+      }
+      if (!still_start) {
+        result = tracker_->update(observations, stamp.toSec(), set.stamp_ns);
+        late_results = tracker_->takeLateResults();
+      }
     } catch (const std::exception& e) {
       NODELET_ERROR_THROTTLE(2.0, "tracker failed on the set at %.3f: %s", stamp.toSec(), e.what());
       tracker_->reset();
@@ -522,27 +556,71 @@ class TrackerNodelet : public nodelet::Nodelet {
       publishOverlays(stamp, observations, observation_camera, hand);
     }
     if (room_cues_) {
-      room_.afterUpdate(pose_ok && result.status != TrackStatus::kLost ? &hand : nullptr);
+      room_.afterUpdate(pose_ok && result.status != TrackStatus::kLost ? &hand : nullptr,
+                        still_start);
       publishRegions(stamp, observations, observation_camera, hand);
     }
     publishStatus(stamp, result, pose_ok, seconds);
   }
 
   // Before the tracker's update: the multi-view check and the re-check narrow the views' SoGs
-  // (raw pixels) down to the hand; a re-check that replaces the track resets it. Caller holds
-  // mutex_.
-  void applyRoomCues(std::vector<CameraObservation>* observations, std::vector<LiveView>* views) {
+  // (raw pixels) down to the hand; a re-check that replaces the track resets it; a still scene's
+  // trials go to `still`. Caller holds mutex_.
+  void applyRoomCues(std::vector<CameraObservation>* observations, std::vector<LiveView>* views,
+                     LiveStillTrials* still) {
     for (size_t v = 0; v < views->size(); ++v) {
       (*views)[v].camera = (*observations)[v].camera;
       (*views)[v].sog = std::move((*observations)[v].sog);
     }
-    if (room_.beforeUpdate(views)) {
+    if (room_.beforeUpdate(views, still)) {
       NODELET_INFO("room cues: a hand that more views agree on replaces the track; restarting");
       tracker_->reset();
     }
     for (size_t v = 0; v < views->size(); ++v) {
       (*observations)[v].sog = std::move((*views)[v].sog);
     }
+  }
+
+  // A still scene (LiveStillTrials): each trial started by a tracker of its own on the set's
+  // cameras, synchronously (startOnStillScene, as TrackingPipeline does offline); the best start
+  // becomes this tracker's track, and its trial the set's observations. Returns whether one did;
+  // otherwise the observations keep nothing (the views' Gaussians were not the hand's). Caller
+  // holds mutex_.
+  bool startOnStillScene(const LiveStillTrials& still, double stamp, std::int64_t frame_id,
+                         std::vector<CameraObservation>* observations, FrameResult* result) {
+    std::vector<Camera> cameras;
+    for (const CameraObservation& observation : *observations) {
+      cameras.push_back(observation.camera);
+    }
+    std::vector<std::vector<CameraObservation>> trials;
+    for (const std::vector<ImageSoG>& sogs : still.sogs) {
+      std::vector<CameraObservation>& trial = trials.emplace_back(*observations);
+      for (size_t v = 0; v < trial.size(); ++v) {
+        trial[v].sog = sogs[v];
+        undistortImageSoG(trial[v].camera, &trial[v].sog);
+      }
+    }
+    const auto begin = std::chrono::steady_clock::now();
+    std::optional<StillStart> start = sag_hand_tracker::startOnStillScene(
+        tracker_->model(), tracker_->params(), trials, cameras, still.foregrounds,
+        room_.params().still_min_score, stamp, frame_id);
+    const double ms = 1000.0 * secondsSince(begin);
+    if (!start) {
+      NODELET_INFO_THROTTLE(5.0,
+                            "room cues: nothing moves; none of %zu still places is a hand (%.0f "
+                            "ms); trying again in %.1f s",
+                            trials.size(), ms, still_retry_seconds_);
+      return false;
+    }
+    NODELET_INFO(
+        "room cues: nothing moves; started on still place %d of %zu (score %.2f, %.0f ms), "
+        "provisional until the hand moves %.0f mm",
+        start->hypothesis + 1, trials.size(), start->score, ms,
+        1000.0 * room_.params().still_confirm_distance);
+    tracker_->adoptTrack(*start->tracker);
+    *observations = std::move(trials[start->hypothesis]);
+    *result = start->result;
+    return true;
   }
 
   // cam<i>/hand_region after a set: the tracked hand in each camera of the set, or "no tracked
@@ -1117,6 +1195,8 @@ class TrackerNodelet : public nodelet::Nodelet {
   bool room_cues_ = false;
   LiveRoomCues room_;  // room_cues: the multi-view check and the tracked hand's regions
   double catch_up_seconds_ = 0.25;
+  double still_retry_seconds_ = 0.5;
+  std::optional<double> last_still_try_;  // image stamp of the last still try that found no hand
   int worker_niceness_ = 10;
   int search_threads_ = 2;
   std::unique_ptr<HandTracker> tracker_;

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "sag_hand_tracker/energy/hand_projection.h"
+#include "sag_hand_tracker/energy/silhouette.h"
 #include "sag_hand_tracker/tracking/tracking_pipeline.h"
 #include "sag_hand_tracker/util/number_text.h"
 
@@ -201,14 +202,16 @@ LiveRoomCues::LiveRoomCues(const MultiViewParams& params) : params_(params) { va
 void LiveRoomCues::reset() {
   tracking_ = false;
   sets_since_recheck_ = 0;
+  provisional_ = false;
 }
 
 bool LiveRoomCues::candidatesWanted() const {
-  return tracking_ && params_.enabled && params_.recheck_interval > 0 &&
-         sets_since_recheck_ + 1 >= params_.recheck_interval;
+  return tracking_ && params_.enabled &&
+         (provisional_ ||
+          (params_.recheck_interval > 0 && sets_since_recheck_ + 1 >= params_.recheck_interval));
 }
 
-bool LiveRoomCues::beforeUpdate(std::vector<LiveView>* views_in) {
+bool LiveRoomCues::beforeUpdate(std::vector<LiveView>* views_in, LiveStillTrials* still) {
   std::vector<LiveView>& views = *views_in;
   using Msg = sag_hand_tracker::SumOfGaussians;
   auto keepCandidate = [this](LiveView* view, int index) {
@@ -237,6 +240,9 @@ bool LiveRoomCues::beforeUpdate(std::vector<LiveView>* views_in) {
       if (views[v].region == Msg::REGION_CANDIDATES) candidates[v] = views[v].candidates;
     }
     const MultiViewChoice choice = chooseConsistentCandidates(cameras, candidates, params_);
+    if (!choice.found && still != nullptr && params_.still_hypotheses > 0) {
+      makeStillTrials(views, candidates, still);
+    }
     for (size_t v = 0; v < views.size(); ++v) {
       // A view still segmented with an old track's region (its hand_region had not yet said
       // "lost") keeps nothing: that region may hold anything.
@@ -253,8 +259,8 @@ bool LiveRoomCues::beforeUpdate(std::vector<LiveView>* views_in) {
   for (size_t v = 0; v < views.size(); ++v) candidates[v] = views[v].candidates;
   const MultiViewChoice at_track = supportAt(cameras, candidates, tracked_centre_, params_);
   bool recheck = false;
-  if (params_.enabled && params_.recheck_interval > 0 &&
-      ++sets_since_recheck_ >= params_.recheck_interval) {
+  if (params_.enabled && (provisional_ || (params_.recheck_interval > 0 &&
+                                           ++sets_since_recheck_ >= params_.recheck_interval))) {
     sets_since_recheck_ = 0;
     int views_with_candidates = 0;
     for (const auto& c : candidates) views_with_candidates += !c.empty();
@@ -263,7 +269,9 @@ bool LiveRoomCues::beforeUpdate(std::vector<LiveView>* views_in) {
   if (recheck) {
     ++rechecks_;
     const MultiViewChoice choice = chooseConsistentCandidates(cameras, candidates, params_);
-    if (replacesTrack(choice, at_track, params_)) {
+    // A still start yields to a hand that moves elsewhere and that as many views see.
+    if (provisional_ ? replacesProvisionalTrack(choice, at_track, params_)
+                     : replacesTrack(choice, at_track, params_)) {
       // The set's images were segmented with the old track's region: nothing of them is kept;
       // the segmenters get no region and the next set starts at the new choice.
       ++switches_;
@@ -278,7 +286,7 @@ bool LiveRoomCues::beforeUpdate(std::vector<LiveView>* views_in) {
   return false;
 }
 
-void LiveRoomCues::afterUpdate(const PosedHand* hand) {
+void LiveRoomCues::afterUpdate(const PosedHand* hand, bool still_start) {
   if (hand == nullptr || hand->gaussians.empty()) {
     reset();
     return;
@@ -288,6 +296,41 @@ void LiveRoomCues::afterUpdate(const PosedHand* hand) {
   tracked_centre_.setZero();
   for (const WorldGaussian& g : hand->gaussians) tracked_centre_ += g.mean;
   tracked_centre_ /= static_cast<double>(hand->gaussians.size());
+  if (still_start) {
+    provisional_ = true;
+    provisional_origin_ = tracked_centre_;
+  } else if (provisional_ &&
+             (tracked_centre_ - provisional_origin_).norm() >= params_.still_confirm_distance) {
+    provisional_ = false;  // it moved: a hand in use
+  }
+}
+
+void LiveRoomCues::makeStillTrials(const std::vector<LiveView>& views,
+                                   const std::vector<std::vector<HandCandidate>>& candidates,
+                                   LiveStillTrials* still) const {
+  std::vector<Camera> cameras;
+  for (const LiveView& view : views) cameras.push_back(view.camera);
+  const std::vector<MultiViewChoice> hypotheses = stillHypotheses(cameras, candidates, params_);
+  if (hypotheses.empty()) return;
+  std::vector<cv::Mat> regions_union(views.size());
+  for (size_t v = 0; v < views.size(); ++v) {
+    regions_union[v] = cv::Mat(views[v].sog.height, views[v].sog.width, CV_8UC1, cv::Scalar(0));
+  }
+  for (const MultiViewChoice& hypothesis : hypotheses) {
+    std::vector<ImageSoG>& sogs = still->sogs.emplace_back(views.size());
+    for (size_t v = 0; v < views.size(); ++v) {
+      const int chosen = hypothesis.chosen[v];
+      const cv::Mat region =
+          candidateRegion(chosen >= 0 ? &candidates[v][chosen] : nullptr, views[v].sog.width,
+                          views[v].sog.height, params_.region_margin_cells);
+      sogs[v] = keepInsideRegion(views[v].sog, region);
+      regions_union[v] |= region;
+    }
+  }
+  for (size_t v = 0; v < views.size(); ++v) {
+    still->foregrounds.push_back(
+        foregroundOfSoG(views[v].sog, views[v].sog.width, views[v].sog.height) & regions_union[v]);
+  }
 }
 
 }  // namespace sag_hand_tracker

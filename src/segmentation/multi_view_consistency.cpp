@@ -272,6 +272,12 @@ bool replacesTrack(const MultiViewChoice& challenger, const MultiViewChoice& tra
          challenger.moving > 2 * tracked.moving;
 }
 
+bool replacesProvisionalTrack(const MultiViewChoice& challenger, const MultiViewChoice& tracked,
+                              const MultiViewParams& params) {
+  return challenger.found && (challenger.point - tracked.point).norm() >= params.switch_distance &&
+         challenger.supporting_views >= tracked.supporting_views;
+}
+
 cv::Mat candidateRegion(const HandCandidate* candidate, int width, int height, int margin_cells) {
   cv::Mat region(height, width, CV_8UC1, cv::Scalar(0));
   if (candidate == nullptr || candidate->cells_x <= 0) return region;

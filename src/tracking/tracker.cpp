@@ -438,6 +438,11 @@ void HandTracker::reset() {
   setTrackState(TrackState());
 }
 
+void HandTracker::adoptTrack(const HandTracker& other) {
+  reset();
+  setTrackState(other.trackState());
+}
+
 HandTracker::TrackState HandTracker::trackState() const {
   TrackState state;
   state.previous = previous_;

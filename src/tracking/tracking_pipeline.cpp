@@ -110,6 +110,31 @@ int curledRefineIterations(const PipelineParams& params, bool without_plate) {
              : params.tracker.curled_refine_iterations;
 }
 
+std::optional<StillStart> startOnStillScene(
+    const HandModel& model, const TrackerParams& params,
+    const std::vector<std::vector<CameraObservation>>& trials, const std::vector<Camera>& cameras,
+    const std::vector<cv::Mat>& foregrounds, double min_score, double stamp,
+    std::int64_t frame_id) {
+  TrackerParams trial_params = params;
+  trial_params.asynchronous_search = false;  // the start's pose is wanted now, on this set
+  std::optional<StillStart> best;
+  for (size_t h = 0; h < trials.size(); ++h) {
+    HandTracker tracker(model, trial_params);
+    const FrameResult result = tracker.update(trials[h], stamp, frame_id);
+    if (!result.has_pose || result.status == TrackStatus::kLost) continue;
+    const double score =
+        result.energy.similarity *
+        modelOnForeground(forwardKinematics(tracker.model(), result.pose), cameras, foregrounds);
+    if (score < min_score || score <= (best ? best->score : 0.0)) continue;
+    if (!best) best.emplace();
+    best->hypothesis = static_cast<int>(h);
+    best->result = result;
+    best->score = score;
+    best->tracker = std::move(tracker);
+  }
+  return best;
+}
+
 TrackingPipeline::TrackingPipeline(const HandModel& model, const std::vector<Camera>& cameras,
                                    const PipelineParams& params)
     : cameras_(cameras), params_(adjusted(params)), tracker_(model, params_.tracker) {
@@ -192,12 +217,9 @@ bool TrackingPipeline::chooseRegionsAcrossViews(const FrameSet& set, bool tracki
     // views see (the still start may have taken a prop before the hand came into view).
     const MultiViewChoice at_track =
         supportAt(cameras_, candidates, tracked_centre_, params_.multi_view);
-    const bool replace =
-        provisional_track_
-            ? choice.found &&
-                  (choice.point - tracked_centre_).norm() >= params_.multi_view.switch_distance &&
-                  choice.supporting_views >= at_track.supporting_views
-            : replacesTrack(choice, at_track, params_.multi_view);
+    const bool replace = provisional_track_
+                             ? replacesProvisionalTrack(choice, at_track, params_.multi_view)
+                             : replacesTrack(choice, at_track, params_.multi_view);
     if (!replace) return false;
     tracker_.reset();
     // A provisional track was on something still (a face, a photograph): what the segmenters
@@ -244,18 +266,15 @@ bool TrackingPipeline::chooseRegionsAcrossViews(const FrameSet& set, bool tracki
 std::optional<FrameResult> TrackingPipeline::startOnStillHypotheses(
     const FrameSet& set, const StillRegions& still_regions,
     std::vector<CameraObservation>* observations) {
-  std::optional<FrameResult> best;
-  double best_score = 0.0;
-  const std::vector<cv::Mat>* best_regions = nullptr;
-  std::vector<CameraObservation> best_observations;
   // This set's foreground (inside the union of the hypotheses' regions) per camera; empty for a
   // camera without an image in the set.
   std::vector<cv::Mat> foregrounds(cameras_.size());
   for (const CameraImage& image : set.images) {
     foregrounds[image.camera] = segmenters_[image.camera].lastForegroundMask();
   }
+  std::vector<std::vector<CameraObservation>> trials;
   for (const std::vector<cv::Mat>& regions : still_regions) {
-    std::vector<CameraObservation> trial = *observations;
+    std::vector<CameraObservation>& trial = trials.emplace_back(*observations);
     for (CameraObservation& observation : trial) {
       const int camera = set.images[&observation - trial.data()].camera;
       observation.sog = keepInsideRegion(observation.sog, regions[camera]);
@@ -263,32 +282,24 @@ std::optional<FrameResult> TrackingPipeline::startOnStillHypotheses(
       segmenters_[camera].sleeveEvidence(foregrounds[camera] & regions[camera], &observation.sog);
       undistortImageSoG(observation.camera, &observation.sog);
     }
-    HandTracker tracker(tracker_.model(), params_.tracker);
-    const FrameResult result = tracker.update(trial, set.stamp(), sets_seen_ - 1);
-    if (!result.has_pose || result.status == TrackStatus::kLost) continue;
-    const double score =
-        result.energy.similarity *
-        modelOnForeground(forwardKinematics(tracker.model(), result.pose), cameras_, foregrounds);
-    if (score < params_.multi_view.still_min_score || score <= best_score) continue;
-    best_score = score;
-    best = result;
-    best_regions = &regions;
-    best_observations = std::move(trial);
-    tracker_ = std::move(tracker);
   }
+  std::optional<StillStart> start =
+      startOnStillScene(tracker_.model(), params_.tracker, trials, cameras_, foregrounds,
+                        params_.multi_view.still_min_score, set.stamp(), sets_seen_ - 1);
   // What the set keeps (foregroundMask): the chosen hypothesis' regions, or nothing.
   still_kept_.assign(cameras_.size(), cv::Mat());
   for (const CameraImage& image : set.images) {
     const int c = image.camera;
-    still_kept_[c] = best_regions ? foregrounds[c] & (*best_regions)[c]
-                                  : cv::Mat(foregrounds[c].size(), CV_8UC1, cv::Scalar(0));
+    still_kept_[c] = start ? foregrounds[c] & still_regions[start->hypothesis][c]
+                           : cv::Mat(foregrounds[c].size(), CV_8UC1, cv::Scalar(0));
   }
-  if (best) {
-    *observations = std::move(best_observations);
-  } else {
+  if (!start) {
     for (CameraObservation& observation : *observations) observation.sog.gaussians.clear();
+    return std::nullopt;
   }
-  return best;
+  *observations = std::move(trials[start->hypothesis]);
+  tracker_ = std::move(*start->tracker);
+  return start->result;
 }
 
 ProcessedFrame TrackingPipeline::process(const FrameSet& set,

@@ -48,18 +48,18 @@ Eigen::Vector3d centre(const PosedHand& hand) {
 
 constexpr int kCell = 4;
 
-// A candidate of 5x5 cells centred at a root-frame point's projection in `camera`, `moving` of
-// them moving.
+// A candidate of (2 half + 1)^2 cells centred at a root-frame point's projection in `camera`,
+// `moving` of them moving.
 HandCandidate candidateAt(const Camera& camera, const Eigen::Vector3d& point, double score,
-                          int moving) {
+                          int moving, int half = 2) {
   Eigen::Vector2d pixel;
   EXPECT_TRUE(camera.project(point, &pixel));
   HandCandidate candidate;
   candidate.cell_size = kCell;
   candidate.cells_x = (camera.width + kCell - 1) / kCell;
   const int cx = static_cast<int>(pixel.x()) / kCell, cy = static_cast<int>(pixel.y()) / kCell;
-  for (int y = cy - 2; y <= cy + 2; ++y) {
-    for (int x = cx - 2; x <= cx + 2; ++x) {
+  for (int y = cy - half; y <= cy + half; ++y) {
+    for (int x = cx - half; x <= cx + half; ++x) {
       if (x >= 0 && y >= 0 && x < candidate.cells_x && y * kCell < camera.height) {
         candidate.cell_indices.push_back(y * candidate.cells_x + x);
       }
@@ -68,7 +68,8 @@ HandCandidate candidateAt(const Camera& camera, const Eigen::Vector3d& point, do
   candidate.centroid = pixel;
   candidate.score = score;
   candidate.moving = moving;
-  candidate.box = cv::Rect((cx - 2) * kCell, (cy - 2) * kCell, 5 * kCell, 5 * kCell);
+  candidate.box = cv::Rect((cx - half) * kCell, (cy - half) * kCell, (2 * half + 1) * kCell,
+                           (2 * half + 1) * kCell);
   return candidate;
 }
 
@@ -84,7 +85,7 @@ ImageGaussian gaussianAt(const Eigen::Vector2d& pixel) {
 // `hand` (moving) and a still head at `head` where the camera sees it, each a candidate with one
 // image Gaussian at its centroid.
 std::vector<LiveView> candidateViews(const Eigen::Vector3d& hand, const Eigen::Vector3d* head,
-                                     int hand_moving = 20) {
+                                     int hand_moving = 20, int half = 2) {
   std::vector<LiveView> views;
   for (const Camera& camera : dexter5()) {
     LiveView view;
@@ -95,10 +96,10 @@ std::vector<LiveView> candidateViews(const Eigen::Vector3d& hand, const Eigen::V
     Eigen::Vector2d pixel;
     if (head != nullptr && camera.project(*head, &pixel) && pixel.x() > 10 && pixel.y() > 10 &&
         pixel.x() < camera.width - 10 && pixel.y() < camera.height - 10) {
-      view.candidates.push_back(candidateAt(camera, *head, 400.0, 0));
+      view.candidates.push_back(candidateAt(camera, *head, 400.0, 0, half));
       view.sog.gaussians.push_back(gaussianAt(pixel));
     }
-    view.candidates.push_back(candidateAt(camera, hand, 100.0, hand_moving));
+    view.candidates.push_back(candidateAt(camera, hand, 100.0, hand_moving, half));
     view.sog.gaussians.push_back(gaussianAt(view.candidates.back().centroid));
     views.push_back(std::move(view));
   }
@@ -354,4 +355,127 @@ TEST(LiveRoomCues, WhileTrackingAViewWithoutARegionKeepsTheCandidateAtTheHand) {
     ASSERT_EQ(view.sog.gaussians.size(), 1u) << view.camera.name;
     EXPECT_LT((view.sog.gaussians[0].mean - view.candidates.back().centroid).norm(), 1e-9);
   }
+}
+
+// A still scene (nothing moves: a hand held still from the first image): the views keep nothing,
+// and each place where the still candidates of two or more views agree is a trial of its own
+// (stillHypotheses), with per view only the Gaussians of that place's candidate, and the
+// foreground that scores the starts.
+TEST(LiveRoomCues, AStillSceneMakesATrialOfEachPlaceWhereTheViewsAgree) {
+  const Eigen::Vector3d hand = centre(studioHand());
+  const Eigen::Vector3d head =
+      hand + 0.25 * dexter5()[3].world_to_camera.linear().row(0).transpose();
+  constexpr int kHalf = 6;  // 13 x 13 cells of 4 pixels: a hand's size at the studio's depth
+  LiveRoomCues cues;
+  std::vector<LiveView> views = candidateViews(hand, &head, /*hand_moving=*/0, kHalf);
+  int heads_seen = 0;
+  for (const LiveView& view : views) heads_seen += view.candidates.size() == 2;
+  ASSERT_GE(heads_seen, 2) << "fewer than two views see the head";
+  const std::vector<LiveView> segmented = views;
+  LiveStillTrials still;
+  EXPECT_FALSE(cues.beforeUpdate(&views, &still));
+  for (const LiveView& view : views) EXPECT_TRUE(view.sog.gaussians.empty()) << view.camera.name;
+  // Two places: the hand (all five views) first, then the head.
+  ASSERT_EQ(still.sogs.size(), 2u);
+  ASSERT_EQ(still.foregrounds.size(), views.size());
+  for (size_t h = 0; h < still.sogs.size(); ++h) {
+    ASSERT_EQ(still.sogs[h].size(), views.size());
+    for (size_t v = 0; v < views.size(); ++v) {
+      const ImageSoG& sog = still.sogs[h][v];
+      // The candidate of that place: the hand's is the view's last, the head's its first.
+      const HandCandidate& candidate =
+          h == 0 ? segmented[v].candidates.back() : segmented[v].candidates.front();
+      if (h == 1 && segmented[v].candidates.size() < 2) {
+        EXPECT_TRUE(sog.gaussians.empty()) << "head trial, view without the head " << v;
+        continue;
+      }
+      ASSERT_EQ(sog.gaussians.size(), 1u) << h << " " << v;
+      EXPECT_LT((sog.gaussians[0].mean - candidate.centroid).norm(), 1e-9) << h << " " << v;
+    }
+  }
+  for (size_t v = 0; v < views.size(); ++v) {
+    const cv::Mat& foreground = still.foregrounds[v];
+    ASSERT_EQ(foreground.type(), CV_8UC1);
+    ASSERT_EQ(foreground.size(), cv::Size(views[v].camera.width, views[v].camera.height));
+    const Eigen::Vector2d c = segmented[v].candidates.back().centroid;
+    EXPECT_EQ(foreground.at<uint8_t>(static_cast<int>(c.y()), static_cast<int>(c.x())), 255) << v;
+    // The leaf of each Gaussian: about (sigma sqrt(2 pi))^2 pixels per Gaussian of the view.
+    EXPECT_GT(cv::countNonZero(foreground), 0);
+    EXPECT_LE(cv::countNonZero(foreground), 2 * 36) << v;
+  }
+
+  // Without still hypotheses, or with a hand that moves, there are no trials.
+  MultiViewParams none;
+  none.still_hypotheses = 0;
+  LiveRoomCues without(none);
+  views = segmented;
+  LiveStillTrials empty;
+  without.beforeUpdate(&views, &empty);
+  EXPECT_TRUE(empty.sogs.empty());
+  views = candidateViews(hand, &head, /*hand_moving=*/20, kHalf);
+  cues.beforeUpdate(&views, &empty);
+  EXPECT_TRUE(empty.sogs.empty());
+  for (const LiveView& view : views) EXPECT_EQ(view.sog.gaussians.size(), 1u);
+  // Too small a blob is no hand: the 5 x 5 cells of the other tests give no trial.
+  views = candidateViews(hand, nullptr, /*hand_moving=*/0);
+  cues.beforeUpdate(&views, &empty);
+  EXPECT_TRUE(empty.sogs.empty());
+}
+
+// A track started on a still scene is provisional (MultiViewParams::still_confirm_distance): it
+// asks for the candidates on every set, whatever recheck_interval, and yields to a moving hand
+// elsewhere that as many views see (a tracked one needs more views and twice the motion,
+// replacesTrack); once it has moved 5 cm it is a hand in use.
+TEST(LiveRoomCues, AStillStartIsProvisionalUntilItMoves) {
+  const Eigen::Vector3d hand = centre(studioHand());
+  const Eigen::Vector3d shift(0.25, 0.0, 0.0);
+  const PosedHand prop = studioHand(shift);  // the still start took something 25 cm away
+  MultiViewParams rare;
+  rare.recheck_interval = 50;
+  LiveRoomCues cues(rare);
+  cues.afterUpdate(&prop, /*still_start=*/true);
+  EXPECT_TRUE(cues.provisional());
+  EXPECT_TRUE(cues.candidatesWanted());
+  // The prop is seen by all five views (a candidate each); the hand comes, moving, in all five.
+  auto setWith = [&](const Eigen::Vector3d& moving_hand) {
+    std::vector<LiveView> views = candidateViews(moving_hand, nullptr, 100);
+    const std::vector<LiveView> at_prop = candidateViews(centre(prop), nullptr, 0);
+    for (size_t v = 0; v < views.size(); ++v) {
+      views[v].region = sag_hand_tracker::SumOfGaussians::REGION_TRACKED;
+      views[v].candidates.push_back(at_prop[v].candidates.back());
+    }
+    return views;
+  };
+  std::vector<LiveView> views = setWith(hand);
+  EXPECT_TRUE(cues.beforeUpdate(&views));
+  EXPECT_FALSE(cues.tracking());
+  EXPECT_FALSE(cues.provisional());
+  EXPECT_EQ(cues.switches(), 1);
+
+  // The same set against a confirmed track: as many views are not enough (replacesTrack).
+  LiveRoomCues confirmed(rare);
+  confirmed.afterUpdate(&prop);
+  for (int set = 0; set < 50; ++set) {
+    views = setWith(hand);
+    EXPECT_FALSE(confirmed.beforeUpdate(&views)) << set;
+    confirmed.afterUpdate(&prop);
+  }
+  EXPECT_EQ(confirmed.switches(), 0);
+
+  // A still start on the hand itself: kept while it moves less than 5 cm, then confirmed.
+  LiveRoomCues on_hand(rare);
+  const PosedHand still_hand = studioHand();
+  on_hand.afterUpdate(&still_hand, /*still_start=*/true);
+  for (const double moved : {0.0, 0.02, 0.04}) {
+    const PosedHand now = studioHand(Eigen::Vector3d(moved, 0.0, 0.0));
+    views = setWith(centre(now));
+    EXPECT_FALSE(on_hand.beforeUpdate(&views)) << moved;
+    on_hand.afterUpdate(&now);
+    EXPECT_TRUE(on_hand.provisional()) << moved;
+  }
+  const PosedHand moved = studioHand(Eigen::Vector3d(0.06, 0.0, 0.0));
+  on_hand.afterUpdate(&moved);
+  EXPECT_FALSE(on_hand.provisional());
+  EXPECT_FALSE(on_hand.candidatesWanted());
+  EXPECT_TRUE(on_hand.tracking());
 }

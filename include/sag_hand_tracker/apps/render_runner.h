@@ -29,6 +29,7 @@ struct RenderBagOptions {
   Handedness hand = Handedness::kRight;  // --hand left|right: the model mirrored if needed
   double fps = 25.0;                     // --fps
   int frames = 0;                        // --frames N (0: the motion's duration)
+  int empty_frames = -1;                 // --empty-frames N (-1: 10; 0 in a room without them)
   std::uint64_t seed = 1;                // --seed S
   int motion_blur = 1;                   // --motion-blur N sub-frames (1: none)
   double exposure = 0.010;               // --exposure SECONDS (motion blur)

@@ -10,13 +10,22 @@
 //     to its SumOfGaussians (region CANDIDATES); the tracker runs the multi-view check
 //     (chooseConsistentCandidates) on the set and keeps, per camera, only the image Gaussians
 //     inside the chosen candidate's region (candidateRegion), or none;
+//   - a still scene (nothing moves: a hand held still from the first image; MultiViewParams::
+//     still_hypotheses): when no moving candidates agree, each place where still ones do is a
+//     trial (LiveStillTrials: per view, the Gaussians inside that place's candidate), which the
+//     tracker nodelet starts with startOnStillScene, as TrackingPipeline does offline; the track
+//     of the best start is provisional until it has moved still_confirm_distance, and every set
+//     until then asks for the candidates and yields to a moving choice (replacesProvisionalTrack);
 //   - the re-check (MultiViewParams::recheck_interval): the tracker asks (candidates_wanted) for
 //     the whole image's candidates on the next set and resets the track when the choice replaces
 //     it (replacesTrack); the segmenters then get no region and the next set starts again.
 // Differences from TrackingPipeline, by construction: a region reaches a camera's next image only
 // when the tracker has finished the set (one set later, or more when the tracker lags), and after
 // a re-check switch the new start comes one set later (the switching set's images were segmented
-// with the old region).
+// with the old region). A still scene's trials keep the sleeve evidence each segmentation found
+// beside all its candidates (offline: beside the trial's blob only), and their foreground is the
+// SoGs' leaves (foregroundOfSoG) rather than the segmenter's pixel mask; a provisional track that
+// yields does not make the segmentations forget the colours they learnt from it.
 #pragma once
 
 #include <opencv2/core.hpp>
@@ -85,6 +94,16 @@ struct LiveView {
 
 // The tracker side of the live room cues: the multi-view check and the re-check on the set's
 // views, and the regions it publishes. Not thread-safe (the tracker nodelet holds its mutex).
+// A still scene's trials (see the file comment), made by LiveRoomCues::beforeUpdate.
+struct LiveStillTrials {
+  // Per still hypothesis (stillHypotheses, best first), per view: the view's SoG (raw pixels)
+  // inside that hypothesis' candidate region there (no Gaussians where it has none).
+  std::vector<std::vector<ImageSoG>> sogs;
+  // Per view: the foreground that scores the starts (startOnStillScene): the SoG's leaves inside
+  // the union of the hypotheses' regions.
+  std::vector<cv::Mat> foregrounds;
+};
+
 class LiveRoomCues {
  public:
   explicit LiveRoomCues(const MultiViewParams& params = MultiViewParams());
@@ -95,25 +114,37 @@ class LiveRoomCues {
   // choice (with multi_view off: their best candidate), views still segmented with an old
   // track's region keep nothing. With a tracked hand: views without a region keep the candidate
   // at the tracked hand; on a re-check set, a choice that replaces the track clears every view
-  // and returns true: the caller resets the tracker.
-  bool beforeUpdate(std::vector<LiveView>* views);
-  // After the update: the tracked hand (nullptr: none, lost, or no pose).
-  void afterUpdate(const PosedHand* hand);
+  // and returns true: the caller resets the tracker. With `still`: when nothing moving agrees,
+  // the still scene's trials go there (none: it is left empty) while the views keep nothing.
+  bool beforeUpdate(std::vector<LiveView>* views, LiveStillTrials* still = nullptr);
+  // After the update: the tracked hand (nullptr: none, lost, or no pose); `still_start`: it is a
+  // still scene's start (the track is provisional).
+  void afterUpdate(const PosedHand* hand, bool still_start = false);
   // Forgets the track (the tracker was reset).
   void reset();
 
   bool tracking() const { return tracking_; }
+  // The track was started on a still scene and has not yet moved still_confirm_distance.
+  bool provisional() const { return provisional_; }
   // The regions published after the last set should ask for the candidates (re-check next set).
   bool candidatesWanted() const;
   int rechecks() const { return rechecks_; }
   int switches() const { return switches_; }
 
  private:
+  // The still scene's trials of a set whose views' candidates (only those segmented with them)
+  // are `candidates`.
+  void makeStillTrials(const std::vector<LiveView>& views,
+                       const std::vector<std::vector<HandCandidate>>& candidates,
+                       LiveStillTrials* still) const;
+
   MultiViewParams params_;
   bool tracking_ = false;
   Eigen::Vector3d tracked_centre_ = Eigen::Vector3d::Zero();
   int sets_since_recheck_ = 0;
   int rechecks_ = 0, switches_ = 0;
+  bool provisional_ = false;
+  Eigen::Vector3d provisional_origin_ = Eigen::Vector3d::Zero();
 };
 
 }  // namespace sag_hand_tracker

@@ -113,6 +113,13 @@ MultiViewChoice supportAt(const std::vector<Camera>& cameras,
 bool replacesTrack(const MultiViewChoice& challenger, const MultiViewChoice& tracked,
                    const MultiViewParams& params);
 
+// Whether `challenger` should replace a provisional track (started on a still scene and not yet
+// moved still_confirm_distance) whose support is `tracked`: a choice at switch_distance or more
+// that at least as many views support (the still start may have taken a prop before the hand came
+// into view).
+bool replacesProvisionalTrack(const MultiViewChoice& challenger, const MultiViewChoice& tracked,
+                              const MultiViewParams& params);
+
 // The region of interest (CV_8UC1, width x height) for a view: the chosen candidate's cells grown
 // by margin_cells, or all zero when `candidate` is null (no candidate in this view agrees).
 cv::Mat candidateRegion(const HandCandidate* candidate, int width, int height, int margin_cells);

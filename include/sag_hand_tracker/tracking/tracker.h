@@ -393,6 +393,11 @@ class HandTracker {
   }
 
   void reset();
+  // Takes over `other`'s track (a trial start on the same model: one of a still scene's
+  // hypotheses, startOnStillScene): its pose and motion history, the flip hypothesis it carries and
+  // its learnt colours; this tracker's parameters and late-result callback stay. A search this
+  // tracker's worker runs is dropped, as by reset.
+  void adoptTrack(const HandTracker& other);
   // Switches to another model of the same hand (a fitted one, issue 10) and keeps tracking from
   // the current pose (joints clamped to the new limits); a pending search, the carried
   // alternative and the similarity reference are dropped, since they belong to the old model.

@@ -4,6 +4,7 @@
 // same code. No ROS.
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <vector>
 
@@ -99,6 +100,26 @@ double startModelAreaWeight(const PipelineParams& params, bool generic_skin_gate
 // runs with: params.tracker's own with a plate, 0 without one (`without_plate`) unless
 // params.curled_refine_without_plate. TrackingPipeline and the live tracker nodelet decide it here.
 int curledRefineIterations(const PipelineParams& params, bool without_plate);
+
+// The start of a still scene (MultiViewParams::still_hypotheses) that won: which trial, its
+// result and score, and the tracker that holds its track.
+struct StillStart {
+  int hypothesis = -1;  // index into the trials
+  FrameResult result;
+  double score = 0.0;  // similarity x modelOnForeground
+  std::optional<HandTracker> tracker;
+};
+
+// A still scene's starts, for TrackingPipeline and the live tracker nodelet: each trial (one per
+// still hypothesis; per camera of `cameras`, the observation of that hypothesis' blob, undistorted)
+// is started by a tracker of its own (`model`, `params`, its search run synchronously), and a start
+// that holds (a pose, not lost) scores its similarity times modelOnForeground on `foregrounds`
+// (per camera, the set's foreground; empty: left out). The best start scoring at least `min_score`
+// (MultiViewParams::still_min_score), or none. Throws InputError as modelOnForeground.
+std::optional<StillStart> startOnStillScene(
+    const HandModel& model, const TrackerParams& params,
+    const std::vector<std::vector<CameraObservation>>& trials, const std::vector<Camera>& cameras,
+    const std::vector<cv::Mat>& foregrounds, double min_score, double stamp, std::int64_t frame_id);
 
 class TrackingPipeline {
  public:
