@@ -366,6 +366,34 @@ TEST_F(RenderBagTool, RendersAnotherHandWithABareForearm) {
             (d.rows[1].fingertips[2] - wrist).norm() - 0.01);
 }
 
+// --empty-frames: the hand in view from the first frame (a still scene, room_graph_still.test),
+// or after another number of empty frames; the ground truth follows.
+TEST_F(RenderBagTool, TheEmptyFramesBeforeTheHandAreAnOption) {
+  const std::string common = "--sequence pinch --frames 6 --quiet --out ";
+  ASSERT_EQ(renderBag(common + "'" + path("e0.bag") + "' --empty-frames 0").status, 0);
+  ASSERT_EQ(renderBag(common + "'" + path("e3.bag") + "' --empty-frames 3").status, 0);
+  const TrackingCsv none = readTrackingCsv(path("e0.gt.csv"));
+  const TrackingCsv three = readTrackingCsv(path("e3.gt.csv"));
+  ASSERT_EQ(none.rows.size(), 6u);
+  ASSERT_EQ(three.rows.size(), 3u);
+  // The motion runs from the first frame either way (the empty frames hide its first ones): the
+  // same frame has the same pose and stamp, and the hand is there from the first frame or the
+  // fourth.
+  EXPECT_NEAR(none.rows[0].stamp, 1400000000.0, 1e-6);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(none.rows[3 + k].parameters, three.rows[k].parameters) << k;
+    EXPECT_NEAR(none.rows[3 + k].stamp, three.rows[k].stamp, 1e-6) << k;
+  }
+  BagReader reader(path("e0.bag"));
+  int sets = 0;
+  for (FrameSet set; reader.next(&set);) ++sets;
+  EXPECT_EQ(sets, 6);
+  EXPECT_EQ(parseRenderBagArguments({"--sequence", "pinch", "--out", "x.bag"}).empty_frames, -1);
+  EXPECT_THROW(
+      parseRenderBagArguments({"--sequence", "pinch", "--out", "x.bag", "--empty-frames", "-1"}),
+      UsageError);
+}
+
 TEST_F(RenderBagTool, AFailureHalfWayLeavesNoOutputAndTheOldFilesUntouched) {
   write("p.bag", "an older bag\n");
   const auto files_before = std::distance(fs::directory_iterator(dir_), fs::directory_iterator());
