@@ -25,7 +25,7 @@
 //   re-detecting worker's nice value above the frame path's; 0-19), search_threads (2: threads of
 //   one start or re-detection search, which give the same result as one; 1-16), room_cues
 //   (false; the launch files set it to mode == skin), multi_view (true), recheck_interval (1),
-//   still_hypotheses (3; 0-16, 0 = a still scene never starts) and still_retry_seconds (0.5)
+//   still_hypotheses (3; 0-16, 0 = a still scene never starts) and still_retry_seconds (2.0)
 //   (below), skin_gate_from_model (true: publish cam<i>/skin_gate, above; false: the
 //   segmentations keep their own gate), mode (plate: the segmentations' mode; with skin the
 //   starts are scored with the model's area charged, TrackerParams::start_model_area_weight, as
@@ -48,9 +48,9 @@
 // places where still candidates agree is started by a tracker of its own on the frame path
 // (startOnStillScene, as track_bag does; about 25 ms each) and the best becomes the track,
 // provisional until the hand has moved 5 cm (re-checked every set meanwhile). After a set whose
-// still places held no hand (a face, a photograph), the next try waits still_retry_seconds of
-// image time, so that a still room costs the frame path one such set per interval, not every set
-// (track_bag tries every set).
+// still places held no hand (a face, a photograph), the same places are tried again only after
+// still_retry_seconds of image time (a new place at once), so that a still room does not cost the
+// frame path the starts on every set (track_bag tries every set; LiveRoomCues::stillTrialsDue).
 //
 // Late results (catch-up, TrackerParams::catch_up_seconds): a set that got no pose while the
 // worker had the search (no track, or it was lost) was published with a status without pose; its
@@ -238,13 +238,13 @@ class TrackerNodelet : public nodelet::Nodelet {
                       multi_view.still_hypotheses, fallback);
         multi_view.still_hypotheses = fallback;
       }
-      room_ = LiveRoomCues(multi_view);
-      still_retry_seconds_ = pnh.param("still_retry_seconds", still_retry_seconds_);
-      if (!(still_retry_seconds_ >= 0.0 && still_retry_seconds_ <= 60.0)) {
-        NODELET_ERROR("still_retry_seconds must be in [0, 60] (got %g); using 0.5",
-                      still_retry_seconds_);
-        still_retry_seconds_ = 0.5;
+      double still_retry_seconds = pnh.param("still_retry_seconds", 2.0);
+      if (!(still_retry_seconds >= 0.0 && still_retry_seconds <= 60.0)) {
+        NODELET_ERROR("still_retry_seconds must be in [0, 60] (got %g); using 2",
+                      still_retry_seconds);
+        still_retry_seconds = 2.0;
       }
+      room_ = LiveRoomCues(multi_view, still_retry_seconds);
     }
     const std::string model_name = pnh.param<std::string>("model", "sag");
     const std::string handedness = pnh.param<std::string>("handedness", "right");
@@ -501,11 +501,7 @@ class TrackerNodelet : public nodelet::Nodelet {
       }
     }
     LiveStillTrials still;
-    // A still scene is tried again only still_retry_seconds after a try that found no hand (or
-    // when the stamps went back).
-    const bool still_due = !last_still_try_ || stamp.toSec() < *last_still_try_ ||
-                           stamp.toSec() - *last_still_try_ >= still_retry_seconds_;
-    if (room_cues_) applyRoomCues(&observations, &views, still_due ? &still : nullptr);
+    if (room_cues_) applyRoomCues(&observations, &views, &still);
     for (CameraObservation& observation : observations) {
       undistortImageSoG(observation.camera, &observation.sog);
     }
@@ -513,9 +509,13 @@ class TrackerNodelet : public nodelet::Nodelet {
     std::vector<FrameResult> late_results;
     bool still_start = false;
     try {
-      if (!still.sogs.empty()) {
+      if (!still.sogs.empty() && room_.stillTrialsDue(still, stamp.toSec())) {
         still_start = startOnStillScene(still, stamp.toSec(), set.stamp_ns, &observations, &result);
-        last_still_try_ = still_start ? std::nullopt : std::optional<double>(stamp.toSec());
+        if (still_start) {
+          room_.stillTrialsSucceeded();
+        } else {
+          room_.stillTrialsFailed(still, stamp.toSec());
+        }
       }
       if (!still_start) {
         result = tracker_->update(observations, stamp.toSec(), set.stamp_ns);
@@ -608,8 +608,8 @@ class TrackerNodelet : public nodelet::Nodelet {
     if (!start) {
       NODELET_INFO_THROTTLE(5.0,
                             "room cues: nothing moves; none of %zu still places is a hand (%.0f "
-                            "ms); trying again in %.1f s",
-                            trials.size(), ms, still_retry_seconds_);
+                            "ms); the same places are tried again in %.1f s, a new one at once",
+                            trials.size(), ms, room_.stillRetrySeconds());
       return false;
     }
     NODELET_INFO(
@@ -1195,8 +1195,6 @@ class TrackerNodelet : public nodelet::Nodelet {
   bool room_cues_ = false;
   LiveRoomCues room_;  // room_cues: the multi-view check and the tracked hand's regions
   double catch_up_seconds_ = 0.25;
-  double still_retry_seconds_ = 0.5;
-  std::optional<double> last_still_try_;  // image stamp of the last still try that found no hand
   int worker_niceness_ = 10;
   int search_threads_ = 2;
   std::unique_ptr<HandTracker> tracker_;

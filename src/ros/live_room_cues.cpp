@@ -197,7 +197,33 @@ bool regionIsFresh(double region_stamp, double image_stamp, double timeout) {
   return std::fabs(image_stamp - region_stamp) <= timeout;
 }
 
-LiveRoomCues::LiveRoomCues(const MultiViewParams& params) : params_(params) { validate(params_); }
+LiveRoomCues::LiveRoomCues(const MultiViewParams& params, double still_retry_seconds)
+    : params_(params), still_retry_seconds_(still_retry_seconds) {
+  validate(params_);
+  if (!(still_retry_seconds_ >= 0.0) || !std::isfinite(still_retry_seconds_)) {
+    throw InputError("still_retry_seconds must be a finite number >= 0, got " +
+                     std::to_string(still_retry_seconds_));
+  }
+}
+
+bool LiveRoomCues::stillTrialsDue(const LiveStillTrials& trials, double stamp) const {
+  if (!failed_stamp_ || stamp < *failed_stamp_ || stamp - *failed_stamp_ >= still_retry_seconds_) {
+    return true;
+  }
+  for (const Eigen::Vector3d& place : trials.places) {
+    const bool known = std::any_of(failed_places_.begin(), failed_places_.end(),
+                                   [&](const Eigen::Vector3d& failed) {
+                                     return (failed - place).norm() <= params_.support_radius;
+                                   });
+    if (!known) return true;  // something new agrees across the views
+  }
+  return false;
+}
+
+void LiveRoomCues::stillTrialsFailed(const LiveStillTrials& trials, double stamp) {
+  failed_stamp_ = stamp;
+  failed_places_ = trials.places;
+}
 
 void LiveRoomCues::reset() {
   tracking_ = false;
@@ -317,6 +343,7 @@ void LiveRoomCues::makeStillTrials(const std::vector<LiveView>& views,
     regions_union[v] = cv::Mat(views[v].sog.height, views[v].sog.width, CV_8UC1, cv::Scalar(0));
   }
   for (const MultiViewChoice& hypothesis : hypotheses) {
+    still->places.push_back(hypothesis.point);
     std::vector<ImageSoG>& sogs = still->sogs.emplace_back(views.size());
     for (size_t v = 0; v < views.size(); ++v) {
       const int chosen = hypothesis.chosen[v];

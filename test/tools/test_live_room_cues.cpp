@@ -377,6 +377,9 @@ TEST(LiveRoomCues, AStillSceneMakesATrialOfEachPlaceWhereTheViewsAgree) {
   for (const LiveView& view : views) EXPECT_TRUE(view.sog.gaussians.empty()) << view.camera.name;
   // Two places: the hand (all five views) first, then the head.
   ASSERT_EQ(still.sogs.size(), 2u);
+  ASSERT_EQ(still.places.size(), 2u);
+  EXPECT_LT((still.places[0] - hand).norm(), 0.02);
+  EXPECT_LT((still.places[1] - head).norm(), 0.02);
   ASSERT_EQ(still.foregrounds.size(), views.size());
   for (size_t h = 0; h < still.sogs.size(); ++h) {
     ASSERT_EQ(still.sogs[h].size(), views.size());
@@ -478,4 +481,34 @@ TEST(LiveRoomCues, AStillStartIsProvisionalUntilItMoves) {
   EXPECT_FALSE(on_hand.provisional());
   EXPECT_FALSE(on_hand.candidatesWanted());
   EXPECT_TRUE(on_hand.tracking());
+}
+
+// A still room (a face, a photograph) gives the same places set after set: once their starts found
+// no hand, they are tried again only after still_retry_seconds, and a new place at once.
+TEST(LiveRoomCues, StillPlacesThatHeldNoHandWaitBeforeTheyAreTriedAgain) {
+  const Eigen::Vector3d hand = centre(studioHand());
+  const Eigen::Vector3d head =
+      hand + 0.25 * dexter5()[3].world_to_camera.linear().row(0).transpose();
+  LiveRoomCues cues(MultiViewParams(), /*still_retry_seconds=*/2.0);
+  std::vector<LiveView> views = candidateViews(hand, &head, /*hand_moving=*/0, 6);
+  LiveStillTrials still;
+  cues.beforeUpdate(&views, &still);
+  ASSERT_EQ(still.places.size(), 2u);
+  EXPECT_TRUE(cues.stillTrialsDue(still, 10.0));  // never tried
+  cues.stillTrialsFailed(still, 10.0);
+  EXPECT_FALSE(cues.stillTrialsDue(still, 10.04));
+  EXPECT_FALSE(cues.stillTrialsDue(still, 11.9));
+  EXPECT_TRUE(cues.stillTrialsDue(still, 12.0));  // the retry interval
+  EXPECT_TRUE(cues.stillTrialsDue(still, 9.0));   // the stamps went back (a bag looping)
+  // The same places moved by less than support_radius are the same; a place farther is new.
+  LiveStillTrials moved = still;
+  moved.places[1] += Eigen::Vector3d(0.0, 0.0, 0.5 * cues.params().support_radius);
+  EXPECT_FALSE(cues.stillTrialsDue(moved, 10.5));
+  moved.places.push_back(hand + Eigen::Vector3d(0.0, 0.3, 0.0));
+  EXPECT_TRUE(cues.stillTrialsDue(moved, 10.5));
+  cues.stillTrialsSucceeded();
+  EXPECT_TRUE(cues.stillTrialsDue(still, 10.5));
+  EXPECT_THROW(LiveRoomCues(MultiViewParams(), -1.0), InputError);
+  EXPECT_THROW(LiveRoomCues(MultiViewParams(), std::numeric_limits<double>::quiet_NaN()),
+               InputError);
 }

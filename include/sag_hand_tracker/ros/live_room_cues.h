@@ -29,6 +29,7 @@
 #pragma once
 
 #include <opencv2/core.hpp>
+#include <optional>
 #include <vector>
 
 #include "sag_hand_tracker/HandRegion.h"
@@ -102,12 +103,17 @@ struct LiveStillTrials {
   // Per view: the foreground that scores the starts (startOnStillScene): the SoG's leaves inside
   // the union of the hypotheses' regions.
   std::vector<cv::Mat> foregrounds;
+  // Per hypothesis: where its candidates triangulate (root frame).
+  std::vector<Eigen::Vector3d> places;
 };
 
 class LiveRoomCues {
  public:
-  explicit LiveRoomCues(const MultiViewParams& params = MultiViewParams());
+  // `still_retry_seconds`: see stillTrialsDue.
+  explicit LiveRoomCues(const MultiViewParams& params = MultiViewParams(),
+                        double still_retry_seconds = 2.0);
   const MultiViewParams& params() const { return params_; }
+  double stillRetrySeconds() const { return still_retry_seconds_; }
 
   // Before the tracker's update of a set: narrows each view's SoG down to the hand (see the file
   // comment). Without a tracked hand: views segmented with the candidates keep the multi-view
@@ -123,6 +129,16 @@ class LiveRoomCues {
   // Forgets the track (the tracker was reset).
   void reset();
 
+  // Whether a still scene's trials (made for the set stamped `stamp`, seconds) should be started:
+  // a still room (a face, a photograph) gives the same places set after set, and their starts
+  // cost the frame path about 25 ms each. Due unless the last trials found no hand, every place
+  // lies within support_radius of one of theirs, and they are less than still_retry_seconds older
+  // (or the stamps went back).
+  bool stillTrialsDue(const LiveStillTrials& trials, double stamp) const;
+  // The trials of the set stamped `stamp` were started and none was a hand.
+  void stillTrialsFailed(const LiveStillTrials& trials, double stamp);
+  // A start on the still trials became the track: the next still scene is tried at once.
+  void stillTrialsSucceeded() { failed_stamp_.reset(); }
   bool tracking() const { return tracking_; }
   // The track was started on a still scene and has not yet moved still_confirm_distance.
   bool provisional() const { return provisional_; }
@@ -139,6 +155,9 @@ class LiveRoomCues {
                        LiveStillTrials* still) const;
 
   MultiViewParams params_;
+  double still_retry_seconds_;
+  std::optional<double> failed_stamp_;  // of the last still trials that found no hand
+  std::vector<Eigen::Vector3d> failed_places_;
   bool tracking_ = false;
   Eigen::Vector3d tracked_centre_ = Eigen::Vector3d::Zero();
   int sets_since_recheck_ = 0;
