@@ -193,34 +193,6 @@ TEST(EnergyCannotCheat, WithOcclusionAndTheModelAreaFistsStayClosed) {
   }
 }
 
-namespace {
-
-// The mean over the long fingers of the MCP and PIP flexion short of `truth` (rad) after
-// `iterations` of the tracker's ascent with `energy`, the root held, from `truth` with every long
-// finger's MCP and PIP flexion `short_by` short (a fist tracked half closed).
-double curlShortAfterRefinement(PoseEnergy& energy, const Pose& truth, double short_by,
-                                int iterations) {
-  const HandModel& hand = model("sag");
-  Pose start = truth;
-  for (const LongFingerJoints& finger : longFingerJoints(hand)) {
-    start.joints[finger.mcp_flex] -= short_by;
-    start.joints[finger.pip_flex] -= short_by;
-  }
-  OptimizerParams optimizer;
-  optimizer.iterations = iterations;
-  optimizer.translation_step = 0.0;
-  optimizer.rotation_step = 0.0;
-  const Pose refined = optimizePose(energy, start, optimizer).pose;
-  double short_sum = 0.0;
-  for (const LongFingerJoints& finger : longFingerJoints(hand)) {
-    short_sum += truth.joints[finger.mcp_flex] - refined.joints[finger.mcp_flex];
-    short_sum += truth.joints[finger.pip_flex] - refined.joints[finger.pip_flex];
-  }
-  return short_sum / 8.0;
-}
-
-}  // namespace
-
 // Issue 9 (curled fingers, TrackerParams::curled_refine_*): in the clean studio, a hand that
 // closes into fists is tracked closer with the curled hand's refinement (root and thumb held,
 // occlusion and the model's area) than without it, and than with the same refinement scored by
