@@ -1,5 +1,6 @@
 #include "sag_hand_tracker/apps/track_runner.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
@@ -71,7 +72,8 @@ Options:
   --step-control rprop|fixed  optimiser step control (rprop)
   --cameras 0,2,4          track with these cameras only (all)
   --background-frames N    first N frames show no hand: learn the background plates (10);
-                           0 = no plate, a skin-colour gate instead
+                           0 = no plate, a skin-colour gate instead (without this option, a
+                           bag of no more than 10 frames per camera is tracked as with 0)
   --root-frame FRAME       express the output in this tf frame (the root of the bag's tf tree)
   --stamp-tolerance S      images of different cameras whose stamps differ by at most S seconds
                            are one set (0.005; 0: identical stamps only)
@@ -128,6 +130,9 @@ TrackBagOptions parseTrackBagArguments(const std::vector<std::string>& args) {
     }
   }
   requireBagAndOut(options);
+  // Values never begin with "--" (nextOptionValue), so this is the option itself.
+  options.background_frames_given =
+      std::find(args.begin(), args.end(), "--background-frames") != args.end();
   return options;
 }
 
@@ -156,6 +161,7 @@ std::string formatSummary(const TrackBagSummary& summary) {
   out << "\n";
   out << "  cameras:   " << summary.cameras.size() << " (" << names << ")\n";
   if (!summary.handedness.empty()) out << "  hand:      " << summary.handedness << "\n";
+  if (!summary.background_note.empty()) out << "  note:      " << summary.background_note << "\n";
   if (!summary.skin_gate.empty()) out << "  skin gate: " << summary.skin_gate << "\n";
   out << "  speed:     " << fps << " frames/s (segmentation + optimisation over "
       << after_background << " frames, decode excluded); per frame: segmentation "
@@ -317,8 +323,22 @@ TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
   reader_options.cameras = options.cameras;
   reader_options.root_frame = options.root_frame;
   reader_options.stamp_tolerance = options.stamp_tolerance;
-  const PipelineParams params = trackBagPipelineParams(options);
   BagReader reader(options.bag, reader_options);
+  // A plate needs frames without the hand before the ones with it; a bag no longer than the
+  // default background frames (a pair of photographs, a second held still) would be all plate.
+  std::string background_note;
+  TrackBagOptions effective = options;
+  const std::uint64_t most_images = reader.statistics().most_camera_images;
+  if (!options.background_frames_given && options.background_frames > 0 &&
+      most_images <= static_cast<std::uint64_t>(options.background_frames)) {
+    effective.background_frames = 0;
+    background_note = "the bag has " + std::to_string(most_images) + " image" +
+                      (most_images == 1 ? "" : "s") + " per camera at most, not more than the " +
+                      std::to_string(options.background_frames) +
+                      " background frames a plate needs: every frame tracked without one (the "
+                      "skin gate, as with --background-frames 0)";
+  }
+  const PipelineParams params = trackBagPipelineParams(effective);
 
   if (static_cast<int>(reader.cameras().size()) < params.tracker.min_cameras_for_start) {
     // Named here, where the bag is known: which cameras have images (or were chosen).
@@ -355,6 +375,7 @@ TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
   summary.csv = options.out;
   summary.out_existed = out_existed;
   summary.handedness = handedness;
+  summary.background_note = background_note;
   if (params.background_frames == 0) {
     const SkinParams& gate = pipeline.params().segmentation.skin;
     std::string source;

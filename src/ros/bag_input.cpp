@@ -576,6 +576,10 @@ void BagReader::Impl::open() {
   view = std::make_unique<rosbag::View>(bag, rosbag::TopicQuery(topics));
   stats.image_messages = view->size();
   if (stats.image_messages == 0) fail("no frames: the image topics hold no messages");
+  for (const std::string& topic : topics) {
+    stats.most_camera_images = std::max<std::uint64_t>(
+        stats.most_camera_images, rosbag::View(bag, rosbag::TopicQuery(topic)).size());
+  }
   checkFirstImages();
   it = view->begin();
   end = view->end();

@@ -42,7 +42,9 @@ int run(const TrackBagOptions& options) {
       // Not "not found in the 0 frames after the N background frames": the bag is that short.
       std::cerr << "the bag has " << summary.frames << " frame" << (summary.frames == 1 ? "" : "s")
                 << ", all taken as background frames (--background-frames "
-                << options.background_frames << "): none could show the hand";
+                << options.background_frames
+                << "): none could show the hand (a recording with the hand in view from its first "
+                   "frame needs --background-frames 0)";
     } else {
       std::cerr << "the hand was not found in the " << summary.frames - summary.background_frames
                 << " frames after the " << summary.background_frames << " background frames";

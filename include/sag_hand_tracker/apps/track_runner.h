@@ -32,7 +32,11 @@ struct TrackBagOptions {
   std::string step_control = "rprop";             // --step-control rprop|fixed
   std::vector<int> cameras;                       // --cameras 0,2,4 (empty: all)
   int background_frames = 10;                     // --background-frames N (>= 0)
-  Handedness hand = Handedness::kRight;           // --hand left|right
+  // --background-frames was given. Without it, a bag with no more images per camera than the
+  // default background frames (a pair of photographs) is tracked without a plate (as with 0),
+  // since a plate would take every frame.
+  bool background_frames_given = false;
+  Handedness hand = Handedness::kRight;  // --hand left|right
   // --hand auto: the first second with the hand is tracked as a right and as a left hand, and the
   // one the images prefer is kept (decideHandedness); then the bag is tracked from its start.
   bool hand_auto = false;
@@ -90,6 +94,9 @@ struct TrackBagSummary {
   std::string skin_gate;
   // With --hand auto: the hand chosen and why (handednessText); empty otherwise.
   std::string handedness;
+  // Why the run's background frames are not the option's (a bag too short for a plate); empty
+  // otherwise.
+  std::string background_note;
 
   // Frames per second of the pipeline (segmentation + optimisation, decode excluded) over the
   // sets after the background phase; 0 when there were none.

@@ -48,7 +48,9 @@ struct BagReaderOptions {
 constexpr double kStampJumpSeconds = 10.0;
 
 struct BagReaderStatistics {
-  std::uint64_t image_messages = 0;   // image messages of the selected cameras in the bag
+  std::uint64_t image_messages = 0;  // image messages of the selected cameras in the bag
+  // The most image messages of one selected camera: the bag gives at least this many sets.
+  std::uint64_t most_camera_images = 0;
   std::uint64_t images_read = 0;      // image messages read so far
   std::uint64_t sets = 0;             // sets yielded so far
   std::uint64_t incomplete_sets = 0;  // yielded sets without every selected camera
