@@ -93,8 +93,6 @@ struct LiveView {
   std::vector<HandCandidate> candidates;
 };
 
-// The tracker side of the live room cues: the multi-view check and the re-check on the set's
-// views, and the regions it publishes. Not thread-safe (the tracker nodelet holds its mutex).
 // A still scene's trials (see the file comment), made by LiveRoomCues::beforeUpdate.
 struct LiveStillTrials {
   // Per still hypothesis (stillHypotheses, best first), per view: the view's SoG (raw pixels)
@@ -107,6 +105,8 @@ struct LiveStillTrials {
   std::vector<Eigen::Vector3d> places;
 };
 
+// The tracker side of the live room cues: the multi-view check and the re-check on the set's
+// views, and the regions it publishes. Not thread-safe (the tracker nodelet holds its mutex).
 class LiveRoomCues {
  public:
   // `still_retry_seconds`: see stillTrialsDue.
