@@ -510,7 +510,7 @@ class TrackerNodelet : public nodelet::Nodelet {
     bool still_start = false;
     try {
       if (!still.sogs.empty() && room_.stillTrialsDue(still, stamp.toSec())) {
-        still_start = startOnStillScene(still, stamp.toSec(), set.stamp_ns, &observations, &result);
+        still_start = tryStillScene(still, stamp.toSec(), set.stamp_ns, &observations, &result);
         if (still_start) {
           room_.stillTrialsSucceeded();
         } else {
@@ -586,8 +586,8 @@ class TrackerNodelet : public nodelet::Nodelet {
   // becomes this tracker's track, and its trial the set's observations. Returns whether one did;
   // otherwise the observations keep nothing (the views' Gaussians were not the hand's). Caller
   // holds mutex_.
-  bool startOnStillScene(const LiveStillTrials& still, double stamp, std::int64_t frame_id,
-                         std::vector<CameraObservation>* observations, FrameResult* result) {
+  bool tryStillScene(const LiveStillTrials& still, double stamp, std::int64_t frame_id,
+                     std::vector<CameraObservation>* observations, FrameResult* result) {
     std::vector<Camera> cameras;
     for (const CameraObservation& observation : *observations) {
       cameras.push_back(observation.camera);
@@ -601,9 +601,9 @@ class TrackerNodelet : public nodelet::Nodelet {
       }
     }
     const auto begin = std::chrono::steady_clock::now();
-    std::optional<StillStart> start = sag_hand_tracker::startOnStillScene(
-        tracker_->model(), tracker_->params(), trials, cameras, still.foregrounds,
-        room_.params().still_min_score, stamp, frame_id);
+    std::optional<StillStart> start =
+        startOnStillScene(tracker_->model(), tracker_->params(), trials, cameras, still.foregrounds,
+                          room_.params().still_min_score, stamp, frame_id);
     const double ms = 1000.0 * secondsSince(begin);
     if (!start) {
       NODELET_INFO_THROTTLE(5.0,
