@@ -501,7 +501,7 @@ class TrackerNodelet : public nodelet::Nodelet {
       }
     }
     LiveStillTrials still;
-    if (room_cues_) applyRoomCues(&observations, &views, &still);
+    if (room_cues_) applyRoomCues(&observations, &views, stamp.toSec(), &still);
     for (CameraObservation& observation : observations) {
       undistortImageSoG(observation.camera, &observation.sog);
     }
@@ -509,13 +509,8 @@ class TrackerNodelet : public nodelet::Nodelet {
     std::vector<FrameResult> late_results;
     bool still_start = false;
     try {
-      if (!still.sogs.empty() && room_.stillTrialsDue(still, stamp.toSec())) {
+      if (!still.sogs.empty()) {
         still_start = tryStillScene(still, stamp.toSec(), set.stamp_ns, &observations, &result);
-        if (still_start) {
-          room_.stillTrialsSucceeded();
-        } else {
-          room_.stillTrialsFailed(still, stamp.toSec());
-        }
       }
       if (!still_start) {
         result = tracker_->update(observations, stamp.toSec(), set.stamp_ns);
@@ -567,12 +562,12 @@ class TrackerNodelet : public nodelet::Nodelet {
   // (raw pixels) down to the hand; a re-check that replaces the track resets it; a still scene's
   // trials go to `still`. Caller holds mutex_.
   void applyRoomCues(std::vector<CameraObservation>* observations, std::vector<LiveView>* views,
-                     LiveStillTrials* still) {
+                     double stamp, LiveStillTrials* still) {
     for (size_t v = 0; v < views->size(); ++v) {
       (*views)[v].camera = (*observations)[v].camera;
       (*views)[v].sog = std::move((*observations)[v].sog);
     }
-    if (room_.beforeUpdate(views, still)) {
+    if (room_.beforeUpdate(views, still, stamp)) {
       NODELET_INFO("room cues: a hand that more views agree on replaces the track; restarting");
       tracker_->reset();
     }

@@ -237,7 +237,9 @@ bool LiveRoomCues::candidatesWanted() const {
           (params_.recheck_interval > 0 && sets_since_recheck_ + 1 >= params_.recheck_interval));
 }
 
-bool LiveRoomCues::beforeUpdate(std::vector<LiveView>* views_in, LiveStillTrials* still) {
+bool LiveRoomCues::beforeUpdate(std::vector<LiveView>* views_in, LiveStillTrials* still,
+                                double stamp) {
+  pending_trials_.reset();
   std::vector<LiveView>& views = *views_in;
   using Msg = sag_hand_tracker::SumOfGaussians;
   auto keepCandidate = [this](LiveView* view, int index) {
@@ -267,7 +269,7 @@ bool LiveRoomCues::beforeUpdate(std::vector<LiveView>* views_in, LiveStillTrials
     }
     const MultiViewChoice choice = chooseConsistentCandidates(cameras, candidates, params_);
     if (!choice.found && still != nullptr && params_.still_hypotheses > 0) {
-      makeStillTrials(views, candidates, still);
+      makeStillTrials(views, cameras, candidates, stamp, still);
     }
     for (size_t v = 0; v < views.size(); ++v) {
       // A view still segmented with an old track's region (its hand_region had not yet said
@@ -313,6 +315,14 @@ bool LiveRoomCues::beforeUpdate(std::vector<LiveView>* views_in, LiveStillTrials
 }
 
 void LiveRoomCues::afterUpdate(const PosedHand* hand, bool still_start) {
+  if (pending_trials_) {
+    if (still_start) {
+      stillTrialsSucceeded();
+    } else {
+      stillTrialsFailed(*pending_trials_, pending_stamp_);
+    }
+    pending_trials_.reset();
+  }
   if (hand == nullptr || hand->gaussians.empty()) {
     reset();
     return;
@@ -332,18 +342,23 @@ void LiveRoomCues::afterUpdate(const PosedHand* hand, bool still_start) {
 }
 
 void LiveRoomCues::makeStillTrials(const std::vector<LiveView>& views,
+                                   const std::vector<Camera>& cameras,
                                    const std::vector<std::vector<HandCandidate>>& candidates,
-                                   LiveStillTrials* still) const {
-  std::vector<Camera> cameras;
-  for (const LiveView& view : views) cameras.push_back(view.camera);
+                                   double stamp, LiveStillTrials* still) {
   const std::vector<MultiViewChoice> hypotheses = stillHypotheses(cameras, candidates, params_);
   if (hypotheses.empty()) return;
+  LiveStillTrials places;
+  for (const MultiViewChoice& hypothesis : hypotheses) places.places.push_back(hypothesis.point);
+  // The places that held no hand a moment ago: no masks, no trials (a still room, set after set).
+  if (!stillTrialsDue(places, stamp)) return;
+  pending_trials_ = places;
+  pending_stamp_ = stamp;
   std::vector<cv::Mat> regions_union(views.size());
   for (size_t v = 0; v < views.size(); ++v) {
     regions_union[v] = cv::Mat(views[v].sog.height, views[v].sog.width, CV_8UC1, cv::Scalar(0));
   }
+  still->places = std::move(places.places);
   for (const MultiViewChoice& hypothesis : hypotheses) {
-    still->places.push_back(hypothesis.point);
     std::vector<ImageSoG>& sogs = still->sogs.emplace_back(views.size());
     for (size_t v = 0; v < views.size(); ++v) {
       const int chosen = hypothesis.chosen[v];

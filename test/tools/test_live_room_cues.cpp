@@ -508,6 +508,20 @@ TEST(LiveRoomCues, StillPlacesThatHeldNoHandWaitBeforeTheyAreTriedAgain) {
   EXPECT_TRUE(cues.stillTrialsDue(moved, 10.5));
   cues.stillTrialsSucceeded();
   EXPECT_TRUE(cues.stillTrialsDue(still, 10.5));
+  // The same through the sets: beforeUpdate makes no trials while they are not due, and a set whose
+  // trials started no track (afterUpdate without a still start) makes them wait.
+  LiveRoomCues live(MultiViewParams(), 2.0);
+  auto trialsAt = [&](double stamp) {
+    std::vector<LiveView> set = candidateViews(hand, &head, /*hand_moving=*/0, 6);
+    LiveStillTrials made;
+    live.beforeUpdate(&set, &made, stamp);
+    live.afterUpdate(nullptr);
+    return made.sogs.size();
+  };
+  EXPECT_EQ(trialsAt(10.0), 2u);
+  EXPECT_EQ(trialsAt(10.04), 0u);
+  EXPECT_EQ(trialsAt(11.9), 0u);
+  EXPECT_EQ(trialsAt(12.0), 2u);
   EXPECT_THROW(LiveRoomCues(MultiViewParams(), -1.0), InputError);
   EXPECT_THROW(LiveRoomCues(MultiViewParams(), std::numeric_limits<double>::quiet_NaN()),
                InputError);

@@ -121,10 +121,13 @@ class LiveRoomCues {
   // track's region keep nothing. With a tracked hand: views without a region keep the candidate
   // at the tracked hand; on a re-check set, a choice that replaces the track clears every view
   // and returns true: the caller resets the tracker. With `still`: when nothing moving agrees,
-  // the still scene's trials go there (none: it is left empty) while the views keep nothing.
-  bool beforeUpdate(std::vector<LiveView>* views, LiveStillTrials* still = nullptr);
+  // the still scene's trials of the set stamped `stamp` (seconds) go there when they are due
+  // (stillTrialsDue; otherwise it is left empty) while the views keep nothing.
+  bool beforeUpdate(std::vector<LiveView>* views, LiveStillTrials* still = nullptr,
+                    double stamp = 0.0);
   // After the update: the tracked hand (nullptr: none, lost, or no pose); `still_start`: it is a
-  // still scene's start (the track is provisional).
+  // still scene's start (the track is provisional). When the set had still trials, their outcome
+  // (stillTrialsSucceeded, stillTrialsFailed).
   void afterUpdate(const PosedHand* hand, bool still_start = false);
   // Forgets the track (the tracker was reset).
   void reset();
@@ -148,16 +151,19 @@ class LiveRoomCues {
   int switches() const { return switches_; }
 
  private:
-  // The still scene's trials of a set whose views' candidates (only those segmented with them)
-  // are `candidates`.
-  void makeStillTrials(const std::vector<LiveView>& views,
-                       const std::vector<std::vector<HandCandidate>>& candidates,
-                       LiveStillTrials* still) const;
+  // The still scene's trials of the set stamped `stamp` whose views (seen by `cameras`) have the
+  // candidates `candidates` (only those segmented with them), when they are due: the places are
+  // found first, the trials made only then.
+  void makeStillTrials(const std::vector<LiveView>& views, const std::vector<Camera>& cameras,
+                       const std::vector<std::vector<HandCandidate>>& candidates, double stamp,
+                       LiveStillTrials* still);
 
   MultiViewParams params_;
   double still_retry_seconds_;
   std::optional<double> failed_stamp_;  // of the last still trials that found no hand
   std::vector<Eigen::Vector3d> failed_places_;
+  std::optional<LiveStillTrials> pending_trials_;  // made by this set's beforeUpdate (places only)
+  double pending_stamp_ = 0.0;
   bool tracking_ = false;
   Eigen::Vector3d tracked_centre_ = Eigen::Vector3d::Zero();
   int sets_since_recheck_ = 0;
