@@ -33,7 +33,8 @@
 //   plus the dynamic_reconfigure parameters of cfg/Tracker.cfg (its start_model_area_weight, -1
 //   by default, replaces the mode's weight when it is at least 0; its curled_refine_iterations,
 //   -1 by default, the curled hand's refinement: as offline, on with mode plate and off with
-//   mode skin).
+//   mode skin); the open finger toggles as offline too (TrackerParams::toggle_curled_flexion: on
+//   with mode plate, off with mode skin).
 //
 // Room cues (issue 11; ros/live_room_cues.h, doc/segmentation.md "The live graph"; the segmentation
 // nodelets' room_cues must be on too): after every set the tracked hand is published to each
@@ -379,6 +380,7 @@ class TrackerNodelet : public nodelet::Nodelet {
         config.curled_refine_iterations >= 0
             ? config.curled_refine_iterations
             : curledRefineIterations(PipelineParams(), skin_mode_);  // as offline
+    params.toggle_curled_flexion = toggleCurledFlexion(PipelineParams(), skin_mode_);
     params.lost_similarity = config.lost_similarity;
     params.min_foreground_gaussians = config.min_foreground_gaussians;
     params.min_cameras_for_start = config.min_cameras_for_start;

@@ -961,7 +961,7 @@ bool HandTracker::toggleFingers(const PoseEnergy& energy,
   const double weight = params_.toggle_silhouette_weight;
   if (!(weight > 0.0) || frames_since_start_ < params_.toggle_min_track_frames) return false;
   const HandModel& model = energy.model();
-  // Made at the first straight finger: a fist's frame pays nothing.
+  // Made at the first finger to toggle: a half-curled hand's frame pays nothing.
   std::optional<SilhouetteScorer> silhouette;
   double tracked_silhouette = 0.0;
   OptimizerParams optimizer = params_.optimizer;
@@ -969,17 +969,27 @@ bool HandTracker::toggleFingers(const PoseEnergy& energy,
   std::optional<OptimizationResult> best;
   double best_score = 0.0;
   const double dip_ratio = energy.params().dip_pip_ratio;
+  // During a fast turn the outline changes with the turn, and a finger opened on the wrong side
+  // can cover it; the hand then rolls over to fit (doc/history.md "Session 40").
+  const bool open_toggles =
+      !(previous_ && current_ &&
+        rotationAngle(current_->rotation, previous_->rotation) > params_.toggle_open_max_turn);
   for (const LongFingerJoints& finger : finger_joints_) {
     if (finger.mcp_flex < 0 || finger.pip_flex < 0) continue;
     Pose toggled = result->pose;
-    if (!(toggled.joints[finger.mcp_flex] + toggled.joints[finger.pip_flex] <
-          params_.toggle_straight_flexion)) {
+    const double flexion = toggled.joints[finger.mcp_flex] + toggled.joints[finger.pip_flex];
+    if (flexion < params_.toggle_straight_flexion) {
+      toggled.joints[finger.mcp_flex] = params_.toggle_mcp;
+      toggled.joints[finger.pip_flex] = params_.toggle_pip;
+      if (finger.dip_flex >= 0) toggled.joints[finger.dip_flex] = dip_ratio * params_.toggle_pip;
+      if (finger.mcp_abd >= 0) toggled.joints[finger.mcp_abd] = 0.0;
+    } else if (open_toggles && flexion > params_.toggle_curled_flexion) {
+      toggled.joints[finger.mcp_flex] = 0.0;
+      toggled.joints[finger.pip_flex] = 0.0;
+      if (finger.dip_flex >= 0) toggled.joints[finger.dip_flex] = 0.0;
+    } else {
       continue;
     }
-    toggled.joints[finger.mcp_flex] = params_.toggle_mcp;
-    toggled.joints[finger.pip_flex] = params_.toggle_pip;
-    if (finger.dip_flex >= 0) toggled.joints[finger.dip_flex] = dip_ratio * params_.toggle_pip;
-    if (finger.mcp_abd >= 0) toggled.joints[finger.mcp_abd] = 0.0;
     clampToLimits(model, &toggled);
     if (!silhouette) {
       silhouette.emplace(observations, params_.toggle_silhouette_sigmas);

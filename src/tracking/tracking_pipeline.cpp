@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <opencv2/imgproc.hpp>
 
 #include "sag_hand_tracker/energy/hand_projection.h"
@@ -110,6 +111,12 @@ int curledRefineIterations(const PipelineParams& params, bool without_plate) {
              : params.tracker.curled_refine_iterations;
 }
 
+double toggleCurledFlexion(const PipelineParams& params, bool without_plate) {
+  return without_plate && !params.open_toggles_without_plate
+             ? std::numeric_limits<double>::infinity()
+             : params.tracker.toggle_curled_flexion;
+}
+
 std::optional<StillStart> startOnStillScene(
     const HandModel& model, const TrackerParams& params,
     const std::vector<std::vector<CameraObservation>>& trials, const std::vector<Camera>& cameras,
@@ -157,10 +164,13 @@ TrackingPipeline::TrackingPipeline(const HandModel& model, const std::vector<Cam
   const double start_weight =
       startModelAreaWeight(params_, params_.background_frames == 0 && !skin_gate_from_model_);
   const int refine_iterations = curledRefineIterations(params_, params_.background_frames == 0);
+  const double curled_flexion = toggleCurledFlexion(params_, params_.background_frames == 0);
   if (start_weight != params_.tracker.start_model_area_weight ||
-      refine_iterations != params_.tracker.curled_refine_iterations) {
+      refine_iterations != params_.tracker.curled_refine_iterations ||
+      curled_flexion != params_.tracker.toggle_curled_flexion) {
     params_.tracker.start_model_area_weight = start_weight;
     params_.tracker.curled_refine_iterations = refine_iterations;
+    params_.tracker.toggle_curled_flexion = curled_flexion;
     tracker_.setParams(params_.tracker);
   }
   for (const Camera& camera : cameras_) {

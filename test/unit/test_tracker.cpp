@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <thread>
 
@@ -794,6 +795,81 @@ TEST(Tracker, FingerTogglesCurlAFingerTheImagesShowCurled) {
   // The middle's tip (the curled ring and pinky under the palm are left as the start found them).
   EXPECT_LT((toggled.fingertips[2] - truth[2]).norm(), 0.015);
   EXPECT_GT((without.fingertips[2] - truth[2]).norm(), 0.08);
+}
+
+// The other way (TrackerParams::toggle_curled_flexion): counting from one to two, the middle
+// finger leaves the palm in one frame. The frame's ascent alone keeps it curled (the gradient of
+// eq. 8 does not reach that far); the open toggle takes it out. While the images show it curled,
+// it stays curled; while the hand turns fast (toggle_open_max_turn), the toggle waits.
+TEST(Tracker, FingerTogglesOpenAFingerTheImagesShowOpen) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  auto joint = [&](const std::string& name) { return model.jointIndex(name); };
+  auto curl = [&](Pose* pose, const std::string& finger) {
+    pose->joints[joint(finger + "_mcp_flex")] = 1.3;
+    pose->joints[joint(finger + "_pip_flex")] = 1.6;
+    pose->joints[joint(finger + "_dip_flex")] = 1.0;
+  };
+  Pose one = neutralPose(model, Eigen::Vector3d(-0.06, 0.0, 0.15), Eigen::Matrix3d::Identity());
+  for (const std::string finger : {"middle", "ring", "pinky"}) curl(&one, finger);
+  Pose two = one;
+  two.joints[joint("middle_mcp_flex")] = 0.0;
+  two.joints[joint("middle_pip_flex")] = 0.0;
+  two.joints[joint("middle_dip_flex")] = 0.0;
+  auto middleFlexion = [&](const Pose& pose) {
+    return pose.joints[joint("middle_mcp_flex")] + pose.joints[joint("middle_pip_flex")];
+  };
+  // Twelve frames of "one", then "two"; the hand turning about the vertical by `turn` per frame
+  // all along.
+  auto turned = [&](const Pose& pose, double angle) {
+    Pose out = pose;
+    out.rotation = Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitZ()) * pose.rotation;
+    return out;
+  };
+  auto track = [&](double curled_flexion, double max_turn, double turn) {
+    TrackerParams params;
+    params.toggle_curled_flexion = curled_flexion;
+    params.toggle_open_max_turn = max_turn;
+    params.curled_refine_iterations = 0;  // the toggles alone, as the bounds were measured
+    HandTracker tracker(model, params);
+    for (int frame = 0; frame < 12; ++frame) {
+      const FrameResult result =
+          tracker.update(modelObservations(model, turned(one, frame * turn), cameras, 3.0), frame);
+      EXPECT_TRUE(result.has_pose);
+      if (frame == 11) {
+        EXPECT_GT(middleFlexion(result.pose), 2.0);
+      }
+    }
+    return tracker.update(modelObservations(model, turned(two, 12 * turn), cameras, 3.0), 12.0);
+  };
+  const Fingertips truth = fingertips(model, two);
+  const double infinity = std::numeric_limits<double>::infinity();
+  const TrackerParams defaults;
+  const FrameResult opened =
+      track(defaults.toggle_curled_flexion, defaults.toggle_open_max_turn, 0.0);
+  ASSERT_TRUE(opened.has_pose);
+  EXPECT_LT(middleFlexion(opened.pose), 0.7);
+  const FrameResult without = track(infinity, infinity, 0.0);
+  ASSERT_TRUE(without.has_pose);
+  EXPECT_GT(middleFlexion(without.pose), 2.0);
+  for (int f = 0; f < kNumFingers; ++f) {
+    std::printf("%s: opened %.1f mm, without %.1f mm\n", fingerNames()[f],
+                1000 * (opened.fingertips[f] - truth[f]).norm(),
+                1000 * (without.fingertips[f] - truth[f]).norm());
+  }
+  EXPECT_LT((opened.fingertips[2] - truth[2]).norm(), 0.015);
+  EXPECT_GT((without.fingertips[2] - truth[2]).norm(), 0.08);
+  // Turning fast: the toggle waits; without the limit it opens the middle.
+  const double fast = 1.5 * defaults.toggle_open_max_turn;
+  const FrameResult waited =
+      track(defaults.toggle_curled_flexion, defaults.toggle_open_max_turn, fast);
+  ASSERT_TRUE(waited.has_pose);
+  const FrameResult unlimited = track(defaults.toggle_curled_flexion, infinity, fast);
+  ASSERT_TRUE(unlimited.has_pose);
+  std::printf("turning: middle flexion %.2f with the limit, %.2f without\n",
+              middleFlexion(waited.pose), middleFlexion(unlimited.pose));
+  EXPECT_GT(middleFlexion(waited.pose), 2.0);
+  EXPECT_LT(middleFlexion(unlimited.pose), 0.7);
 }
 
 TEST(Tracker, SwitchingTheModelKeepsTracking) {

@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "sag_hand_tracker/apps/metrics.h"
 
 #include "test_support/temp_files.h"
@@ -122,6 +124,28 @@ TEST(Pipeline, TheCurledHandsRefinementRunsWithThePlate) {
   EXPECT_EQ(TrackingPipeline(model, cameras, skin).tracker().params().curled_refine_iterations,
             iterations);
   EXPECT_EQ(curledRefineIterations(skin, true), iterations);
+}
+
+// The open finger toggles (TrackerParams::toggle_curled_flexion) run with the plate and not
+// without one (PipelineParams::open_toggles_without_plate): the silhouette judges an opened finger
+// by the foreground it lands on.
+TEST(Pipeline, TheOpenFingerTogglesRunWithThePlate) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = renderedRig();
+  const double flexion = TrackerParams().toggle_curled_flexion;
+  ASSERT_TRUE(std::isfinite(flexion));
+  EXPECT_EQ(
+      TrackingPipeline(model, cameras, PipelineParams()).tracker().params().toggle_curled_flexion,
+      flexion);
+  PipelineParams skin;
+  skin.background_frames = 0;
+  EXPECT_TRUE(
+      std::isinf(TrackingPipeline(model, cameras, skin).tracker().params().toggle_curled_flexion));
+  EXPECT_TRUE(std::isinf(toggleCurledFlexion(skin, true)));
+  skin.open_toggles_without_plate = true;
+  EXPECT_EQ(TrackingPipeline(model, cameras, skin).tracker().params().toggle_curled_flexion,
+            flexion);
+  EXPECT_EQ(toggleCurledFlexion(skin, true), flexion);
 }
 
 // Without a plate the generic skin gate's foreground holds more than the hand: the tracker's starts

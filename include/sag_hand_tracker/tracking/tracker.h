@@ -165,7 +165,14 @@ struct TrackerParams {
   // re-detection, whose fingers are the search's (toggled there, the studio kitchen's track on the
   // other arm held 4 frames longer against the user's hand); a periodic re-detection that keeps
   // the track does not stop them (until session 34 it did, for 8 of every 25 frames).
-  // toggle_silhouette_weight 0 disables it.
+  // The other way (session 40): a long finger tracked curled (MCP + PIP flexion above
+  // toggle_curled_flexion) is tried open (MCP, PIP and DIP 0, its abduction kept), judged alike:
+  // the frame's ascent does not take a finger out of the palm when the images show it opened in
+  // one frame (doc/history.md "Session 40": `fingercount` on dark_small 25.8 -> 18.7 mm). Not
+  // while the track turns by more than toggle_open_max_turn per frame: a fast turn changes the
+  // outline, a finger opened on the wrong side covers it, and the hand rolls over to fit.
+  // Infinity disables only this way (TrackingPipeline and the tracker nodelet do without a plate:
+  // PipelineParams::open_toggles_without_plate); toggle_silhouette_weight 0 disables both.
   double toggle_silhouette_weight = 0.5;
   double toggle_straight_flexion = 0.7;
   double toggle_mcp = 1.3;
@@ -175,6 +182,8 @@ struct TrackerParams {
   double toggle_silhouette_sigmas = 1.3;
   double toggle_max_silhouette_loss = 0.01;
   int toggle_min_track_frames = 8;
+  double toggle_curled_flexion = 2.0;
+  double toggle_open_max_turn = 0.15;  // radians per frame
   // Curled fingers refined with occlusion and the model's area (issue 9, doc/history.md
   // "Session 35: fists refined with the root held"). On `fingercount`'s curled frames (default
   // hand) the tracker's ascent, started at the true pose, slides the palm 3-5 mm and opens the
@@ -455,8 +464,9 @@ class HandTracker {
   OptimizationResult trackFromPrediction(const PoseEnergy& energy,
                                          const std::optional<Pose>& previous,
                                          const Pose& current) const;
-  // TrackerParams::toggle_silhouette_weight: tries each straight long finger curled and keeps the
-  // best toggle that raises E + w D, on a track that does not look lost. Returns whether
+  // TrackerParams::toggle_silhouette_weight: tries each straight long finger curled and each
+  // curled one open, and keeps the best toggle that raises E + w D, on a track that does not look
+  // lost. Returns whether
   // result->pose was replaced.
   bool toggleFingers(const PoseEnergy& energy, const std::vector<CameraObservation>& observations,
                      OptimizationResult* result) const;

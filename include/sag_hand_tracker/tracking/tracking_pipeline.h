@@ -61,6 +61,13 @@ struct PipelineParams {
   // with the generic gate it refined 8 frames of a track that had curled an open hand, and that
   // track went 27.6 -> 49.1 mm (StudioRooms.AHandUnlikeTheModelStartsOnItselfInTheKitchen).
   bool curled_refine_without_plate = false;
+  // The open finger toggles (TrackerParams::toggle_curled_flexion) without a plate: off unless
+  // true. The silhouette judges an opened finger by the foreground it lands on, and without a
+  // plate that holds skin-coloured wood beside the hand: in the kitchen a track on the other arm
+  // opened a finger onto the table and held the user's hand off until frame 51 instead of 33
+  // (StudioRooms.TheTrackStartsInTheKitchenAndStaysOnTheUsersHand). A curl toggle removes model
+  // and needs no such trust.
+  bool open_toggles_without_plate = false;
 };
 
 // The box around a posed hand in one camera's image (pixels, clipped to the image; empty when the
@@ -100,6 +107,11 @@ double startModelAreaWeight(const PipelineParams& params, bool generic_skin_gate
 // runs with: params.tracker's own with a plate, 0 without one (`without_plate`) unless
 // params.curled_refine_without_plate. TrackingPipeline and the live tracker nodelet decide it here.
 int curledRefineIterations(const PipelineParams& params, bool without_plate);
+
+// The open toggles' flexion threshold (TrackerParams::toggle_curled_flexion) the tracker runs
+// with: params.tracker's own with a plate, infinity (none) without one (`without_plate`) unless
+// params.open_toggles_without_plate. TrackingPipeline and the live tracker nodelet decide it here.
+double toggleCurledFlexion(const PipelineParams& params, bool without_plate);
 
 // The start of a still scene (MultiViewParams::still_hypotheses) that won: which trial, its
 // result and score, and the tracker that holds its track.
