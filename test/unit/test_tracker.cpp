@@ -5,7 +5,9 @@
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "sag_hand_tracker/apps/metrics.h"
 
@@ -723,8 +725,37 @@ TEST(Tracker, AsynchronousStartReturnsAtOnceAndStartsOnALaterFrame) {
   EXPECT_FALSE(tracker.searching());
 }
 
-// The live calibration switches to the fitted model: tracking goes on from the current pose,
-// with the new model's limits, instead of starting again.
+namespace {
+
+// The finger toggles' hand: palm down, the long fingers of `curled` curled into the palm (MCP 1.3,
+// PIP 1.6, DIP 1.0 rad), the others straight.
+Pose countingPose(const HandModel& model, const std::vector<std::string>& curled) {
+  Pose pose = neutralPose(model, Eigen::Vector3d(-0.06, 0.0, 0.15), Eigen::Matrix3d::Identity());
+  for (const std::string& finger : curled) {
+    pose.joints[model.jointIndex(finger + "_mcp_flex")] = 1.3;
+    pose.joints[model.jointIndex(finger + "_pip_flex")] = 1.6;
+    pose.joints[model.jointIndex(finger + "_dip_flex")] = 1.0;
+  }
+  return pose;
+}
+
+// A finger's MCP + PIP flexion: above 2 curled, below 0.7 straight.
+double fingerFlexion(const HandModel& model, const Pose& pose, const std::string& finger) {
+  return pose.joints[model.jointIndex(finger + "_mcp_flex")] +
+         pose.joints[model.jointIndex(finger + "_pip_flex")];
+}
+
+// Each fingertip's error with the toggle (named `with_name`) and without it.
+void printFingertipErrors(const char* with_name, const Fingertips& with, const Fingertips& without,
+                          const Fingertips& truth) {
+  for (int f = 0; f < kNumFingers; ++f) {
+    std::printf("%s: %s %.1f mm, without %.1f mm\n", fingerNames()[f], with_name,
+                1000 * (with[f] - truth[f]).norm(), 1000 * (without[f] - truth[f]).norm());
+  }
+}
+
+}  // namespace
+
 // Finger toggles (TrackerParams::toggle_silhouette_weight): a track whose middle finger lies
 // straight beside the straight index, where the images show it curled into the palm, gets the
 // curled finger back in one frame; while the images show it straight it stays straight.
@@ -732,22 +763,14 @@ TEST(Tracker, FingerTogglesCurlAFingerTheImagesShowCurled) {
   const HandModel model = loadHandModel(modelPath("sag"));
   const std::vector<Camera> cameras = fiveCameraRig();
   auto joint = [&](const std::string& name) { return model.jointIndex(name); };
-  Pose one = neutralPose(
-      model, Eigen::Vector3d(-0.06, 0.0, 0.15),
-      Eigen::Matrix3d::Identity());  // the index straight, the others curled: counting "one"
-  for (const std::string finger : {"middle", "ring", "pinky"}) {
-    one.joints[joint(finger + "_mcp_flex")] = 1.3;
-    one.joints[joint(finger + "_pip_flex")] = 1.6;
-    one.joints[joint(finger + "_dip_flex")] = 1.0;
-  }
+  // The index straight, the others curled: counting "one".
+  const Pose one = countingPose(model, {"middle", "ring", "pinky"});
   Pose stacked = one;  // the middle straight and turned onto the index
   stacked.joints[joint("middle_mcp_flex")] = 0.0;
   stacked.joints[joint("middle_pip_flex")] = 0.0;
   stacked.joints[joint("middle_dip_flex")] = 0.0;
   stacked.joints[joint("middle_mcp_abd")] = 0.3;
-  auto middleFlexion = [&](const Pose& pose) {
-    return pose.joints[joint("middle_mcp_flex")] + pose.joints[joint("middle_pip_flex")];
-  };
+  auto middleFlexion = [&](const Pose& pose) { return fingerFlexion(model, pose, "middle"); };
   // Ten frames of images that show the stack (the tracker starts on it and keeps the middle
   // straight; toggles only after toggle_min_track_frames), then one that shows the middle curled.
   // A periodic re-detection that keeps the track (redetect_interval) does not make its fingers
@@ -787,11 +810,7 @@ TEST(Tracker, FingerTogglesCurlAFingerTheImagesShowCurled) {
   ASSERT_TRUE(without.has_pose);
   EXPECT_LT(middleFlexion(without.pose), 0.7);  // the energy's ascent alone keeps the stack
   const Fingertips truth = fingertips(model, one);
-  for (int f = 0; f < kNumFingers; ++f) {
-    std::printf("%s: toggled %.1f mm, without %.1f mm\n", fingerNames()[f],
-                1000 * (toggled.fingertips[f] - truth[f]).norm(),
-                1000 * (without.fingertips[f] - truth[f]).norm());
-  }
+  printFingertipErrors("toggled", toggled.fingertips, without.fingertips, truth);
   // The middle's tip (the curled ring and pinky under the palm are left as the start found them).
   EXPECT_LT((toggled.fingertips[2] - truth[2]).norm(), 0.015);
   EXPECT_GT((without.fingertips[2] - truth[2]).norm(), 0.08);
@@ -804,21 +823,9 @@ TEST(Tracker, FingerTogglesCurlAFingerTheImagesShowCurled) {
 TEST(Tracker, FingerTogglesOpenAFingerTheImagesShowOpen) {
   const HandModel model = loadHandModel(modelPath("sag"));
   const std::vector<Camera> cameras = fiveCameraRig();
-  auto joint = [&](const std::string& name) { return model.jointIndex(name); };
-  auto curl = [&](Pose* pose, const std::string& finger) {
-    pose->joints[joint(finger + "_mcp_flex")] = 1.3;
-    pose->joints[joint(finger + "_pip_flex")] = 1.6;
-    pose->joints[joint(finger + "_dip_flex")] = 1.0;
-  };
-  Pose one = neutralPose(model, Eigen::Vector3d(-0.06, 0.0, 0.15), Eigen::Matrix3d::Identity());
-  for (const std::string finger : {"middle", "ring", "pinky"}) curl(&one, finger);
-  Pose two = one;
-  two.joints[joint("middle_mcp_flex")] = 0.0;
-  two.joints[joint("middle_pip_flex")] = 0.0;
-  two.joints[joint("middle_dip_flex")] = 0.0;
-  auto middleFlexion = [&](const Pose& pose) {
-    return pose.joints[joint("middle_mcp_flex")] + pose.joints[joint("middle_pip_flex")];
-  };
+  const Pose one = countingPose(model, {"middle", "ring", "pinky"});
+  const Pose two = countingPose(model, {"ring", "pinky"});
+  auto middleFlexion = [&](const Pose& pose) { return fingerFlexion(model, pose, "middle"); };
   // Twelve frames of "one", then "two"; the hand turning about the vertical by `turn` per frame
   // all along.
   auto turned = [&](const Pose& pose, double angle) {
@@ -852,11 +859,7 @@ TEST(Tracker, FingerTogglesOpenAFingerTheImagesShowOpen) {
   const FrameResult without = track(infinity, infinity, 0.0);
   ASSERT_TRUE(without.has_pose);
   EXPECT_GT(middleFlexion(without.pose), 2.0);
-  for (int f = 0; f < kNumFingers; ++f) {
-    std::printf("%s: opened %.1f mm, without %.1f mm\n", fingerNames()[f],
-                1000 * (opened.fingertips[f] - truth[f]).norm(),
-                1000 * (without.fingertips[f] - truth[f]).norm());
-  }
+  printFingertipErrors("opened", opened.fingertips, without.fingertips, truth);
   EXPECT_LT((opened.fingertips[2] - truth[2]).norm(), 0.015);
   EXPECT_GT((without.fingertips[2] - truth[2]).norm(), 0.08);
   // Turning fast: the toggle waits; without the limit it opens the middle.
@@ -872,6 +875,8 @@ TEST(Tracker, FingerTogglesOpenAFingerTheImagesShowOpen) {
   EXPECT_LT(middleFlexion(unlimited.pose), 0.7);
 }
 
+// The live calibration switches to the fitted model: tracking goes on from the current pose,
+// with the new model's limits, instead of starting again.
 TEST(Tracker, SwitchingTheModelKeepsTracking) {
   const HandModel model = loadHandModel(modelPath("sag"));
   const std::vector<Camera> cameras = fiveCameraRig();

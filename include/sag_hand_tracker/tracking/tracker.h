@@ -466,8 +466,7 @@ class HandTracker {
                                          const Pose& current) const;
   // TrackerParams::toggle_silhouette_weight: tries each straight long finger curled and each
   // curled one open, and keeps the best toggle that raises E + w D, on a track that does not look
-  // lost. Returns whether
-  // result->pose was replaced.
+  // lost. Returns whether result->pose was replaced.
   bool toggleFingers(const PoseEnergy& energy, const std::vector<CameraObservation>& observations,
                      OptimizationResult* result) const;
   // TrackerParams::curled_refine_*: refines the long fingers of a curled hand, the root and the
