@@ -970,8 +970,10 @@ bool HandTracker::toggleFingers(const PoseEnergy& energy,
   double best_score = 0.0;
   const double dip_ratio = energy.params().dip_pip_ratio;
   // During a fast turn the outline changes with the turn, and a finger opened on the wrong side
-  // can cover it; the hand then rolls over to fit (doc/history.md "Session 40").
+  // can cover it; the hand then rolls over to fit. Two or three views do not tell which finger
+  // opened either (doc/history.md "Session 40").
   const bool open_toggles =
+      static_cast<int>(observations.size()) >= params_.toggle_open_min_cameras &&
       !(previous_ && current_ &&
         rotationAngle(current_->rotation, previous_->rotation) > params_.toggle_open_max_turn);
   for (const LongFingerJoints& finger : finger_joints_) {

@@ -170,7 +170,9 @@ struct TrackerParams {
   // the frame's ascent does not take a finger out of the palm when the images show it opened in
   // one frame (doc/history.md "Session 40": `fingercount` on dark_small 25.8 -> 18.7 mm). Not
   // while the track turns by more than toggle_open_max_turn per frame: a fast turn changes the
-  // outline, a finger opened on the wrong side covers it, and the hand rolls over to fit.
+  // outline, a finger opened on the wrong side covers it, and the hand rolls over to fit. Nor
+  // with fewer than toggle_open_min_cameras views: with two or three the open toggles rolled
+  // over two of the paper's camera subsets' tracks that had held (19 % of their frames).
   // Infinity disables only this way (TrackingPipeline and the tracker nodelet do without a plate:
   // PipelineParams::open_toggles_without_plate); toggle_silhouette_weight 0 disables both.
   double toggle_silhouette_weight = 0.5;
@@ -184,6 +186,7 @@ struct TrackerParams {
   int toggle_min_track_frames = 8;
   double toggle_curled_flexion = 2.0;
   double toggle_open_max_turn = 0.15;  // radians per frame
+  int toggle_open_min_cameras = 4;
   // Curled fingers refined with occlusion and the model's area (issue 9, doc/history.md
   // "Session 35: fists refined with the root held"). On `fingercount`'s curled frames (default
   // hand) the tracker's ascent, started at the true pose, slides the palm 3-5 mm and opens the
