@@ -29,6 +29,10 @@ PipelineParams adjusted(PipelineParams params) {
   }
   validate(params.segmentation);
   validate(params.multi_view);
+  // What the tracker runs with a plate and not without one.
+  const bool without_plate = params.background_frames == 0;
+  params.tracker.curled_refine_iterations = curledRefineIterations(params, without_plate);
+  params.tracker.toggle_curled_flexion = toggleCurledFlexion(params, without_plate);
   return params;
 }
 
@@ -160,17 +164,12 @@ TrackingPipeline::TrackingPipeline(const HandModel& model, const std::vector<Cam
     }
   }
   // The generic skin gate keeps the wood, the coffee and the photographs beside the hand, and the
-  // starts are scored with the model's area charged; the user's own gate drops those things.
+  // starts are scored with the model's area charged; the user's own gate drops those things (the
+  // plate's other settings: adjusted).
   const double start_weight =
       startModelAreaWeight(params_, params_.background_frames == 0 && !skin_gate_from_model_);
-  const int refine_iterations = curledRefineIterations(params_, params_.background_frames == 0);
-  const double curled_flexion = toggleCurledFlexion(params_, params_.background_frames == 0);
-  if (start_weight != params_.tracker.start_model_area_weight ||
-      refine_iterations != params_.tracker.curled_refine_iterations ||
-      curled_flexion != params_.tracker.toggle_curled_flexion) {
+  if (start_weight != params_.tracker.start_model_area_weight) {
     params_.tracker.start_model_area_weight = start_weight;
-    params_.tracker.curled_refine_iterations = refine_iterations;
-    params_.tracker.toggle_curled_flexion = curled_flexion;
     tracker_.setParams(params_.tracker);
   }
   for (const Camera& camera : cameras_) {
