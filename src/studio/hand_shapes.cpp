@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <filesystem>
@@ -77,6 +78,35 @@ class ShapeParser {
     return out;
   }
 
+  // A number within [-limit, limit] `unit`s (the skeleton's layout: millimetres, degrees).
+  double bounded(const YAML::Node& node, double limit, const std::string& unit,
+                 const std::string& what) const {
+    const double value = number(node, what);
+    if (std::abs(value) > limit) {
+      std::ostringstream msg;
+      msg << what << " = " << value << " " << unit << " is outside [-" << limit << ", " << limit
+          << "]";
+      fail(node, msg.str());
+    }
+    return value;
+  }
+
+  // Per finger a list of 3 bounded numbers, as a map {thumb: [..], index: [..], ...}; the fingers
+  // left out keep zero. `scale` converts to the model's units.
+  void perFingerVectors(const YAML::Node& node, double limit, const std::string& unit, double scale,
+                        const std::string& what,
+                        std::array<Eigen::Vector3d, kNumFingers>& out) const {
+    std::set<std::string> fingers(fingerNames().begin(), fingerNames().end());
+    checkKeys(node, fingers, what);
+    for (int f = 0; f < kNumFingers; ++f) {
+      const YAML::Node v = node[fingerNames()[f]];
+      if (!v) continue;
+      const std::string name = what + " " + fingerNames()[f];
+      if (!v.IsSequence() || v.size() != 3) fail(v, name + " must be a list of 3 numbers");
+      for (int i = 0; i < 3; ++i) out[f][i] = scale * bounded(v[i], limit, unit, name);
+    }
+  }
+
   Eigen::Vector3f colour(const YAML::Node& node, const std::string& what) const {
     if (!node.IsSequence() || node.size() != 3) {
       fail(node, what + " must be a list of 3 numbers (linear RGB in [0, 1])");
@@ -93,7 +123,8 @@ class ShapeParser {
   StudioHand hand(const YAML::Node& node, const std::string& where) const {
     checkKeys(node,
               {"name", "description", "scale", "finger_length", "phalanx_length", "palm_width",
-               "palm_length", "thickness", "skin"},
+               "palm_length", "thickness", "knuckle_shift_mm", "base_rotation_deg",
+               "flexion_tilt_deg", "skin"},
               where);
     StudioHand hand;
     if (!node["name"]) fail(node, where + ": 'name' is missing");
@@ -135,6 +166,23 @@ class ShapeParser {
         for (int f = 0; f < kNumFingers; ++f) {
           for (int k = 0; k < 3; ++k) shape.phalanx_length[f][k] = p[k];
         }
+      }
+    }
+    if (const YAML::Node shift = node["knuckle_shift_mm"]) {
+      perFingerVectors(shift, kMaxKnuckleShiftMm, "mm", 1e-3, what + " knuckle_shift_mm",
+                       shape.knuckle_shift);
+    }
+    if (const YAML::Node rotation = node["base_rotation_deg"]) {
+      perFingerVectors(rotation, kMaxBaseRotationDeg, "deg", M_PI / 180.0,
+                       what + " base_rotation_deg", shape.base_rotation);
+    }
+    if (const YAML::Node tilt = node["flexion_tilt_deg"]) {
+      const std::string name = what + " flexion_tilt_deg";
+      if (!tilt.IsSequence() || tilt.size() != kNumFingers) {
+        fail(tilt, name + " must be a list of 5 numbers (thumb..pinky)");
+      }
+      for (int f = 0; f < kNumFingers; ++f) {
+        shape.flexion_tilt[f] = M_PI / 180.0 * bounded(tilt[f], kMaxFlexionTiltDeg, "deg", name);
       }
     }
     if (const YAML::Node skin = node["skin"]) {
@@ -265,16 +313,24 @@ StudioHand drawHandShape(int seed, const std::vector<SkinAlbedo>& skin_tones) {
   return hand;
 }
 
+std::vector<SkinAlbedo> configSkinTones(const std::string& config_dir) {
+  std::vector<SkinAlbedo> tones;
+  const std::string path = handShapesPath(config_dir);
+  std::error_code error;
+  if (!std::filesystem::exists(path, error)) return tones;
+  for (const StudioHand& hand : loadHandShapes(path)) {
+    const bool known = std::any_of(tones.begin(), tones.end(), [&](const SkinAlbedo& tone) {
+      return tone.dorsal == hand.skin.dorsal && tone.palmar == hand.skin.palmar &&
+             tone.nail == hand.skin.nail;
+    });
+    if (!known) tones.push_back(hand.skin);
+  }
+  return tones;
+}
+
 StudioHand resolveHandShape(const std::string& name_or_file, const std::string& config_dir) {
   if (const int seed = drawnHandSeed(name_or_file); seed >= 0) {
-    // The config's skin tones, when it has its hands file.
-    std::vector<SkinAlbedo> tones;
-    const std::string path = handShapesPath(config_dir);
-    std::error_code error;
-    if (std::filesystem::exists(path, error)) {
-      for (const StudioHand& hand : loadHandShapes(path)) tones.push_back(hand.skin);
-    }
-    return drawHandShape(seed, tones);
+    return drawHandShape(seed, configSkinTones(config_dir));
   }
   if (looksLikeFile(name_or_file)) {
     const std::vector<StudioHand> hands = loadHandShapes(name_or_file);

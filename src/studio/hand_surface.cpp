@@ -83,6 +83,13 @@ HandModel shapeHandModel(const HandModel& model, const HandShape& shape) {
     for (double f : finger) ok = ok && positive(f);
   }
   if (!ok) throw InputError("hand shape: every scale factor must be positive and finite");
+  for (int f = 0; f < kNumFingers; ++f) {
+    if (!shape.knuckle_shift[f].allFinite() || !shape.base_rotation[f].allFinite() ||
+        !std::isfinite(shape.flexion_tilt[f])) {
+      throw InputError(std::string("hand shape: the ") + fingerNames()[f] +
+                       "'s knuckle shift, base rotation and flexion tilt must be finite");
+    }
+  }
 
   const auto chains = fingerChains(model);
   HandModel out = model;
@@ -114,6 +121,23 @@ HandModel shapeHandModel(const HandModel& model, const HandShape& shape) {
     if (g.bone == 0) s = palm_factor;
     g.mean = g.mean.cwiseProduct(s);
     g.cov = s.asDiagonal() * g.cov * s.asDiagonal();
+  }
+  for (int f = 0; f < kNumFingers; ++f) {
+    Bone& first = out.bones[chains[f][0]];
+    first.offset += shape.scale * shape.knuckle_shift[f];
+    const Eigen::Vector3d& rpy = shape.base_rotation[f];
+    first.rest_rotation =
+        first.rest_rotation * (Eigen::AngleAxisd(rpy.z(), Eigen::Vector3d::UnitZ()) *
+                               Eigen::AngleAxisd(rpy.y(), Eigen::Vector3d::UnitY()) *
+                               Eigen::AngleAxisd(rpy.x(), Eigen::Vector3d::UnitX()))
+                                  .toRotationMatrix();
+    const Eigen::AngleAxisd tilt(shape.flexion_tilt[f], Eigen::Vector3d::UnitX());
+    for (const int bone : chains[f]) {
+      for (const int dof : out.bones[bone].joint_dofs) {
+        Eigen::Vector3d& axis = out.joints[dof].axis;
+        if (std::abs(axis.y()) > 0.9) axis = tilt * axis;  // a flexion axis
+      }
+    }
   }
   return out;
 }

@@ -12,6 +12,13 @@
 //       palm_width: 1.0                   # across the knuckles (default 1)
 //       palm_length: 1.0                  # wrist to knuckles (default 1)
 //       thickness: 1.0                    # all radii (default 1)
+//       knuckle_shift_mm: {ring: [-3, 0, -4]}      # per finger, the first joint moved on the
+//                                         # palm (x to the fingers, y to the thumb, z out of the
+//                                         # back), within +-15 mm (HandShape::knuckle_shift)
+//       base_rotation_deg: {thumb: [10, 0, -8]}    # per finger, roll/pitch/yaw of the first bone
+//                                         # at rest, within +-30 deg
+//       flexion_tilt_deg: [0, 6, 2, -4, -8]        # thumb..pinky, the flexion axes turned about
+//                                         # the bone, within +-20 deg
 //       skin:                             # linear RGB albedos in [0, 1] (default: SkinAlbedo())
 //         dorsal: [0.73, 0.41, 0.27]
 //         palmar: [0.78, 0.44, 0.33]
@@ -27,6 +34,12 @@
 
 namespace sag_hand_tracker {
 namespace studio {
+
+// Bounds of the skeleton's layout keys (hand_surface.h, HandShape): a real hand's joints sit
+// within these of the model's; a value beyond them is a typo or a unit mix-up.
+constexpr double kMaxKnuckleShiftMm = 15.0;
+constexpr double kMaxBaseRotationDeg = 30.0;
+constexpr double kMaxFlexionTiltDeg = 20.0;
 
 struct StudioHand {
   std::string name = "default";
@@ -61,13 +74,17 @@ std::vector<std::string> handShapeNames(const std::string& config_dir);
 // config's envelope: size 0.9-1.1, each finger 0.95-1.05, phalanx proportions from the model's
 // (t = 0) to long_distal's (t = 1, proximal -20 %, distal +50 %; thumb -15 % / +35 %) with t in
 // [-0.3, 1] and each bone jittered by up to 5 %, palm 0.9-1.1 wide and long, thickness 0.8-1.2,
-// the skin a mix of two of `skin_tones` (the config's hands'; empty: the default skin).
+// the skin a mix of two of `skin_tones` (resolveHandShape: configSkinTones; empty: the default
+// skin).
 // resolveHandShape knows these names, so render_bag --shape, benchmark --shapes and
 // calibrate_hand take them; a config shape may not be named so (parseHandShapes).
 constexpr int kMaxDrawnHandSeed = 1000000;
 // The seed of a `drawn<N>` name, or -1 when `name` is not one.
 int drawnHandSeed(const std::string& name);
 StudioHand drawHandShape(int seed, const std::vector<SkinAlbedo>& skin_tones);
+// The distinct skin tones of `<config_dir>/hand_shapes.yaml` in file order (none without the
+// file): a hand added with a tone already there changes none of the drawn hands.
+std::vector<SkinAlbedo> configSkinTones(const std::string& config_dir);
 
 }  // namespace studio
 }  // namespace sag_hand_tracker

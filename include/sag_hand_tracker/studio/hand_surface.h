@@ -40,6 +40,26 @@ struct HandShape {
   double palm_length = 1.0;  // factor on the knuckles' distance from the wrist, along the palm
   double thickness = 1.0;    // factor on all radii (fingers, palm, wrist, forearm)
 
+  // The skeleton's own layout. A real hand's joints do not sit where the model's do, so these
+  // change what the tracker's model cannot follow by any pose or length (zero: the model's).
+  // Per finger (thumb..pinky):
+  //   knuckle_shift   the first bone's origin moved on the palm, metres at scale 1, in the palm
+  //                   frame (x toward the fingers, y toward the thumb, z out of the back); e.g.
+  //                   a curved row of knuckles, the ring and little knuckles lower (palmar);
+  //   base_rotation   the first bone's rest orientation turned by (roll, pitch, yaw) radians,
+  //                   composed as the model's rest_rpy_deg: a finger splayed or tilted at rest,
+  //                   a thumb that leaves the palm at another angle;
+  //   flexion_tilt    the finger's flexion axes (the joints that turn about the bone's y axis)
+  //                   turned about the bone by this many radians, so that the finger curls
+  //                   sideways: real fingers converge toward the palm's base as they close.
+  std::array<Eigen::Vector3d, kNumFingers> knuckle_shift{
+      {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(),
+       Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()}};
+  std::array<Eigen::Vector3d, kNumFingers> base_rotation{
+      {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(),
+       Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()}};
+  std::array<double, kNumFingers> flexion_tilt{{0.0, 0.0, 0.0, 0.0, 0.0}};
+
   // The factor on the length of bone `phalanx` (0..2) of finger `finger`.
   double boneFactor(int finger, int phalanx) const {
     return scale * finger_length[finger] * phalanx_length[finger][phalanx];
@@ -50,8 +70,10 @@ struct HandShape {
 // shape.boneFactor(finger, phalanx), a child's offset along its parent by the parent's factor, the
 // palm's children (the first bone of each finger) across the palm by scale * palm_width and along
 // it by scale * palm_length; the Gaussians move and stretch with their bones (along the bone by
-// its factor, across by scale * finger_length) so that the result stays a consistent model.
-// Throws InputError on non-positive or non-finite factors.
+// its factor, across by scale * finger_length) so that the result stays a consistent model. Then
+// the skeleton's layout: each finger's first bone moved by scale * knuckle_shift and turned by
+// base_rotation, its flexion axes tilted by flexion_tilt.
+// Throws InputError on non-positive or non-finite factors and non-finite layout values.
 HandModel shapeHandModel(const HandModel& model, const HandShape& shape);
 
 // Fingertips of the rendered hand (thumb..pinky): the distal bone's end, origin + length * x. The
