@@ -73,7 +73,12 @@ cv::Mat linePlot(const std::vector<PlotSeries>& series, const std::string& title
                 cv::LINE_AA);
   }
   cv::rectangle(image, cv::Point(left, top), cv::Point(width - right, top + plot_h), black, 1);
-  cv::putText(image, title, cv::Point(left, 20), font, 0.6, black, 1, cv::LINE_AA);
+  // A title wider than the image (e.g. many hand shapes named) is set smaller, not cut off.
+  int baseline = 0;
+  const int title_width = cv::getTextSize(title, font, 0.6, 1, &baseline).width;
+  const double title_scale =
+      std::max(0.3, std::min(0.6, 0.6 * (width - left - 10) / std::max(1, title_width)));
+  cv::putText(image, title, cv::Point(left, 20), font, title_scale, black, 1, cv::LINE_AA);
   cv::putText(image, x_label, cv::Point(left + plot_w / 2 - 40, height - 12), font, 0.5, black, 1,
               cv::LINE_AA);
   // Above the y axis, below the title, so that the two do not overlap.

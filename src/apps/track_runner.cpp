@@ -163,6 +163,12 @@ std::string formatSummary(const TrackBagSummary& summary) {
   if (!summary.handedness.empty()) out << "  hand:      " << summary.handedness << "\n";
   if (!summary.background_note.empty()) out << "  note:      " << summary.background_note << "\n";
   if (!summary.skin_gate.empty()) out << "  skin gate: " << summary.skin_gate << "\n";
+  if (summary.model_size != 1.0) {
+    char size[32];
+    std::snprintf(size, sizeof(size), "%.3f", summary.model_size);
+    out << "  model:     scaled by " << size
+        << " to the hand's size in the images (the size it ended with)\n";
+  }
   out << "  speed:     " << fps << " frames/s (segmentation + optimisation over "
       << after_background << " frames, decode excluded); per frame: segmentation "
       << formatMillis(summary.segmentation_seconds, after_background) << ", optimisation "
@@ -376,6 +382,7 @@ TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
   summary.out_existed = out_existed;
   summary.handedness = handedness;
   summary.background_note = background_note;
+  summary.model_size = pipeline.tracker().sizeFactor();
   if (params.background_frames == 0) {
     const SkinParams& gate = pipeline.params().segmentation.skin;
     std::string source;

@@ -389,6 +389,25 @@ HandModel loadHandModel(const std::string& path, Handedness handedness) {
   return model.handedness == handedness ? model : mirrorHandModel(model);
 }
 
+HandModel scaleHandModel(const HandModel& model, double length_factor, double width_factor) {
+  const auto positive = [](double f) { return std::isfinite(f) && f > 0.0; };
+  if (!positive(length_factor) || !positive(width_factor)) {
+    throw InputError("scaleHandModel: the factors must be positive and finite");
+  }
+  HandModel scaled = model;
+  for (Bone& bone : scaled.bones) {
+    bone.offset *= length_factor;
+    bone.length *= length_factor;
+  }
+  for (ModelGaussian& gaussian : scaled.gaussians) {
+    const double across = gaussian.bone == 0 ? length_factor : width_factor;
+    const Eigen::Vector3d s(length_factor, across, width_factor);
+    gaussian.mean *= length_factor;
+    gaussian.cov = s.asDiagonal() * gaussian.cov * s.asDiagonal();
+  }
+  return scaled;
+}
+
 HandModel mirrorHandModel(const HandModel& model) {
   // Reflection S across the palm's x-z plane. Points and covariances: S p, S C S. Rotations:
   // S R S. Joint axes are pseudo-vectors: -S a, so that equal angles give mirrored poses.

@@ -33,8 +33,9 @@
 //   plus the dynamic_reconfigure parameters of cfg/Tracker.cfg (its start_model_area_weight, -1
 //   by default, replaces the mode's weight when it is at least 0; its curled_refine_iterations,
 //   -1 by default, the curled hand's refinement: as offline, on with mode plate and off with
-//   mode skin); the open finger toggles as offline too (TrackerParams::toggle_curled_flexion: on
-//   with mode plate, off with mode skin).
+//   mode skin); the open finger toggles and the model's size adaptation as offline too
+//   (TrackerParams::toggle_curled_flexion, size_step: on with mode plate, off with mode skin). The
+//   tf, markers and fingertips are the tracker's model's, at the size it has taken.
 //
 // Room cues (issue 11; ros/live_room_cues.h, doc/segmentation.md "The live graph"; the segmentation
 // nodelets' room_cues must be on too): after every set the tracked hand is published to each
@@ -381,6 +382,7 @@ class TrackerNodelet : public nodelet::Nodelet {
             ? config.curled_refine_iterations
             : curledRefineIterations(PipelineParams(), skin_mode_);  // as offline
     params.toggle_curled_flexion = toggleCurledFlexion(PipelineParams(), skin_mode_);
+    params.size_step = sizeStep(PipelineParams(), skin_mode_);
     params.lost_similarity = config.lost_similarity;
     params.min_foreground_gaussians = config.min_foreground_gaussians;
     params.min_cameras_for_start = config.min_cameras_for_start;
@@ -548,7 +550,7 @@ class TrackerNodelet : public nodelet::Nodelet {
     }
     PosedHand hand;
     if (pose_ok) {
-      hand = forwardKinematics(model_, result.pose);
+      hand = forwardKinematics(tracker_->model(), result.pose);  // at the size it tracks with
       publishPose(stamp, result, hand);
       publishOverlays(stamp, observations, observation_camera, hand);
     }
@@ -686,7 +688,7 @@ class TrackerNodelet : public nodelet::Nodelet {
       return;
     }
     ++late_results_;
-    publishPose(stamp, result, forwardKinematics(model_, result.pose));
+    publishPose(stamp, result, forwardKinematics(tracker_->model(), result.pose));
     publishStatus(stamp, result, true, 0.0);
   }
 
@@ -834,7 +836,8 @@ class TrackerNodelet : public nodelet::Nodelet {
     CalibrationRecording recording;
     {
       std::unique_lock<std::mutex> lock(mutex_);
-      start_model = model_;
+      // At the size the tracker found (TrackerParams::size_step): the routine's poses are its.
+      start_model = scaleHandModel(model_, tracker_->sizeFactor(), 1.0);
       recording_.emplace();
       recording_->duration = request.duration;
       // The routine is tracked as calibrate_hand tracks it (RoutineTracking: whole ascents, no
@@ -1099,7 +1102,7 @@ class TrackerNodelet : public nodelet::Nodelet {
     fingertip_pub_.publish(toFingertipsMsg(result.fingertips, header));
 
     if (marker_pub_.getNumSubscribers() > 0) {
-      marker_pub_.publish(makeHandMarkers(model_, hand, header));
+      marker_pub_.publish(makeHandMarkers(tracker_->model(), hand, header));
     }
   }
 

@@ -535,6 +535,8 @@ void HandTracker::setModel(const HandModel& model) {
   thumb_joints_ = thumbJoints(model_);
   start_colours_ = modelColours(model_);
   forgetLearntColours();
+  size_factor_ = 1.0;
+  frames_to_size_trial_ = 0;
   if (current_) clampToLimits(model_, &*current_);
   if (previous_) clampToLimits(model_, &*previous_);
   alternative_.reset();
@@ -1231,7 +1233,50 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
   current_ = optimized->pose;
   forearm_ = forearm;
   adaptColours(result, observations);
+  adaptSize(result, observations);
   return result;
+}
+
+void HandTracker::adaptSize(const FrameResult& result,
+                            const std::vector<CameraObservation>& observations) {
+  // A bare forearm continues the foreground past the wrist: a larger model that slides back along
+  // it covers more, and the next trial grows it again (the studio's `wristflex`: 1.15-1.2 on
+  // every hand, the wrist 27-39 mm off). During a fast turn the tracked pose lags the images.
+  if (!(params_.size_step > 0.0) || model_.colours_fitted || worker_ ||
+      result.status != TrackStatus::kTracking ||
+      frames_since_start_ < params_.toggle_min_track_frames ||
+      static_cast<int>(observations.size()) < params_.size_min_cameras || forearm_present_ ||
+      (previous_ && current_ &&
+       rotationAngle(current_->rotation, previous_->rotation) > params_.size_max_turn)) {
+    return;
+  }
+  for (const LongFingerJoints& finger : finger_joints_) {
+    if (finger.mcp_flex < 0 || finger.pip_flex < 0) continue;
+    const double flexion =
+        result.pose.joints[finger.mcp_flex] + result.pose.joints[finger.pip_flex];
+    if (!(flexion < params_.size_open_flexion)) return;  // the silhouette hides a curled length
+  }
+  if (frames_to_size_trial_ > 0) {
+    --frames_to_size_trial_;
+    return;
+  }
+  frames_to_size_trial_ = params_.size_interval - 1;
+  SilhouetteScorer silhouette(observations, params_.size_silhouette_sigmas);
+  double best_score = silhouette.score(model_, result.pose) + params_.size_min_gain;
+  double best_factor = 1.0;
+  for (const double factor : {1.0 + params_.size_step, 1.0 - params_.size_step}) {
+    const double size = size_factor_ * factor;
+    if (size > params_.size_max || size < params_.size_min) continue;
+    const double score = silhouette.score(scaleHandModel(model_, factor, 1.0), result.pose);
+    if (score > best_score) {
+      best_score = score;
+      best_factor = factor;
+    }
+  }
+  if (best_factor == 1.0) return;
+  model_ = scaleHandModel(model_, best_factor, 1.0);
+  size_factor_ *= best_factor;
+  energy_ = PoseEnergy(model_, params_.energy);  // the next frame's setFrame fills it
 }
 
 }  // namespace sag_hand_tracker

@@ -33,6 +33,7 @@ PipelineParams adjusted(PipelineParams params) {
   const bool without_plate = params.background_frames == 0;
   params.tracker.curled_refine_iterations = curledRefineIterations(params, without_plate);
   params.tracker.toggle_curled_flexion = toggleCurledFlexion(params, without_plate);
+  params.tracker.size_step = sizeStep(params, without_plate);
   return params;
 }
 
@@ -119,6 +120,10 @@ double toggleCurledFlexion(const PipelineParams& params, bool without_plate) {
   return without_plate && !params.open_toggles_without_plate
              ? std::numeric_limits<double>::infinity()
              : params.tracker.toggle_curled_flexion;
+}
+
+double sizeStep(const PipelineParams& params, bool without_plate) {
+  return without_plate && !params.size_adaptation_without_plate ? 0.0 : params.tracker.size_step;
 }
 
 std::optional<StillStart> startOnStillScene(

@@ -307,6 +307,19 @@ TEST(TrackBagOutput, TheSummaryNamesRepeatedStampsAndForwardLeaps) {
   EXPECT_EQ(formatSummary(TrackBagSummary()).find("warning"), std::string::npos);
 }
 
+// The model's size at the end (TrackerParams::size_step) is in the summary when it moved.
+TEST(TrackBagOutput, TheSummarySaysWhenTheModelTookAnotherSize) {
+  TrackBagSummary summary;
+  summary.frames = 4;
+  summary.tracked_frames = 4;
+  EXPECT_EQ(formatSummary(summary).find("model:"), std::string::npos);
+  summary.model_size = 1.0824;
+  EXPECT_NE(formatSummary(summary).find("  model:     scaled by 1.082 to the hand's size in the "
+                                        "images (the size it ended with)\n"),
+            std::string::npos)
+      << formatSummary(summary);
+}
+
 // The partial rows of an interrupted run never replace an earlier output.
 TEST(TrackBagOutput, AnInterruptedRunReplacesNoEarlierOutput) {
   TrackBagSummary finished;

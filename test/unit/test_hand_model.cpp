@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <regex>
@@ -107,6 +108,51 @@ TEST(HandModel, LeftHandIsTheMirrorImage) {
     EXPECT_NEAR(left_tips[f].y(), -right_tips[f].y(), 1e-12);
     EXPECT_NEAR(left_tips[f].z(), right_tips[f].z(), 1e-12);
   }
+}
+
+// scaleHandModel (the tracker's size adaptation): (f, f) is the whole hand f times as large about
+// the wrist at any pose; (f, 1) stretches the lengths and keeps every finger's and the palm's
+// thickness.
+TEST(HandModel, ScalingStretchesAboutTheWristAndKeepsTheThicknessAsked) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  Pose pose = typicalPose(model);
+  const auto tips = fingertips(model, pose);
+  const HandModel larger = scaleHandModel(model, 1.1, 1.1);
+  const auto larger_tips = fingertips(larger, pose);
+  for (int f = 0; f < kNumFingers; ++f) {
+    EXPECT_LT((larger_tips[f] - pose.translation - 1.1 * (tips[f] - pose.translation)).norm(),
+              1e-12);
+  }
+  const PosedHand posed = forwardKinematics(model, pose);
+  const PosedHand posed_larger = forwardKinematics(larger, pose);
+  for (size_t g = 0; g < model.gaussians.size(); ++g) {
+    EXPECT_TRUE(posed_larger.gaussians[g].cov.isApprox(1.21 * posed.gaussians[g].cov, 1e-12));
+  }
+
+  const HandModel stretched = scaleHandModel(model, 0.9, 1.0);
+  const auto stretched_tips = fingertips(stretched, pose);
+  for (int f = 0; f < kNumFingers; ++f) {
+    EXPECT_LT((stretched_tips[f] - pose.translation - 0.9 * (tips[f] - pose.translation)).norm(),
+              1e-12);
+  }
+  for (size_t g = 0; g < model.gaussians.size(); ++g) {
+    const Eigen::Matrix3d& before = model.gaussians[g].cov;
+    const Eigen::Matrix3d& after = stretched.gaussians[g].cov;
+    EXPECT_NEAR(after(0, 0), 0.81 * before(0, 0), 1e-15);  // along the bone (the palm's length)
+    EXPECT_NEAR(after(2, 2), before(2, 2), 1e-15);         // the thickness
+    EXPECT_NEAR(after(1, 1), (g < 2 ? 0.81 : 1.0) * before(1, 1), 1e-15)  // the palm's width
+        << "Gaussian " << g << " on bone " << model.gaussians[g].bone;
+    EXPECT_EQ(stretched.gaussians[g].hsv, model.gaussians[g].hsv);
+  }
+  ASSERT_EQ(model.gaussians[0].bone, 0);
+  ASSERT_EQ(model.gaussians[1].bone, 0);
+  ASSERT_NE(model.gaussians[2].bone, 0);
+  for (size_t j = 0; j < model.joints.size(); ++j) {
+    EXPECT_EQ(stretched.joints[j].axis, model.joints[j].axis);
+    EXPECT_EQ(stretched.joints[j].min, model.joints[j].min);
+  }
+  EXPECT_THROW(scaleHandModel(model, 0.0, 1.0), InputError);
+  EXPECT_THROW(scaleHandModel(model, 1.0, std::nan("")), InputError);
 }
 
 TEST(HandModel, MissingFileIsNamed) {

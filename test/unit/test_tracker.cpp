@@ -894,6 +894,62 @@ TEST(Tracker, FingerTogglesOpenAFingerTheImagesShowOpen) {
   EXPECT_LT(middleFlexion(allowed.pose), 0.7);
 }
 
+// The model's size follows the hand's (TrackerParams::size_step), here on the model's own images
+// (1-sigma ellipses on a grid, read as a hand about 6 % smaller than it is: the studio's rendered
+// hands in test_hand_fit.cpp measure the size itself): an open hand 8 % larger makes the model
+// larger than its own hand does, an 8 % smaller one smaller, within [size_min, size_max]. A fist
+// shows no finger's length (no trial), a calibrated model keeps its size, step 0 is off.
+TEST(Tracker, TheModelTakesTheSizeOfTheHandItTracks) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  const TrackerParams defaults;
+  ASSERT_GT(defaults.size_step, 0.0);
+  Pose open = neutralPose(model, Eigen::Vector3d(-0.06, 0.0, 0.15), Eigen::Matrix3d::Identity());
+  open.joints[model.jointIndex("index_mcp_abd")] = 0.15;
+  open.joints[model.jointIndex("pinky_mcp_abd")] = -0.2;
+  const Pose fist = countingPose(model, {"index", "middle", "ring", "pinky"});
+  auto track = [&](const HandModel& tracked, double hand_size, const Pose& pose, double step,
+                   double size_min = TrackerParams().size_min,
+                   double size_max = TrackerParams().size_max) {
+    const HandModel hand = scaleHandModel(model, hand_size, 1.0);
+    TrackerParams params;
+    params.size_step = step;
+    params.size_min = size_min;
+    params.size_max = size_max;
+    HandTracker tracker(tracked, params);
+    for (int frame = 0; frame < 60; ++frame) {
+      Pose truth = pose;  // drifting slowly, so that the track is a track
+      truth.translation.x() += 0.0005 * frame;
+      truth.rotation =
+          Eigen::AngleAxisd(0.004 * frame, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+      EXPECT_TRUE(
+          tracker.update(modelObservations(hand, truth, cameras, 3.0), 0.04 * frame).has_pose);
+    }
+    return tracker.sizeFactor();
+  };
+  const double larger = track(model, 1.08, open, defaults.size_step);
+  const double own = track(model, 1.0, open, defaults.size_step);
+  const double smaller = track(model, 0.92, open, defaults.size_step);
+  // Bounded: a hand far larger, or the smaller hand, end within a step of the bound they meet.
+  const double larger_bounded = track(model, 1.3, open, defaults.size_step, 0.85, 1.04);
+  const double smaller_bounded = track(model, 0.92, open, defaults.size_step, 0.96, 1.2);
+  std::printf(
+      "model size for hands of 0.92, 1, 1.08: %.3f %.3f %.3f; 1.3 bounded to 1.04: %.3f; "
+      "0.92 bounded to 0.96: %.3f\n",
+      smaller, own, larger, larger_bounded, smaller_bounded);
+  EXPECT_GT(larger, own + defaults.size_step);
+  EXPECT_LT(smaller, own - defaults.size_step);
+  EXPECT_LE(larger_bounded, 1.04 + 1e-12);
+  EXPECT_GT(larger_bounded, 1.04 * (1.0 - defaults.size_step));
+  EXPECT_GE(smaller_bounded, 0.96 - 1e-12);
+  EXPECT_LT(smaller_bounded, 0.96 * (1.0 + defaults.size_step));
+  EXPECT_EQ(track(model, 1.08, open, 0.0), 1.0);
+  EXPECT_EQ(track(model, 1.08, fist, defaults.size_step), 1.0);
+  HandModel calibrated = model;
+  calibrated.colours_fitted = true;
+  EXPECT_EQ(track(calibrated, 1.08, open, defaults.size_step), 1.0);
+}
+
 // The live calibration switches to the fitted model: tracking goes on from the current pose,
 // with the new model's limits, instead of starting again.
 TEST(Tracker, SwitchingTheModelKeepsTracking) {

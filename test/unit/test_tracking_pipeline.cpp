@@ -148,6 +148,23 @@ TEST(Pipeline, TheOpenFingerTogglesRunWithThePlate) {
   EXPECT_EQ(toggleCurledFlexion(skin, true), flexion);
 }
 
+// The model's size adaptation (TrackerParams::size_step) runs with the plate and not without one
+// (PipelineParams::size_adaptation_without_plate): it reads the size off the foreground.
+TEST(Pipeline, TheSizeAdaptationRunsWithThePlate) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = renderedRig();
+  const double step = TrackerParams().size_step;
+  ASSERT_GT(step, 0.0);
+  EXPECT_EQ(TrackingPipeline(model, cameras, PipelineParams()).tracker().params().size_step, step);
+  PipelineParams skin;
+  skin.background_frames = 0;
+  EXPECT_EQ(TrackingPipeline(model, cameras, skin).tracker().params().size_step, 0.0);
+  EXPECT_EQ(sizeStep(skin, true), 0.0);
+  skin.size_adaptation_without_plate = true;
+  EXPECT_EQ(TrackingPipeline(model, cameras, skin).tracker().params().size_step, step);
+  EXPECT_EQ(sizeStep(skin, true), step);
+}
+
 // Without a plate the generic skin gate's foreground holds more than the hand: the tracker's starts
 // are scored with the model's area charged (PipelineParams::skin_gate_start_area_weight); with a
 // plate, or with the gate around a calibrated model's colours, the tracker's own setting stays,

@@ -92,6 +92,8 @@ struct TrackBagSummary {
   // Without a plate: which skin gate segmented the images ("generic", or the user's from the
   // model's colours with its ranges); empty with a plate.
   std::string skin_gate;
+  // The model's size at the end against the one it started with (TrackerParams::size_step).
+  double model_size = 1.0;
   // With --hand auto: the hand chosen and why (handednessText); empty otherwise.
   std::string handedness;
   // Why the run's background frames are not the option's (a bag too short for a plate); empty

@@ -119,6 +119,9 @@ struct RoutineTracking {
   double counter_turn_race_share = 0.0;
   int redetect_race_iterations = 0;
   int curled_refine_iterations = 0;
+  // The model keeps the size the fit starts from (TrackerParams::size_step): the fit's poses are
+  // the start model's, and its search takes the size.
+  double size_step = 0.0;
   double wrist_weight = calibrationEnergyParams().wrist_weight;
 
   static RoutineTracking of(const TrackerParams& params);

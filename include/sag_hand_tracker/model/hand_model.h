@@ -91,6 +91,14 @@ HandModel parseHandModel(const std::string& yaml_text, const std::string& source
 // As loadHandModel, and mirrors it if `handedness` differs from the file's.
 HandModel loadHandModel(const std::string& path, Handedness handedness);
 
+// The model scaled about its root (the wrist): every bone offset and length and every Gaussian
+// mean times `length_factor`; each Gaussian's covariance in its bone frame by S Sigma S with S =
+// diag(length_factor, across, width_factor), `across` being length_factor for the palm (bones[0]:
+// its x and y span the palm's length and width) and width_factor for the other bones (x along the
+// bone, y and z its thickness). (f, f) gives the whole hand f times as large. Joints, colours and
+// weights unchanged. Throws InputError unless both factors are positive and finite.
+HandModel scaleHandModel(const HandModel& model, double length_factor, double width_factor);
+
 // The mirror image across the palm's x-z plane: a right hand becomes a left hand. The same joint
 // angles give mirrored poses (joint axes transform as pseudo-vectors).
 HandModel mirrorHandModel(const HandModel& model);

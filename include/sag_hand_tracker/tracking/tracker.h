@@ -210,6 +210,37 @@ struct TrackerParams {
   double curled_refine_flexion = 1.6;
   double curled_refine_model_area_weight = 1.0;
   double curled_refine_occlusion_depth_scale = 0.01;
+  // The model's size follows the hand's (session 41, issue 9). A user's hand is rarely the model's
+  // size, and a model smaller than the hand covers one long finger with two of its own: the next
+  // finger of a count tracked straight beside the opened one (`fingercount` on the studio's
+  // mesh_like hand, 6 % larger than the model with long distal phalanges: 38 mm; with the model
+  // scaled by 1.06 by hand, 21 mm). The silhouette shows a hand's size where its fingers are
+  // straight. So every size_interval-th frame of a held track whose long fingers are all
+  // straighter than size_open_flexion (MCP + PIP), seen by at least size_min_cameras cameras,
+  // without a bare forearm in the energy (forearm_min_gain: the foreground goes on past the wrist,
+  // and the model grew along it to 1.15-1.2 on `wristflex`) and not turning by more than
+  // size_max_turn per frame (the pose lags the images; `fastturn` on mesh_like read 1.13), the
+  // model scaled about the wrist by 1 + size_step and by 1 - size_step is scored by the silhouette
+  // (D at size_silhouette_sigmas, the tracked pose); the model takes the better one when D rises
+  // by more than size_min_gain, within [size_min, size_max] times the size it was made with. Only
+  // the lengths are scaled (scaleHandModel(f, 1)): the silhouette prefers Gaussians thinner than
+  // the hand (doc/calibration.md), so the widths stay the model's. Kept through losses and
+  // restarts (the same user);
+  // setModel starts again at 1. Not for a model from calibrate_hand (colours fitted: its size is
+  // the user's), nor while calibrate_hand tracks its routine (RoutineTracking). TrackingPipeline
+  // and the tracker nodelet run it with a plate only (PipelineParams::
+  // size_adaptation_without_plate). size_step 0 disables it. The silhouette at 1 sigma read the
+  // studio's hands 4-8 % larger than they are, at 1.3 sigma 3-5 % smaller; at 1.15 within 3 % on
+  // five of eight, 5 % on the others (doc/history.md "Session 41").
+  double size_step = 0.02;
+  int size_interval = 5;
+  double size_open_flexion = 0.7;
+  double size_min_gain = 0.001;
+  double size_silhouette_sigmas = 1.15;
+  double size_max_turn = 0.15;  // radians per frame
+  int size_min_cameras = 4;
+  double size_min = 0.85;
+  double size_max = 1.2;
   // Forearm cue: a camera whose segmentation found at least `min_arm_cells` sleeve cells
   // (ImageSoG::arm_cells) votes on which end of the hand is the wrist. Start hypotheses and
   // re-detections that point the wrist away from the arm (mean vote below `-arm_vote_threshold`)
@@ -424,6 +455,8 @@ class HandTracker {
   // Sets handed to the worker that it has not tracked yet.
   int keptFrames() const;
   const HandModel& model() const { return model_; }
+  // The model's size against the one it was made with (TrackerParams::size_step).
+  double sizeFactor() const { return size_factor_; }
   const TrackerParams& params() const { return params_; }
   // New parameters (the energy rebuilt); with colour_adaptation off, the model's own colours again.
   void setParams(const TrackerParams& params);
@@ -476,6 +509,9 @@ class HandTracker {
   // thumb held, with occlusion and the model's area; `energy` is left as it was. Returns whether
   // it refined; then result->energy is not the refined pose's (the caller scores it).
   bool refineCurledFingers(PoseEnergy& energy, OptimizationResult* result) const;
+  // TrackerParams::size_step: after a held frame `result`, may scale model_ (and rebuild the
+  // energy for the next frame).
+  void adaptSize(const FrameResult& result, const std::vector<CameraObservation>& observations);
   // Refines the forearm's direction for result->pose from `from` (empty: straight on from the
   // palm) and scores the result with it; returns the direction.
   Eigen::Vector3d fitForearm(const PoseEnergy& energy, OptimizationResult* result,
@@ -575,6 +611,10 @@ class HandTracker {
   int colour_samples_ = 0;
   GaussianColourStatistics colour_statistics_;
   std::vector<Hsv> start_colours_;
+  // TrackerParams::size_step: model_'s size against the one it was made with, and the held frames
+  // until the next trial.
+  double size_factor_ = 1.0;
+  int frames_to_size_trial_ = 0;
   // asynchronous_search: step() asked for a search; update then hands the set to a worker.
   bool search_wanted_ = false;
   std::unique_ptr<Worker> worker_;

@@ -68,6 +68,10 @@ struct PipelineParams {
   // (StudioRooms.TheTrackStartsInTheKitchenAndStaysOnTheUsersHand). A curl toggle removes model
   // and needs no such trust.
   bool open_toggles_without_plate = false;
+  // The model's size adaptation (TrackerParams::size_step) without a plate: off unless true. It
+  // reads the hand's size off the foreground, which without a plate holds skin-coloured wood and
+  // the other arm beside the hand, as for the open toggles above.
+  bool size_adaptation_without_plate = false;
 };
 
 // The box around a posed hand in one camera's image (pixels, clipped to the image; empty when the
@@ -112,6 +116,11 @@ int curledRefineIterations(const PipelineParams& params, bool without_plate);
 // with: params.tracker's own with a plate, infinity (none) without one (`without_plate`) unless
 // params.open_toggles_without_plate. TrackingPipeline and the live tracker nodelet decide it here.
 double toggleCurledFlexion(const PipelineParams& params, bool without_plate);
+
+// The size adaptation's step (TrackerParams::size_step) the tracker runs with: params.tracker's own
+// with a plate, 0 (off) without one (`without_plate`) unless params.size_adaptation_without_plate.
+// TrackingPipeline and the live tracker nodelet decide it here.
+double sizeStep(const PipelineParams& params, bool without_plate);
 
 // The start of a still scene (MultiViewParams::still_hypotheses) that won: which trial, its
 // result and score, and the tracker that holds its track.
