@@ -320,7 +320,8 @@ bool HandTracker::sameTrackState(const TrackState& a, const TrackState& b) {
          sameVector(a.alternative_forearm, b.alternative_forearm) &&
          a.recent_rotations == b.recent_rotations && a.tracked_streak == b.tracked_streak &&
          a.colour_samples == b.colour_samples && a.colour_statistics == b.colour_statistics &&
-         a.colours == b.colours;
+         a.colours == b.colours && a.size_factor == b.size_factor &&
+         a.frames_to_size_trial == b.frames_to_size_trial;
 }
 
 // A set the frame path has stepped, for the worker.
@@ -422,6 +423,7 @@ struct HandTracker::Worker {
 
 HandTracker::HandTracker(const HandModel& model, const TrackerParams& params)
     : model_(model),
+      base_model_(model),
       params_(params),
       energy_(model, params.energy),
       finger_joints_(longFingerJoints(model)),
@@ -439,8 +441,11 @@ void HandTracker::reset() {
 }
 
 void HandTracker::adoptTrack(const HandTracker& other) {
+  // `other` was made with this tracker's model at its size (a still scene's trial start).
+  TrackState state = other.trackState();
+  state.size_factor *= size_factor_;
   reset();
-  setTrackState(other.trackState());
+  setTrackState(state);
 }
 
 HandTracker::TrackState HandTracker::trackState() const {
@@ -461,6 +466,8 @@ HandTracker::TrackState HandTracker::trackState() const {
   state.colour_samples = colour_samples_;
   state.colour_statistics = colour_statistics_;
   state.colours = modelColours(model_);
+  state.size_factor = size_factor_;
+  state.frames_to_size_trial = frames_to_size_trial_;
   return state;
 }
 
@@ -480,6 +487,8 @@ void HandTracker::setTrackState(const TrackState& state) {
   tracked_streak_ = state.tracked_streak;
   colour_samples_ = state.colour_samples;
   colour_statistics_ = state.colour_statistics;
+  if (state.size_factor != size_factor_) setSize(state.size_factor);
+  frames_to_size_trial_ = state.frames_to_size_trial;
   setColours(state.colours);
 }
 
@@ -530,6 +539,7 @@ bool HandTracker::looksLost(double similarity) const {
 void HandTracker::setModel(const HandModel& model) {
   stopWorker();
   model_ = model;
+  base_model_ = model;
   energy_ = PoseEnergy(model_, params_.energy);
   finger_joints_ = longFingerJoints(model_);
   thumb_joints_ = thumbJoints(model_);
@@ -755,7 +765,8 @@ void HandTracker::startWorker(const TrackState& state, HandedFrame frame, int ni
   TrackerParams synchronous = params_;
   synchronous.asynchronous_search = false;
   auto worker = std::make_unique<Worker>();
-  worker->tracker = std::make_unique<HandTracker>(model_, synchronous);
+  // From the model at size 1: the state sets the size (and the colours) it had.
+  worker->tracker = std::make_unique<HandTracker>(base_model_, synchronous);
   worker->tracker->start_colours_ = start_colours_;
   worker->tracker->setTrackState(state);
   worker->frame_path_after_first = trackState();  // called after the frame path's step
@@ -1242,7 +1253,7 @@ void HandTracker::adaptSize(const FrameResult& result,
   // A bare forearm continues the foreground past the wrist: a larger model that slides back along
   // it covers more, and the next trial grows it again (the studio's `wristflex`: 1.15-1.2 on
   // every hand, the wrist 27-39 mm off). During a fast turn the tracked pose lags the images.
-  if (!(params_.size_step > 0.0) || model_.colours_fitted || worker_ ||
+  if (!(params_.size_step > 0.0) || model_.colours_fitted ||
       result.status != TrackStatus::kTracking ||
       frames_since_start_ < params_.toggle_min_track_frames ||
       static_cast<int>(observations.size()) < params_.size_min_cameras || forearm_present_ ||
@@ -1273,9 +1284,16 @@ void HandTracker::adaptSize(const FrameResult& result,
       best_factor = factor;
     }
   }
-  if (best_factor == 1.0) return;
-  model_ = scaleHandModel(model_, best_factor, 1.0);
-  size_factor_ *= best_factor;
+  if (best_factor != 1.0) setSize(size_factor_ * best_factor);
+}
+
+void HandTracker::setSize(double size) {
+  HandModel scaled = scaleHandModel(base_model_, size, 1.0);
+  for (size_t p = 0; p < scaled.gaussians.size(); ++p) {
+    scaled.gaussians[p].hsv = model_.gaussians[p].hsv;  // the learnt colours
+  }
+  model_ = std::move(scaled);
+  size_factor_ = size;
   energy_ = PoseEnergy(model_, params_.energy);  // the next frame's setFrame fills it
 }
 

@@ -925,14 +925,17 @@ TEST(Tracker, TheModelTakesTheSizeOfTheHandItTracks) {
       EXPECT_TRUE(
           tracker.update(modelObservations(hand, truth, cameras, 3.0), 0.04 * frame).has_pose);
     }
-    return tracker.sizeFactor();
+    return tracker;
   };
-  const double larger = track(model, 1.08, open, defaults.size_step);
-  const double own = track(model, 1.0, open, defaults.size_step);
-  const double smaller = track(model, 0.92, open, defaults.size_step);
+  HandTracker larger_tracker = track(model, 1.08, open, defaults.size_step);
+  const double larger = larger_tracker.sizeFactor();
+  const double own = track(model, 1.0, open, defaults.size_step).sizeFactor();
+  const double smaller = track(model, 0.92, open, defaults.size_step).sizeFactor();
   // Bounded: a hand far larger, or the smaller hand, end within a step of the bound they meet.
-  const double larger_bounded = track(model, 1.3, open, defaults.size_step, 0.85, 1.04);
-  const double smaller_bounded = track(model, 0.92, open, defaults.size_step, 0.96, 1.2);
+  const double larger_bounded =
+      track(model, 1.3, open, defaults.size_step, 0.85, 1.04).sizeFactor();
+  const double smaller_bounded =
+      track(model, 0.92, open, defaults.size_step, 0.96, 1.2).sizeFactor();
   std::printf(
       "model size for hands of 0.92, 1, 1.08: %.3f %.3f %.3f; 1.3 bounded to 1.04: %.3f; "
       "0.92 bounded to 0.96: %.3f\n",
@@ -943,11 +946,24 @@ TEST(Tracker, TheModelTakesTheSizeOfTheHandItTracks) {
   EXPECT_GT(larger_bounded, 1.04 * (1.0 - defaults.size_step));
   EXPECT_GE(smaller_bounded, 0.96 - 1e-12);
   EXPECT_LT(smaller_bounded, 0.96 * (1.0 + defaults.size_step));
-  EXPECT_EQ(track(model, 1.08, open, 0.0), 1.0);
-  EXPECT_EQ(track(model, 1.08, fist, defaults.size_step), 1.0);
+  EXPECT_EQ(track(model, 1.08, open, 0.0).sizeFactor(), 1.0);
+  EXPECT_EQ(track(model, 1.08, fist, defaults.size_step).sizeFactor(), 1.0);
   HandModel calibrated = model;
   calibrated.colours_fitted = true;
-  EXPECT_EQ(track(calibrated, 1.08, open, defaults.size_step), 1.0);
+  EXPECT_EQ(track(calibrated, 1.08, open, defaults.size_step).sizeFactor(), 1.0);
+
+  // A still scene's trial start is made with the tracker's model at its size; adopted, the track
+  // keeps that size (and model). reset starts again at 1.
+  HandTracker trial(larger_tracker.model(), TrackerParams());
+  ASSERT_TRUE(
+      trial.update(modelObservations(scaleHandModel(model, 1.08, 1.0), open, cameras, 3.0), 3.0)
+          .has_pose);
+  larger_tracker.adoptTrack(trial);
+  EXPECT_EQ(larger_tracker.sizeFactor(), larger);
+  EXPECT_NEAR(larger_tracker.model().bones[1].length, larger * model.bones[1].length, 1e-12);
+  larger_tracker.reset();
+  EXPECT_EQ(larger_tracker.sizeFactor(), 1.0);
+  EXPECT_EQ(larger_tracker.model().bones[1].length, model.bones[1].length);
 }
 
 // The live calibration switches to the fitted model: tracking goes on from the current pose,

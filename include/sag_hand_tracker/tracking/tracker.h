@@ -225,11 +225,11 @@ struct TrackerParams {
   // by more than size_min_gain, within [size_min, size_max] times the size it was made with. Only
   // the lengths are scaled (scaleHandModel(f, 1)): the silhouette prefers Gaussians thinner than
   // the hand (doc/calibration.md), so the widths stay the model's. Kept through losses and
-  // restarts (the same user);
-  // setModel starts again at 1. Not for a model from calibrate_hand (colours fitted: its size is
-  // the user's), nor while calibrate_hand tracks its routine (RoutineTracking). TrackingPipeline
-  // and the tracker nodelet run it with a plate only (PipelineParams::
-  // size_adaptation_without_plate). size_step 0 disables it. The silhouette at 1 sigma read the
+  // restarts (the same user); reset and setModel start again at 1. Not for a model from
+  // calibrate_hand (colours fitted: its size is the user's), nor while calibrate_hand tracks its
+  // routine (RoutineTracking). TrackingPipeline and the tracker nodelet run it with a plate only
+  // (PipelineParams::size_adaptation_without_plate). size_step 0 disables it. The default hand
+  // of the studio reads 1.02 and its tracks lose 15 %. The silhouette at 1 sigma read the
   // studio's hands 4-8 % larger than they are, at 1.3 sigma 3-5 % smaller; at 1.15 within 3 % on
   // five of eight, 5 % on the others (doc/history.md "Session 41").
   double size_step = 0.02;
@@ -512,6 +512,9 @@ class HandTracker {
   // TrackerParams::size_step: after a held frame `result`, may scale model_ (and rebuild the
   // energy for the next frame).
   void adaptSize(const FrameResult& result, const std::vector<CameraObservation>& observations);
+  // model_ at `size` times base_model_'s lengths (scaleHandModel), its colours kept; the energy
+  // rebuilt. Always from base_model_, so that a size reached by any path is the same model.
+  void setSize(double size);
   // Refines the forearm's direction for result->pose from `from` (empty: straight on from the
   // palm) and scores the result with it; returns the direction.
   Eigen::Vector3d fitForearm(const PoseEnergy& energy, OptimizationResult* result,
@@ -563,6 +566,10 @@ class HandTracker {
     int colour_samples = 0;
     GaussianColourStatistics colour_statistics;
     std::vector<Hsv> colours;
+    // TrackerParams::size_step: the model's size against the one the tracker was made with, and
+    // the held frames until the next trial.
+    double size_factor = 1.0;
+    int frames_to_size_trial = 0;
   };
   TrackState trackState() const;
   void setTrackState(const TrackState& state);
@@ -582,6 +589,7 @@ class HandTracker {
   void stopWorker();
 
   HandModel model_;
+  HandModel base_model_;  // the model the tracker was made with (setModel), at size 1
   TrackerParams params_;
   PoseEnergy energy_;  // the frame's energy; rebuilt only when the parameters change
   std::array<LongFingerJoints, kNumFingers - 1> finger_joints_;  // of model_ (toggleFingers)
