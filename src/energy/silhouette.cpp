@@ -118,7 +118,11 @@ SilhouetteScorer::SilhouetteScorer(const std::vector<CameraObservation>& observa
 }
 
 double SilhouetteScorer::score(const HandModel& model, const Pose& pose) {
-  return meanDice(model, pose, *observations_, foregrounds_, &foreground_sizes_, sigmas_, &canvas_);
+  return score(model, pose, sigmas_);
+}
+
+double SilhouetteScorer::score(const HandModel& model, const Pose& pose, double sigmas) {
+  return meanDice(model, pose, *observations_, foregrounds_, &foreground_sizes_, sigmas, &canvas_);
 }
 
 }  // namespace sag_hand_tracker

@@ -19,12 +19,7 @@ namespace {
 
 constexpr double kDegToRad = M_PI / 180.0;
 
-Eigen::Matrix3d rpyDegrees(const Eigen::Vector3d& rpy) {
-  return (Eigen::AngleAxisd(rpy[2] * kDegToRad, Eigen::Vector3d::UnitZ()) *
-          Eigen::AngleAxisd(rpy[1] * kDegToRad, Eigen::Vector3d::UnitY()) *
-          Eigen::AngleAxisd(rpy[0] * kDegToRad, Eigen::Vector3d::UnitX()))
-      .toRotationMatrix();
-}
+Eigen::Matrix3d rpyDegrees(const Eigen::Vector3d& rpy) { return rpyRotation(rpy * kDegToRad); }
 
 // Reads one model document (yaml_reader.h: every error names the file, the line and the key).
 class ModelParser {
@@ -387,6 +382,13 @@ HandModel loadHandModel(const std::string& path) {
 HandModel loadHandModel(const std::string& path, Handedness handedness) {
   HandModel model = loadHandModel(path);
   return model.handedness == handedness ? model : mirrorHandModel(model);
+}
+
+Eigen::Matrix3d rpyRotation(const Eigen::Vector3d& rpy) {
+  return (Eigen::AngleAxisd(rpy[2], Eigen::Vector3d::UnitZ()) *
+          Eigen::AngleAxisd(rpy[1], Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(rpy[0], Eigen::Vector3d::UnitX()))
+      .toRotationMatrix();
 }
 
 HandModel scaleHandModel(const HandModel& model, double length_factor, double width_factor) {

@@ -125,12 +125,7 @@ HandModel shapeHandModel(const HandModel& model, const HandShape& shape) {
   for (int f = 0; f < kNumFingers; ++f) {
     Bone& first = out.bones[chains[f][0]];
     first.offset += shape.scale * shape.knuckle_shift[f];
-    const Eigen::Vector3d& rpy = shape.base_rotation[f];
-    first.rest_rotation =
-        first.rest_rotation * (Eigen::AngleAxisd(rpy.z(), Eigen::Vector3d::UnitZ()) *
-                               Eigen::AngleAxisd(rpy.y(), Eigen::Vector3d::UnitY()) *
-                               Eigen::AngleAxisd(rpy.x(), Eigen::Vector3d::UnitX()))
-                                  .toRotationMatrix();
+    first.rest_rotation = first.rest_rotation * rpyRotation(shape.base_rotation[f]);
     const Eigen::AngleAxisd tilt(shape.flexion_tilt[f], Eigen::Vector3d::UnitX());
     for (const int bone : chains[f]) {
       for (const int dof : out.bones[bone].joint_dofs) {

@@ -970,12 +970,14 @@ OptimizationResult HandTracker::trackFromPrediction(const PoseEnergy& energy,
 
 bool HandTracker::toggleFingers(const PoseEnergy& energy,
                                 const std::vector<CameraObservation>& observations,
-                                OptimizationResult* result) const {
+                                OptimizationResult* result,
+                                std::optional<SilhouetteScorer>* silhouette_of_frame) const {
   const double weight = params_.toggle_silhouette_weight;
   if (!(weight > 0.0) || frames_since_start_ < params_.toggle_min_track_frames) return false;
   const HandModel& model = energy.model();
   // Made at the first finger to toggle: a half-curled hand's frame pays nothing.
-  std::optional<SilhouetteScorer> silhouette;
+  std::optional<SilhouetteScorer>& silhouette = *silhouette_of_frame;
+  bool scored = false;
   double tracked_silhouette = 0.0;
   OptimizerParams optimizer = params_.optimizer;
   optimizer.iterations = params_.toggle_iterations;
@@ -1006,17 +1008,19 @@ bool HandTracker::toggleFingers(const PoseEnergy& energy,
       continue;
     }
     clampToLimits(model, &toggled);
-    if (!silhouette) {
-      silhouette.emplace(observations, params_.toggle_silhouette_sigmas);
-      tracked_silhouette = silhouette->score(model, result->pose);
+    const double sigmas = params_.toggle_silhouette_sigmas;
+    if (!scored) {
+      if (!silhouette) silhouette.emplace(observations, sigmas);
+      tracked_silhouette = silhouette->score(model, result->pose, sigmas);
       best_score = result->energy + weight * tracked_silhouette + params_.toggle_min_gain;
+      scored = true;
     }
-    if (silhouette->score(model, toggled) <
+    if (silhouette->score(model, toggled, sigmas) <
         tracked_silhouette - params_.toggle_max_silhouette_loss) {
       continue;
     }
     OptimizationResult refined = optimizePose(energy, toggled, optimizer);
-    const double score = refined.energy + weight * silhouette->score(model, refined.pose);
+    const double score = refined.energy + weight * silhouette->score(model, refined.pose, sigmas);
     if (score > best_score) {
       best_score = score;
       best = refined;
@@ -1070,6 +1074,8 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
   energy.setForearmDirection(forearm);
 
   std::optional<OptimizationResult> optimized;
+  // The frame's silhouette scorer (finger toggles, size trial): its foregrounds made once.
+  std::optional<SilhouetteScorer> silhouette;
   // The terms of the tracked pose; the frame reports them unless a start or a flip replaced it.
   EnergyTerms tracked_terms;
   bool started = false;
@@ -1079,7 +1085,7 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
   std::optional<Pose> kept_motion;
   if (tracking) {
     optimized = trackFromPrediction(energy, previous_, *current_);
-    toggleFingers(energy, observations, &*optimized);
+    toggleFingers(energy, observations, &*optimized, &silhouette);
     const bool refined = refineCurledFingers(energy, &*optimized);
     forearm = fitForearm(energy, &*optimized, forearm);
     energy.setForearmDirection(forearm);
@@ -1244,12 +1250,13 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
   current_ = optimized->pose;
   forearm_ = forearm;
   adaptColours(result, observations);
-  adaptSize(result, observations);
+  adaptSize(result, observations, &silhouette);
   return result;
 }
 
 void HandTracker::adaptSize(const FrameResult& result,
-                            const std::vector<CameraObservation>& observations) {
+                            const std::vector<CameraObservation>& observations,
+                            std::optional<SilhouetteScorer>* silhouette) {
   // A bare forearm continues the foreground past the wrist: a larger model that slides back along
   // it covers more, and the next trial grows it again (the studio's `wristflex`: 1.15-1.2 on
   // every hand, the wrist 27-39 mm off). During a fast turn the tracked pose lags the images.
@@ -1272,13 +1279,15 @@ void HandTracker::adaptSize(const FrameResult& result,
     return;
   }
   frames_to_size_trial_ = params_.size_interval - 1;
-  SilhouetteScorer silhouette(observations, params_.size_silhouette_sigmas);
-  double best_score = silhouette.score(model_, result.pose) + params_.size_min_gain;
+  const double sigmas = params_.size_silhouette_sigmas;
+  if (!*silhouette) silhouette->emplace(observations, sigmas);
+  double best_score = (*silhouette)->score(model_, result.pose, sigmas) + params_.size_min_gain;
   double best_factor = 1.0;
   for (const double factor : {1.0 + params_.size_step, 1.0 - params_.size_step}) {
     const double size = size_factor_ * factor;
     if (size > params_.size_max || size < params_.size_min) continue;
-    const double score = silhouette.score(scaleHandModel(model_, factor, 1.0), result.pose);
+    const double score =
+        (*silhouette)->score(scaleHandModel(model_, factor, 1.0), result.pose, sigmas);
     if (score > best_score) {
       best_score = score;
       best_factor = factor;

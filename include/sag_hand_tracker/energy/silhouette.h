@@ -35,6 +35,9 @@ class SilhouetteScorer {
  public:
   SilhouetteScorer(const std::vector<CameraObservation>& observations, double sigmas);
   double score(const HandModel& model, const Pose& pose);
+  // At other sigmas than the constructor's: one scorer (the foregrounds made once) serves a
+  // frame's finger toggles and its size trial.
+  double score(const HandModel& model, const Pose& pose, double sigmas);
 
  private:
   const std::vector<CameraObservation>* observations_;

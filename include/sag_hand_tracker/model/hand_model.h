@@ -91,6 +91,10 @@ HandModel parseHandModel(const std::string& yaml_text, const std::string& source
 // As loadHandModel, and mirrors it if `handedness` differs from the file's.
 HandModel loadHandModel(const std::string& path, Handedness handedness);
 
+// Rz(yaw) Ry(pitch) Rx(roll) of (roll, pitch, yaw) in radians: the model file's rest_rpy_deg
+// convention.
+Eigen::Matrix3d rpyRotation(const Eigen::Vector3d& rpy);
+
 // The model scaled about its root (the wrist): every bone offset and length and every Gaussian
 // mean times `length_factor`; each Gaussian's covariance in its bone frame by S Sigma S with S =
 // diag(length_factor, across, width_factor), `across` being length_factor for the palm (bones[0]:

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "sag_hand_tracker/energy/energy.h"
+#include "sag_hand_tracker/energy/silhouette.h"
 #include "sag_hand_tracker/optimization/optimizer.h"
 #include "sag_hand_tracker/tracking/colour_adaptation.h"
 
@@ -503,15 +504,18 @@ class HandTracker {
   // TrackerParams::toggle_silhouette_weight: tries each straight long finger curled and each
   // curled one open, and keeps the best toggle that raises E + w D, on a track that does not look
   // lost. Returns whether result->pose was replaced.
+  // `silhouette`: the frame's scorer, made here when first needed (adaptSize uses it too).
   bool toggleFingers(const PoseEnergy& energy, const std::vector<CameraObservation>& observations,
-                     OptimizationResult* result) const;
+                     OptimizationResult* result, std::optional<SilhouetteScorer>* silhouette) const;
   // TrackerParams::curled_refine_*: refines the long fingers of a curled hand, the root and the
   // thumb held, with occlusion and the model's area; `energy` is left as it was. Returns whether
   // it refined; then result->energy is not the refined pose's (the caller scores it).
   bool refineCurledFingers(PoseEnergy& energy, OptimizationResult* result) const;
   // TrackerParams::size_step: after a held frame `result`, may scale model_ (and rebuild the
   // energy for the next frame).
-  void adaptSize(const FrameResult& result, const std::vector<CameraObservation>& observations);
+  // `silhouette`: the frame's scorer (toggleFingers), made here if the toggles did not.
+  void adaptSize(const FrameResult& result, const std::vector<CameraObservation>& observations,
+                 std::optional<SilhouetteScorer>* silhouette);
   // model_ at `size` times base_model_'s lengths (scaleHandModel), its colours kept; the energy
   // rebuilt. Always from base_model_, so that a size reached by any path is the same model.
   void setSize(double size);
