@@ -263,13 +263,15 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
                      missing + stamp_notes);
   }
 
-  // 3. Fit.
+  // 3. Fit, from the start model at the size the tracker ended the routine with (RoutineTracking).
+  summary.start_size = pipeline.tracker().sizeFactor();
+  const HandModel fit_start = scaleHandModel(start, summary.start_size, 1.0);
   HandFitParams fit_params;
   fit_params.max_frames = options.max_frames;
   fit_params.rounds = options.rounds;
   fit_params.open_hand_frames = !summary.routine.complete;
   summary.fit =
-      fitHandModel(start, frames, fit_params, [&](double fraction, const std::string& status) {
+      fitHandModel(fit_start, frames, fit_params, [&](double fraction, const std::string& status) {
         if (stop && stop->load()) throw InputError("interrupted");
         if (progress) progress->update(0.3 + 0.7 * fraction, status);
       });
@@ -283,7 +285,7 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
     summary.truth_shape = options.truth_shape;
     summary.truth_errors = compareSkeletons(summary.fit.model, truth);
   }
-  summary.tips_on_foreground_before = fingertipsOnForeground(start, used, tracked_poses);
+  summary.tips_on_foreground_before = fingertipsOnForeground(fit_start, used, tracked_poses);
   summary.tips_on_foreground_after =
       fingertipsOnForeground(summary.fit.model, used, summary.fit.poses);
 
@@ -359,6 +361,8 @@ std::string formatCalibrateHandSummary(const CalibrateHandSummary& s) {
            "shows:\n";
     for (const std::string& item : s.routine.missing) out << "                - " << item << "\n";
   }
+  out << "  start size:   x" << fixedNumber(s.start_size, 3)
+      << " (the tracker's, from the routine's open hand; the factors below are on top of it)\n";
   out << "  global shape: thickness x" << fixedNumber(fit.shape.thickness, 3) << ", size x"
       << fixedNumber(fit.shape.scale, 3) << ", palm width x" << fixedNumber(fit.shape.palm_width, 3)
       << ", finger length x" << fixedNumber(fit.shape.finger_length, 3) << "\n";

@@ -251,9 +251,10 @@ ShapeFit fitShape(const BenchmarkOptions& options, const studio::StudioHand& han
     fit.model = model.string();
     fit.ok = true;
     const HandFitResult& r = fit.calibration.fit;
-    log << "benchmark: fitted the model to hand " << hand.name << ": size x"
-        << fixedNumber(r.shape.scale, 3) << ", palm width x" << fixedNumber(r.shape.palm_width, 3)
-        << ", finger length x" << fixedNumber(r.shape.finger_length, 3) << ", thickness x"
+    log << "benchmark: fitted the model to hand " << hand.name << ": from the tracker's size x"
+        << fixedNumber(fit.calibration.start_size, 3) << ", size x" << fixedNumber(r.shape.scale, 3)
+        << ", palm width x" << fixedNumber(r.shape.palm_width, 3) << ", finger length x"
+        << fixedNumber(r.shape.finger_length, 3) << ", thickness x"
         << fixedNumber(r.shape.thickness, 3) << "; energy " << fixedNumber(r.energy_before, 4)
         << " -> " << fixedNumber(r.energy_after, 4) << " in "
         << fixedNumber(fit.calibration.seconds, 1) << " s -> " << fit.model << "\n"
@@ -474,10 +475,21 @@ std::string fittedReport(const BenchmarkOptions& options, const BenchmarkResults
   md << "\n";
 
   md << "## The fits (calibrate_hand's code, start model `sag`)\n\n";
-  const std::vector<std::string> fit_header{
-      "hand shape",   "result",          "frames with the hand", "used",          "size x",
-      "palm width x", "finger length x", "thickness x",          "energy before", "energy after",
-      "score before", "score after",     "tips on foreground %", "seconds"};
+  const std::vector<std::string> fit_header{"hand shape",
+                                            "result",
+                                            "frames with the hand",
+                                            "used",
+                                            "tracker's size x",
+                                            "size x",
+                                            "palm width x",
+                                            "finger length x",
+                                            "thickness x",
+                                            "energy before",
+                                            "energy after",
+                                            "score before",
+                                            "score after",
+                                            "tips on foreground %",
+                                            "seconds"};
   md << markdownRow(fit_header) << markdownRule(fit_header.size());
   for (const ShapeFit& fit : results.fits) {
     std::vector<std::string> cells{fit.shape};
@@ -489,6 +501,7 @@ std::string fittedReport(const BenchmarkOptions& options, const BenchmarkResults
       cells.push_back("fitted");
       cells.push_back(std::to_string(c.tracked_frames));
       cells.push_back(std::to_string(c.fit.frame_indices.size()));
+      cells.push_back(fixedNumber(c.start_size, 3));
       cells.push_back(fixedNumber(c.fit.shape.scale, 3));
       cells.push_back(fixedNumber(c.fit.shape.palm_width, 3));
       cells.push_back(fixedNumber(c.fit.shape.finger_length, 3));
@@ -767,8 +780,9 @@ void writeFittedCsv(const std::string& path, const BenchmarkResults& results) {
   out << "shape,fit,frames,default_mean_mm,fitted_mean_mm,default_failed,fitted_failed,"
          "default_reversed_pct,fitted_reversed_pct,default_rolled_pct,fitted_rolled_pct,"
          "default_wrist_mm,fitted_wrist_mm,reference_mm,fitted_lower,fitted_within_20pct,"
-         "fit_tracked_frames,fit_used_frames,fit_scale,fit_palm_width,fit_finger_length,"
-         "fit_thickness,energy_before,energy_after,score_before,score_after,fit_seconds,model,"
+         "fit_tracked_frames,fit_used_frames,fit_start_size,fit_scale,fit_palm_width,"
+         "fit_finger_length,fit_thickness,energy_before,energy_after,score_before,score_after,"
+         "fit_seconds,model,"
          "error\n";
   for (const FittedComparison& row : compareFitted(results)) {
     const ErrorStats& d = row.with_default.stats;
@@ -787,11 +801,12 @@ void writeFittedCsv(const std::string& path, const BenchmarkResults& results) {
         << (row.lower ? 1 : 0) << "," << (row.within_20_percent ? 1 : 0) << ","
         << (fit.ok ? std::to_string(c.tracked_frames) : "-") << ","
         << (fit.ok ? std::to_string(c.fit.frame_indices.size()) : "-") << ","
-        << ifFitted(c.fit.shape.scale, 4) << "," << ifFitted(c.fit.shape.palm_width, 4) << ","
-        << ifFitted(c.fit.shape.finger_length, 4) << "," << ifFitted(c.fit.shape.thickness, 4)
-        << "," << ifFitted(c.fit.energy_before, 5) << "," << ifFitted(c.fit.energy_after, 5) << ","
-        << ifFitted(c.fit.score_before, 5) << "," << ifFitted(c.fit.score_after, 5) << ","
-        << ifFitted(c.seconds, 1) << "," << fit.model << "," << oneLine(fit.error) << "\n";
+        << ifFitted(c.start_size, 4) << "," << ifFitted(c.fit.shape.scale, 4) << ","
+        << ifFitted(c.fit.shape.palm_width, 4) << "," << ifFitted(c.fit.shape.finger_length, 4)
+        << "," << ifFitted(c.fit.shape.thickness, 4) << "," << ifFitted(c.fit.energy_before, 5)
+        << "," << ifFitted(c.fit.energy_after, 5) << "," << ifFitted(c.fit.score_before, 5) << ","
+        << ifFitted(c.fit.score_after, 5) << "," << ifFitted(c.seconds, 1) << "," << fit.model
+        << "," << oneLine(fit.error) << "\n";
   }
   writeOutputFile(path, out.str());
 }

@@ -101,7 +101,6 @@ RoutineTracking RoutineTracking::of(const TrackerParams& params) {
   routine.counter_turn_race_share = params.counter_turn_race_share;
   routine.redetect_race_iterations = params.redetect_race_iterations;
   routine.curled_refine_iterations = params.curled_refine_iterations;
-  routine.size_step = params.size_step;
   routine.wrist_weight = params.energy.wrist_weight;
   return routine;
 }
@@ -110,7 +109,6 @@ void RoutineTracking::applyTo(TrackerParams* params) const {
   params->counter_turn_race_share = counter_turn_race_share;
   params->redetect_race_iterations = redetect_race_iterations;
   params->curled_refine_iterations = curled_refine_iterations;
-  params->size_step = size_step;
   params->energy.wrist_weight = wrist_weight;
 }
 
@@ -118,7 +116,7 @@ bool RoutineTracking::operator==(const RoutineTracking& other) const {
   return counter_turn_race_share == other.counter_turn_race_share &&
          redetect_race_iterations == other.redetect_race_iterations &&
          curled_refine_iterations == other.curled_refine_iterations &&
-         size_step == other.size_step && wrist_weight == other.wrist_weight;
+         wrist_weight == other.wrist_weight;
 }
 
 TrackerParams calibrationTrackerParams() {

@@ -833,11 +833,10 @@ class TrackerNodelet : public nodelet::Nodelet {
   bool calibrate(const Calibrate::Request& request, Calibrate::Response* response,
                  std::string* message) {
     HandModel start_model;
+    double start_size = 1.0;
     CalibrationRecording recording;
     {
       std::unique_lock<std::mutex> lock(mutex_);
-      // At the size the tracker found (TrackerParams::size_step): the routine's poses are its.
-      start_model = scaleHandModel(model_, tracker_->sizeFactor(), 1.0);
       recording_.emplace();
       recording_->duration = request.duration;
       // The routine is tracked as calibrate_hand tracks it (RoutineTracking: whole ascents, no
@@ -855,6 +854,9 @@ class TrackerNodelet : public nodelet::Nodelet {
       recording = std::move(*recording_);
       recording_.reset();
       awaiting_late_.clear();
+      // At the size the tracker ended the routine with (TrackerParams::size_step, RoutineTracking).
+      start_size = tracker_->sizeFactor();
+      start_model = scaleHandModel(model_, start_size, 1.0);
       setRoutineTracking(live);
     }
     response->sets = recording.sets;
@@ -934,12 +936,13 @@ class TrackerNodelet : public nodelet::Nodelet {
     std::ostringstream summary;
     summary << "fitted on " << fit.frame_indices.size() << " of " << recording.frames.size()
             << " frames with the hand" << (fit.open_frames_only ? " (open hand)" : "") << " ("
-            << recording.sets << " sets, " << routine.views << " views): size x"
-            << fixed(fit.shape.scale, 3) << ", palm width x" << fixed(fit.shape.palm_width, 3)
-            << ", finger length x" << fixed(fit.shape.finger_length, 3) << ", thickness x"
-            << fixed(fit.shape.thickness, 3) << "; energy E " << fixed(fit.energy_before, 4)
-            << " -> " << fixed(fit.energy_after, 4) << ", shape score "
-            << fixed(fit.score_before, 4) << " -> " << fixed(fit.score_after, 4);
+            << recording.sets << " sets, " << routine.views << " views), from the model at the "
+            << "tracker's size x" << fixed(start_size, 3) << ": size x" << fixed(fit.shape.scale, 3)
+            << ", palm width x" << fixed(fit.shape.palm_width, 3) << ", finger length x"
+            << fixed(fit.shape.finger_length, 3) << ", thickness x" << fixed(fit.shape.thickness, 3)
+            << "; energy E " << fixed(fit.energy_before, 4) << " -> " << fixed(fit.energy_after, 4)
+            << ", shape score " << fixed(fit.score_before, 4) << " -> "
+            << fixed(fit.score_after, 4);
     if (!routine.complete) {
       // As calibrate_hand: a recording with the hand long enough is fitted from what it shows.
       summary << "; the sets did not show the whole routine:";

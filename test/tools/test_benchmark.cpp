@@ -26,6 +26,7 @@
 #include "sag_hand_tracker/model/kinematics.h"
 #include "sag_hand_tracker/model/pose.h"
 #include "sag_hand_tracker/studio/hand_shapes.h"
+#include "sag_hand_tracker/tracking/tracker.h"
 #include "sag_hand_tracker/util/types.h"
 
 using namespace sag_hand_tracker;
@@ -710,6 +711,9 @@ TEST_F(BenchmarkTool, BenchmarkFittedModelColumnPerHandShape) {
     EXPECT_EQ(row.at("reference_mm"), pooled[Key("default", "sag")].at("mean_mm"));
     EXPECT_GT(number(row, "fit_scale"), 0.5);
     EXPECT_LT(number(row, "fit_scale"), 1.5);
+    // The routine's tracker's size, where the fit starts: within TrackerParams' bounds.
+    EXPECT_GE(number(row, "fit_start_size"), TrackerParams().size_min);
+    EXPECT_LE(number(row, "fit_start_size"), TrackerParams().size_max);
     EXPECT_GT(number(row, "energy_after"), 0.0);
     EXPECT_GT(number(row, "fit_seconds"), 0.0);
     const bool lower = number(row, "fitted_mean_mm") < number(row, "default_mean_mm") &&

@@ -117,6 +117,7 @@ TEST_F(HandModelWriter, MirroredAndRotatedGaussiansRoundTrip) {
 // A routine is tracked without the races, the curled hand's refinement and the wrist prior
 // (RoutineTracking): calibrate_hand's tracker is the default one with those off, and the live
 // ~calibrate switches a running tracker to them and back without touching what a reconfigure set.
+// The size adaptation stays as the tracker has it: the fit starts at the size it found.
 TEST(RoutineTracking, SwitchesATrackerToTheRoutineAndBack) {
   const TrackerParams defaults;
   ASSERT_GT(defaults.counter_turn_race_share, 0.0);
@@ -130,11 +131,13 @@ TEST(RoutineTracking, SwitchesATrackerToTheRoutineAndBack) {
   EXPECT_EQ(offline.energy.wrist_weight, calibrationEnergyParams().wrist_weight);
   EXPECT_EQ(offline.energy.wrist_weight, 0.0);
   EXPECT_EQ(offline.optimizer.iterations, defaults.optimizer.iterations);
+  EXPECT_EQ(offline.size_step, defaults.size_step);
 
   TrackerParams live;  // as the live graph runs it, reconfigured
   live.optimizer.iterations = 10;
   live.energy.model_area_weight = 0.7;
   live.curled_refine_iterations = 6;
+  live.size_step = 0.0;  // switched off by a reconfigure
   const RoutineTracking saved = RoutineTracking::of(live);
   EXPECT_FALSE(saved == RoutineTracking());
   TrackerParams during = live;
@@ -145,6 +148,7 @@ TEST(RoutineTracking, SwitchesATrackerToTheRoutineAndBack) {
   EXPECT_EQ(during.energy.wrist_weight, 0.0);
   EXPECT_EQ(during.optimizer.iterations, 10);
   EXPECT_EQ(during.energy.model_area_weight, 0.7);
+  EXPECT_EQ(during.size_step, 0.0);
   during.energy.model_area_weight = 0.5;  // a reconfigure while the routine is collected
   saved.applyTo(&during);
   EXPECT_EQ(during.counter_turn_race_share, live.counter_turn_race_share);

@@ -46,6 +46,9 @@ struct CalibrateHandSummary {
   RoutineCheck routine;
   HandFitResult fit;
   HandModel start_model;
+  // The size the routine's tracker ended with (TrackerParams::size_step): the fit starts from
+  // start_model scaled by it (scaleHandModel), and fit.shape's factors are on top of it.
+  double start_size = 1.0;
   double tips_on_foreground_before = 0.0;  // fingertip reprojection check, fraction
   double tips_on_foreground_after = 0.0;
   double seconds = 0.0;

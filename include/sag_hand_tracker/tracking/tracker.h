@@ -227,12 +227,12 @@ struct TrackerParams {
   // the lengths are scaled (scaleHandModel(f, 1)): the silhouette prefers Gaussians thinner than
   // the hand (doc/calibration.md), so the widths stay the model's. Kept through losses and
   // restarts (the same user); reset and setModel start again at 1. Not for a model from
-  // calibrate_hand (colours fitted: its size is the user's), nor while calibrate_hand tracks its
-  // routine (RoutineTracking). TrackingPipeline and the tracker nodelet run it with a plate only
-  // (PipelineParams::size_adaptation_without_plate). size_step 0 disables it. The default hand
-  // of the studio reads 1.02 and its tracks lose 15 %. The silhouette at 1 sigma read the
-  // studio's hands 4-8 % larger than they are, at 1.3 sigma 3-5 % smaller; at 1.15 within 3 % on
-  // five of eight, 5 % on the others (doc/history.md "Session 41").
+  // calibrate_hand (colours fitted: its size is the user's); calibrate_hand tracks its routine
+  // with it and fits from the size it found (RoutineTracking). TrackingPipeline and the tracker
+  // nodelet run it with a plate only (PipelineParams::size_adaptation_without_plate). size_step 0
+  // disables it. The default hand of the studio reads 1.02 and its tracks lose 15 %. The silhouette
+  // at 1 sigma read the studio's hands 4-8 % larger than they are, at 1.3 sigma 3-5 % smaller;
+  // at 1.15 within 3 % on five of eight, 5 % on the others (doc/history.md "Session 41").
   double size_step = 0.02;
   int size_interval = 5;
   double size_open_flexion = 0.7;
