@@ -1286,8 +1286,19 @@ void HandTracker::adaptSize(const FrameResult& result,
   for (const double factor : {1.0 + params_.size_step, 1.0 - params_.size_step}) {
     const double size = size_factor_ * factor;
     if (size > params_.size_max || size < params_.size_min) continue;
-    const double score =
-        (*silhouette)->score(scaleHandModel(model_, factor, 1.0), result.pose, sigmas);
+    const HandModel scaled = scaleHandModel(model_, factor, 1.0);
+    Pose pose = result.pose;
+    if (params_.size_refine_iterations > 0) {
+      // The tracked pose fitted to this size (see TrackerParams::size_refine_iterations).
+      PoseEnergy energy(scaled, params_.energy);
+      energy.setFrame(observations);
+      energy.setForearmPresent(forearm_present_);
+      energy.setForearmDirection(forearm_);
+      OptimizerParams optimizer = params_.optimizer;
+      optimizer.iterations = params_.size_refine_iterations;
+      pose = optimizePose(energy, result.pose, optimizer).pose;
+    }
+    const double score = (*silhouette)->score(scaled, pose, sigmas);
     if (score > best_score) {
       best_score = score;
       best_factor = factor;

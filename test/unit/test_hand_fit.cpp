@@ -415,12 +415,12 @@ struct Recording {
 };
 
 // `routine`: tracked as calibrate_hand tracks the frames it fits (its tracker parameters).
-// `size_steps`: per model, the tracker's TrackerParams::size_step (empty: the default).
+// `trackers`: per model, the tracker's parameters (empty: the default, or the routine's).
 std::vector<Recording> renderAndTrack(const std::string& motion_name,
                                       const studio::HandShape& shape,
                                       const std::vector<HandModel>& models, int frames_limit,
                                       bool routine = false,
-                                      const std::vector<double>& size_steps = {}) {
+                                      const std::vector<TrackerParams>& trackers = {}) {
   const studio::Motion motion = studio::loadMotion(
       studio::resolveMotionPath(motion_name, kSourceDir + "/config"), handModel(), 1);
   studio::SequenceParams params;
@@ -433,7 +433,7 @@ std::vector<Recording> renderAndTrack(const std::string& motion_name,
   std::vector<TrackingPipeline> pipelines;
   for (size_t m = 0; m < models.size(); ++m) {
     PipelineParams model_params = pipeline_params;
-    if (m < size_steps.size()) model_params.tracker.size_step = size_steps[m];
+    if (m < trackers.size()) model_params.tracker = trackers[m];
     pipelines.emplace_back(models[m], dexter5(), model_params);
   }
   std::vector<Recording> recordings(models.size());
@@ -691,8 +691,10 @@ TEST(TrackerSize, TheModelTakesTheSizeOfARenderedHand) {
   for (const double size : {1.1, 1.0, 0.9}) {
     studio::HandShape shape;
     shape.scale = size;
+    TrackerParams fixed_size;
+    fixed_size.size_step = 0.0;
     const std::vector<Recording> runs = renderAndTrack("adbadd", shape, {handModel(), handModel()},
-                                                       80, false, {defaults.size_step, 0.0});
+                                                       80, false, {defaults, fixed_size});
     const double adapted = meanTipError(runs[0]), kept = meanTipError(runs[1]);
     std::printf("hand %.2f: model %.3f, %.1f mm; kept at 1: %.1f mm\n", size, runs[0].model_size,
                 adapted, kept);
@@ -700,6 +702,24 @@ TEST(TrackerSize, TheModelTakesTheSizeOfARenderedHand) {
     EXPECT_NEAR(runs[0].model_size, size, (size == 1.0 ? 1.01 : 2.01) * defaults.size_step * size);
     if (size != 1.0) EXPECT_LT(adapted, kept);
   }
+}
+
+// The size trial scores each size at the tracked pose refined for it
+// (TrackerParams::size_refine_iterations): at the tracked pose itself, fitted with the current
+// size, a finger tracked a little curled reads as a longer hand. On the model's own hand in
+// `pinch` the size stays within one step of 1 with the refinement (without it: 1.02).
+TEST(TrackerSize, EachSizeIsScoredAtAPoseFittedToIt) {
+  const TrackerParams defaults;
+  ASSERT_GT(defaults.size_refine_iterations, 0);
+  TrackerParams at_tracked_pose = defaults;
+  at_tracked_pose.size_refine_iterations = 0;
+  const std::vector<Recording> runs =
+      renderAndTrack("pinch", studio::HandShape(), {handModel(), handModel()}, 150, false,
+                     {defaults, at_tracked_pose});
+  std::printf("the model's own hand, pinch: size %.3f refined, %.3f at the tracked pose\n",
+              runs[0].model_size, runs[1].model_size);
+  EXPECT_NEAR(runs[0].model_size, 1.0, 0.5 * defaults.size_step);
+  EXPECT_LT(std::abs(runs[0].model_size - 1.0), std::abs(runs[1].model_size - 1.0));
 }
 
 INSTANTIATE_TEST_SUITE_P(Shapes, FitOnStudioHands, ::testing::Values(0, 1),

@@ -222,22 +222,26 @@ struct TrackerParams {
   // and the model grew along it to 1.15-1.2 on `wristflex`) and not turning by more than
   // size_max_turn per frame (the pose lags the images; `fastturn` on mesh_like read 1.13), the
   // model scaled about the wrist by 1 + size_step and by 1 - size_step is scored by the silhouette
-  // (D at size_silhouette_sigmas, the tracked pose); the model takes the better one when D rises
-  // by more than size_min_gain, within [size_min, size_max] times the size it was made with. Only
-  // the lengths are scaled (scaleHandModel(f, 1)): the silhouette prefers Gaussians thinner than
-  // the hand (doc/calibration.md), so the widths stay the model's. Kept through losses and
+  // (D at size_silhouette_sigmas) at the tracked pose refined for it by size_refine_iterations of
+  // the optimiser (the tracked pose was fitted with the current size: a finger tracked a little
+  // curled reads as a longer hand; scored at the tracked pose itself, the studio's default hand
+  // read 1.02-1.04 and its tracks lost 15 %, session 42); the model takes the better one when D
+  // rises by more than size_min_gain, within [size_min, size_max] times the size it was made with.
+  // Only the lengths are scaled (scaleHandModel(f, 1)): the silhouette prefers Gaussians thinner
+  // than the hand (doc/calibration.md), so the widths stay the model's. Kept through losses and
   // restarts (the same user); reset and setModel start again at 1. Not for a model from
   // calibrate_hand (colours fitted: its size is the user's); calibrate_hand tracks its routine
   // with it and fits from the size it found (RoutineTracking). TrackingPipeline and the tracker
   // nodelet run it with a plate only (PipelineParams::size_adaptation_without_plate). size_step 0
-  // disables it. The default hand of the studio reads 1.02 and its tracks lose 15 %. The silhouette
-  // at 1 sigma read the studio's hands 4-8 % larger than they are, at 1.3 sigma 3-5 % smaller;
-  // at 1.15 within 3 % on five of eight, 5 % on the others (doc/history.md "Session 41").
+  // disables it. Without the refinement the silhouette at 1 sigma read the studio's hands 4-8 %
+  // larger than they are, at 1.3 sigma 3-5 % smaller; at 1.15 within 3 % on five of eight, 5 % on
+  // the others (doc/history.md "Session 41").
   double size_step = 0.02;
   int size_interval = 5;
   double size_open_flexion = 0.7;
   double size_min_gain = 0.001;
   double size_silhouette_sigmas = 1.15;
+  int size_refine_iterations = 5;
   double size_max_turn = 0.15;  // radians per frame
   int size_min_cameras = 4;
   double size_min = 0.85;
