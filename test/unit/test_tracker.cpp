@@ -1151,7 +1151,6 @@ ForearmRun trackFlexingWrist(const TrackerParams& params, bool bare) {
   HandTracker tracker(model, params);
   EnergyParams hand_only_params = params.energy;
   hand_only_params.forearm_gaussians = 0;
-  PoseEnergy hand_only(model, hand_only_params);
   ForearmRun run;
   const Pose rest = typicalPose(model);
   for (int frame = 0; frame < 16; ++frame) {
@@ -1162,6 +1161,9 @@ ForearmRun trackFlexingWrist(const TrackerParams& params, bool bare) {
     const Eigen::Vector3d arm_in_palm = truth.rotation.transpose() * -rest.rotation.col(0);
     const HandModel scene = bare ? withForearm(model, EnergyParams(), arm_in_palm) : model;
     const auto observations = modelObservations(scene, truth, cameras, 3.0);
+    // The hand's energy alone, of the model the tracker tracks this frame with (the size
+    // adaptation may scale it after the frame, TrackerParams::size_step).
+    PoseEnergy hand_only(tracker.model(), hand_only_params);
     const FrameResult result = tracker.update(observations, frame * 0.04);
     if (!result.has_pose) {
       run.worst_error = 1.0;
