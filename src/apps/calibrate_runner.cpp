@@ -100,6 +100,8 @@ Options:
                            what it shows, on its open-hand frames, and say what was missing)
   --truth-shape NAME|FILE  a studio hand (config/hand_shapes.yaml, or a shape file) shown in
                            the bag: also print the fitted bones' errors against its true skeleton
+  --truth-model sag|FILE   the skeleton that hand was rendered from (render_bag's --model; sag),
+                           whatever the start model is
   --quiet                  no progress bar
   --help                   this text
 )";
@@ -124,6 +126,8 @@ CalibrateHandOptions parseCalibrateHandArguments(const std::vector<std::string>&
       options.require_routine = true;
     } else if (arg == "--truth-shape") {
       options.truth_shape = value();
+    } else if (arg == "--truth-model") {
+      options.truth_model = value();
     } else {
       throw UsageError("unknown argument '" + arg + "'");
     }
@@ -154,11 +158,13 @@ CalibrateHandSummary calibrateHand(const CalibrateHandOptions& options, Progress
   summary.start_model =
       loadHandModel(trackBagModelPath(options.model, options.config_dir), options.hand);
   const HandModel& start = summary.start_model;
-  // The true skeleton, resolved before the long work so that a wrong name fails at once.
+  // The true skeleton, resolved before the long work so that a wrong name fails at once: the
+  // studio hand shaped from the skeleton it was rendered from (render_bag's --model), which is
+  // not the start model when the fit starts from a fitted one.
   HandModel truth;
   if (!options.truth_shape.empty()) {
     truth = studio::shapeHandModel(
-        start,
+        loadHandModel(trackBagModelPath(options.truth_model, options.config_dir), options.hand),
         studio::resolveHandShape(options.truth_shape, packageConfigDir(options.config_dir)).shape);
   }
 

@@ -17,7 +17,11 @@
 
 #include "sag_hand_tracker/apps/calibrate_runner.h"
 #include "sag_hand_tracker/apps/render_runner.h"
+#include "sag_hand_tracker/apps/track_runner.h"
+#include "sag_hand_tracker/fitting/hand_fit.h"
 #include "sag_hand_tracker/model/hand_model.h"
+#include "sag_hand_tracker/studio/hand_surface.h"
+#include "sag_hand_tracker/util/number_text.h"
 #include "test_support/temp_files.h"
 
 using namespace sag_hand_tracker;
@@ -147,6 +151,41 @@ TEST_F(CalibrateHandTool, FitsTheFirstSecondsOfAnySequenceAndSaysWhatWasMissing)
   EXPECT_TRUE(fs::exists(out));
   const HandModel fitted = loadHandModel(out);
   EXPECT_TRUE(fitted.colours_fitted);
+}
+
+// --truth-shape compares with the studio hand shaped from the skeleton it was rendered from, not
+// from the start model: started from a model with 10 % longer fingers (as one starts from an
+// earlier fit), the printed errors are the fitted model's against the default skeleton, and
+// --truth-model names another skeleton.
+TEST_F(CalibrateHandTool, ComparesWithTheSkeletonTheHandWasRenderedFrom) {
+  const std::string bag = routineBag("routine.bag", 72);  // the default hand, 2.5 s
+  const HandModel sag = loadHandModel(trackBagModelPath("sag", kConfig));
+  studio::HandShape longer_fingers;
+  longer_fingers.finger_length.fill(1.1);
+  const HandModel start = studio::shapeHandModel(sag, longer_fingers);
+  const std::string start_path = path("longer_fingers.yaml");
+  std::ofstream(start_path) << formatHandModel(start);
+
+  auto worstBoneLine = [](const SkeletonErrors& e) {
+    return "worst bone " + fixedNumber(100.0 * e.worst_bone, 1) + " %, " +
+           std::to_string(e.bonesWithin(0.05)) + " of 15 bones within 5 %";
+  };
+  const std::string common = "--bag '" + bag + "' --model '" + start_path +
+                             "' --truth-shape default --max-frames 4 --rounds 1";
+  const ToolRun run = calibrateHand(common + " --out '" + path("fit.yaml") + "'");
+  ASSERT_EQ(run.status, 0) << run.err;
+  const HandModel fitted = loadHandModel(path("fit.yaml"));
+  const SkeletonErrors against_sag = compareSkeletons(fitted, sag);
+  const SkeletonErrors against_start = compareSkeletons(fitted, start);
+  ASSERT_NE(worstBoneLine(against_sag), worstBoneLine(against_start));
+  EXPECT_NE(run.out.find(worstBoneLine(against_sag)), std::string::npos) << run.out;
+
+  const ToolRun named = calibrateHand(common + " --truth-model '" + start_path + "' --out '" +
+                                      path("fit2.yaml") + "'");
+  ASSERT_EQ(named.status, 0) << named.err;
+  EXPECT_NE(named.out.find(worstBoneLine(compareSkeletons(loadHandModel(path("fit2.yaml")), start))),
+            std::string::npos)
+      << named.out;
 }
 
 TEST_F(CalibrateHandTool, OneView) {

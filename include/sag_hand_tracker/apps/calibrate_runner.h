@@ -28,6 +28,9 @@ struct CalibrateHandOptions {
   // --truth-shape NAME|FILE: a studio hand (config/hand_shapes.yaml) whose true skeleton the
   // summary compares the fitted one with (the bag must show that hand; empty: no comparison)
   std::string truth_shape;
+  // --truth-model sag|FILE: the skeleton render_bag shaped that hand from (its --model), not the
+  // start model: a start that is itself a fitted model would make the truth wrong
+  std::string truth_model = "sag";
   bool quiet = false;
   bool help = false;
   std::string config_dir;  // where "sag" is (empty: the package's config/); tests set it
