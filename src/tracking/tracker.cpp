@@ -173,11 +173,12 @@ Eigen::Matrix3d boundedRotation(const Eigen::Matrix3d& reference, const Eigen::M
   return from.slerp(max_angle / angle, to).normalized().toRotationMatrix();
 }
 
-RedetectionChoice chooseRedetection(const OptimizationResult& tracked,
+RedetectionChoice chooseRedetection(const HandModel& model, const OptimizationResult& tracked,
                                     const std::vector<OptimizationResult>& candidates,
                                     const TrackerParams& params, bool carrying,
                                     const std::vector<Eigen::Matrix3d>& recent) {
   RedetectionChoice choice;
+  const double tracked_flexion = meanFingerFlexion(model, tracked.pose);
   // The track's recent orientations of which it is itself a flip (where it was before it turned
   // over): found once, at the first candidate that is a flip of the track.
   std::optional<std::vector<const Eigen::Matrix3d*>> turned_from;
@@ -201,12 +202,15 @@ RedetectionChoice chooseRedetection(const OptimizationResult& tracked,
       }
     }
     if (returning) flip = false;
-    // A large turn that is no flip still needs the flip's margin.
+    // A large turn that is no flip, or a fist opened or closed, still needs the flip's margin.
     const bool turned =
         !returning && params.redetect_turn_angle > 0.0 &&
         rotationAngle(candidate.pose.rotation, tracked.pose.rotation) > params.redetect_turn_angle;
-    const double margin =
-        turned ? std::max(params.flip_margin, params.redetect_margin) : params.redetect_margin;
+    const bool recurled = !returning && params.redetect_flexion_change > 0.0 &&
+                          std::abs(meanFingerFlexion(model, candidate.pose) - tracked_flexion) >
+                              params.redetect_flexion_change;
+    const double margin = turned || recurled ? std::max(params.flip_margin, params.redetect_margin)
+                                             : params.redetect_margin;
     if (!flip && choice.adopt < 0 && candidate.energy > tracked.energy + margin) {
       choice.adopt = static_cast<int>(i);
     }
@@ -1161,7 +1165,7 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
         }
       } else {
         const RedetectionChoice choice = chooseRedetection(
-            *optimized, restart, params_, alternative_.has_value(), recent_rotations_);
+            model_, *optimized, restart, params_, alternative_.has_value(), recent_rotations_);
         if (choice.adopt >= 0) {
           // The adopted pose is of about the track's orientation: it goes on with the track's
           // motion (a hand in a fast turn keeps turning; reset, the track stopped while the hand

@@ -183,8 +183,9 @@ TEST_F(CalibrateHandTool, ComparesWithTheSkeletonTheHandWasRenderedFrom) {
   const ToolRun named = calibrateHand(common + " --truth-model '" + start_path + "' --out '" +
                                       path("fit2.yaml") + "'");
   ASSERT_EQ(named.status, 0) << named.err;
-  EXPECT_NE(named.out.find(worstBoneLine(compareSkeletons(loadHandModel(path("fit2.yaml")), start))),
-            std::string::npos)
+  EXPECT_NE(
+      named.out.find(worstBoneLine(compareSkeletons(loadHandModel(path("fit2.yaml")), start))),
+      std::string::npos)
       << named.out;
 }
 

@@ -196,6 +196,12 @@ TEST(Tracker, TheRacedSearchRestartsAsTheWholeOneDoes) {
 
 namespace {
 
+// The SAG model, loaded once (the re-detection's flexion guard measures poses on it).
+const HandModel& sagModel() {
+  static const HandModel model = loadHandModel(modelPath("sag"));
+  return model;
+}
+
 OptimizationResult resultWith(const Eigen::Matrix3d& rotation, double energy) {
   OptimizationResult result;
   result.pose.rotation = rotation;
@@ -259,16 +265,16 @@ TEST(TrackerOrientation, RedetectionNeverAdoptsAFlip) {
   const double small = 0.80 + 0.5 * (params.redetect_margin + params.flip_margin);
   ASSERT_GT(small, 0.80 + params.redetect_margin);
   RedetectionChoice choice =
-      chooseRedetection(tracked, {resultWith(rolledOver(r), small)}, params, false);
+      chooseRedetection(sagModel(), tracked, {resultWith(rolledOver(r), small)}, params, false);
   EXPECT_EQ(choice.adopt, -1);
   EXPECT_EQ(choice.carry, -1);
 
   // Large margin: carried, never adopted.
-  choice = chooseRedetection(tracked, {resultWith(reversed(r), 0.95)}, params, false);
+  choice = chooseRedetection(sagModel(), tracked, {resultWith(reversed(r), 0.95)}, params, false);
   EXPECT_EQ(choice.adopt, -1);
   EXPECT_EQ(choice.carry, 0);
   // ... and not a second one while one is carried.
-  choice = chooseRedetection(tracked, {resultWith(reversed(r), 0.95)}, params, true);
+  choice = chooseRedetection(sagModel(), tracked, {resultWith(reversed(r), 0.95)}, params, true);
   EXPECT_EQ(choice.adopt, -1);
   EXPECT_EQ(choice.carry, -1);
 
@@ -279,14 +285,15 @@ TEST(TrackerOrientation, RedetectionNeverAdoptsAFlip) {
       r * Eigen::AngleAxisd(M_PI / 6, Eigen::Vector3d::UnitY()).toRotationMatrix();
   const double adopted = 0.80 + 2 * params.redetect_margin;
   for (bool carrying : {false, true}) {
-    choice = chooseRedetection(
-        tracked, {resultWith(rolledOver(r), 0.95), resultWith(turned, adopted)}, params, carrying);
+    choice = chooseRedetection(sagModel(), tracked,
+                               {resultWith(rolledOver(r), 0.95), resultWith(turned, adopted)},
+                               params, carrying);
     EXPECT_EQ(choice.adopt, 1);
     EXPECT_EQ(choice.carry, 0);
   }
   // The best flip is the one carried, whatever the candidates' order.
   choice = chooseRedetection(
-      tracked,
+      sagModel(), tracked,
       {resultWith(reversed(r), 0.90), resultWith(turned, adopted), resultWith(rolledOver(r), 0.95)},
       params, false);
   EXPECT_EQ(choice.adopt, 1);
@@ -294,15 +301,16 @@ TEST(TrackerOrientation, RedetectionNeverAdoptsAFlip) {
   // A flip better than the track by flip_margin but not better than the adopted pose by it is
   // not carried.
   const double adopted_high = 0.80 + params.flip_margin;
-  choice = chooseRedetection(tracked,
+  choice = chooseRedetection(sagModel(), tracked,
                              {resultWith(rolledOver(r), adopted_high + 0.5 * params.flip_margin),
                               resultWith(turned, adopted_high)},
                              params, false);
   EXPECT_EQ(choice.adopt, 1);
   EXPECT_EQ(choice.carry, -1);
   // Not on less than redetect_margin.
-  choice = chooseRedetection(tracked, {resultWith(turned, 0.80 + 0.5 * params.redetect_margin)},
-                             params, false);
+  choice =
+      chooseRedetection(sagModel(), tracked,
+                        {resultWith(turned, 0.80 + 0.5 * params.redetect_margin)}, params, false);
   EXPECT_EQ(choice.adopt, -1);
 }
 
@@ -317,14 +325,58 @@ TEST(TrackerOrientation, RedetectionNeedsTheFlipMarginForALargeTurn) {
   ASSERT_FALSE(isFlip(large, r));
   ASSERT_GT(rotationAngle(large, r), params.redetect_turn_angle);
   const double small_gain = 0.80 + 0.5 * (params.redetect_margin + params.flip_margin);
-  EXPECT_EQ(chooseRedetection(tracked, {resultWith(large, small_gain)}, params, false).adopt, -1);
   EXPECT_EQ(
-      chooseRedetection(tracked, {resultWith(large, 0.80 + 2 * params.flip_margin)}, params, false)
-          .adopt,
-      0);
+      chooseRedetection(sagModel(), tracked, {resultWith(large, small_gain)}, params, false).adopt,
+      -1);
+  EXPECT_EQ(chooseRedetection(sagModel(), tracked,
+                              {resultWith(large, 0.80 + 2 * params.flip_margin)}, params, false)
+                .adopt,
+            0);
   // Switched off: the small gain is enough again.
   params.redetect_turn_angle = 0.0;
-  EXPECT_EQ(chooseRedetection(tracked, {resultWith(large, small_gain)}, params, false).adopt, 0);
+  EXPECT_EQ(
+      chooseRedetection(sagModel(), tracked, {resultWith(large, small_gain)}, params, false).adopt,
+      0);
+}
+
+// A fist opened (or an open hand closed) between two frames is no drift: a re-detection candidate
+// whose mean MCP + PIP flexion differs from the track's by more than redetect_flexion_change needs
+// the flip's margin, as a large turn does (raised, long_distal_small: an open hand 0.013 better
+// replaced a correctly tracked fist); a smaller change in the fingers only redetect_margin.
+TEST(TrackerOrientation, RedetectionNeedsTheFlipMarginToOpenOrCloseAFist) {
+  TrackerParams params;
+  ASSERT_GT(params.redetect_flexion_change, 0.0);
+  const HandModel& model = sagModel();
+  const Eigen::Matrix3d r = rotationFromVector(Eigen::Vector3d(0.1, 0.2, 0.3));
+  auto curledTo = [&](double flexion, double energy) {  // MCP and PIP each flexion / 2
+    OptimizationResult result = resultWith(r, energy);
+    for (const LongFingerJoints& finger : longFingerJoints(model)) {
+      result.pose.joints[finger.mcp_flex] = 0.5 * flexion;
+      result.pose.joints[finger.pip_flex] = 0.5 * flexion;
+    }
+    return result;
+  };
+  const OptimizationResult fist = curledTo(2.4, 0.80);
+  ASSERT_NEAR(meanFingerFlexion(model, fist.pose), 2.4, 1e-12);
+  const double small_gain = 0.80 + 0.5 * (params.redetect_margin + params.flip_margin);
+  // The open hand on the small gain: not adopted; on the flip's margin: adopted.
+  EXPECT_EQ(chooseRedetection(model, fist, {curledTo(0.0, small_gain)}, params, false).adopt, -1);
+  EXPECT_EQ(
+      chooseRedetection(model, fist, {curledTo(0.0, 0.80 + 2 * params.flip_margin)}, params, false)
+          .adopt,
+      0);
+  // Closing an open hand is the same.
+  EXPECT_EQ(
+      chooseRedetection(model, curledTo(0.0, 0.80), {curledTo(2.4, small_gain)}, params, false)
+          .adopt,
+      -1);
+  // A fist a little tighter or looser (less than redetect_flexion_change) on the small gain.
+  const double tighter = 2.4 - 0.5 * params.redetect_flexion_change;
+  EXPECT_EQ(chooseRedetection(model, fist, {curledTo(tighter, small_gain)}, params, false).adopt,
+            0);
+  // Switched off: the small gain is enough for the open hand.
+  params.redetect_flexion_change = 0.0;
+  EXPECT_EQ(chooseRedetection(model, fist, {curledTo(0.0, small_gain)}, params, false).adopt, 0);
 }
 
 // A flip back (TrackerParams::flip_return_frames): the track turned over within its recent
@@ -343,25 +395,27 @@ TEST(TrackerOrientation, RedetectionTakesAFlipBackToWhereTheTrackWas) {
   const double small = 0.80 + 0.5 * (params.redetect_margin + params.flip_margin);
   const std::vector<Eigen::Matrix3d> recent{before, before, now};
   RedetectionChoice choice =
-      chooseRedetection(tracked, {resultWith(back, small)}, params, false, recent);
+      chooseRedetection(sagModel(), tracked, {resultWith(back, small)}, params, false, recent);
   EXPECT_EQ(choice.adopt, 0);
   EXPECT_EQ(choice.carry, -1);
   // Not on less than redetect_margin.
-  choice = chooseRedetection(tracked, {resultWith(back, 0.80 + 0.5 * params.redetect_margin)},
-                             params, false, recent);
+  choice = chooseRedetection(sagModel(), tracked,
+                             {resultWith(back, 0.80 + 0.5 * params.redetect_margin)}, params, false,
+                             recent);
   EXPECT_EQ(choice.adopt, -1);
   // Without the track's history (or switched off: the tracker passes none), a flip as before.
-  choice = chooseRedetection(tracked, {resultWith(back, 0.95)}, params, false);
+  choice = chooseRedetection(sagModel(), tracked, {resultWith(back, 0.95)}, params, false);
   EXPECT_EQ(choice.adopt, -1);
   EXPECT_EQ(choice.carry, 0);
   // A candidate reversed from where the track was is no return: carried, not adopted.
-  choice = chooseRedetection(tracked, {resultWith(reversed(before), 0.95)}, params, false, recent);
+  choice = chooseRedetection(sagModel(), tracked, {resultWith(reversed(before), 0.95)}, params,
+                             false, recent);
   EXPECT_EQ(choice.adopt, -1);
   EXPECT_EQ(choice.carry, 0);
   // A track that has kept its orientation: a flip of it is a flip, whatever the history holds.
   const OptimizationResult steady = resultWith(before, 0.80);
-  choice = chooseRedetection(steady, {resultWith(rolledOver(before), 0.95)}, params, false,
-                             {before, before});
+  choice = chooseRedetection(sagModel(), steady, {resultWith(rolledOver(before), 0.95)}, params,
+                             false, {before, before});
   EXPECT_EQ(choice.adopt, -1);
   EXPECT_EQ(choice.carry, 0);
 }

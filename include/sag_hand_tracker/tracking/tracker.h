@@ -112,6 +112,13 @@ struct TrackerParams {
   // `raised` such a turn of 88 deg, 0.013 better, was the start of a rolled-over stretch. 0
   // disables it.
   double redetect_turn_angle = 1.05;
+  // Likewise a candidate whose fingers are curled differently from the track's by more than
+  // `redetect_flexion_change` (radians of meanFingerFlexion, MCP + PIP averaged over the four
+  // fingers: an open hand about 0, a fist above 1.9): a hand does not open or close its fist
+  // between two frames. On `raised`, an open hand turned 51 deg from long_distal_small's correctly
+  // tracked fist scored 0.013 better and replaced it; the fist was lost for 100 frames (40 mm).
+  // 0 disables it.
+  double redetect_flexion_change = 1.0;
   // A re-detection adopted in place of the track (no flip, and within max_rotation_per_frame of
   // the track's pose on that frame) goes on with the track's motion (poseBeforeMotion) instead of
   // starting still. On the studio's `fastturn` a re-detection adopted in a roll of 28 degrees per
@@ -360,18 +367,20 @@ Eigen::Matrix3d boundedRotation(const Eigen::Matrix3d& reference, const Eigen::M
                                 double max_angle);
 
 // The periodic re-detection's decision, given the tracked result of this frame and the start
-// routine's candidates (best first): `adopt` indexes the candidate that replaces the track (the
-// first that is no flip of it, better by redetect_margin), `carry` the flipped candidate that
-// starts being carried as the alternative (the best flip, when it beats the adopted candidate, or
-// else the track, by flip_margin; while one is carried, only together with an adoption, which
-// replaces it); -1: none. A flip is never adopted here, whatever its margin, unless it returns
-// to an orientation of `recent` (the track's last frames, oldest first) of which the track itself
-// is a flip (TrackerParams::flip_return_frames): that one counts as no flip.
+// routine's candidates (best first), both poses of `model`: `adopt` indexes the candidate that
+// replaces the track (the first that is no flip of it, better by redetect_margin, or by
+// flip_margin when it turned by redetect_turn_angle or curled by redetect_flexion_change), `carry`
+// the flipped candidate that starts being carried as the alternative (the best flip, when it beats
+// the adopted candidate, or else the track, by flip_margin; while one is carried, only together
+// with an adoption, which replaces it); -1: none. A flip is never adopted here, whatever its
+// margin, unless it returns to an orientation of `recent` (the track's last frames, oldest first)
+// of which the track itself is a flip (TrackerParams::flip_return_frames): that one counts as no
+// flip.
 struct RedetectionChoice {
   int adopt = -1;
   int carry = -1;
 };
-RedetectionChoice chooseRedetection(const OptimizationResult& tracked,
+RedetectionChoice chooseRedetection(const HandModel& model, const OptimizationResult& tracked,
                                     const std::vector<OptimizationResult>& candidates,
                                     const TrackerParams& params, bool carrying,
                                     const std::vector<Eigen::Matrix3d>& recent = {});
