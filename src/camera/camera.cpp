@@ -202,31 +202,45 @@ void checkDistortionInvertible(const Camera& camera, const std::string& who) {
   }
 }
 
+namespace {
+
+// The Gaussians whose undistorted means `out` (from `first` on) are finite, moved there; a Gaussian
+// the distortion cannot place is dropped rather than passed on as NaN.
+std::vector<ImageGaussian> placedGaussians(const std::vector<ImageGaussian>& gaussians,
+                                           const std::vector<cv::Point2d>& out, size_t first) {
+  std::vector<ImageGaussian> placed;
+  placed.reserve(gaussians.size());
+  for (size_t i = 0; i < gaussians.size(); ++i) {
+    const cv::Point2d& p = out[first + i];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
+    placed.push_back(gaussians[i]);
+    placed.back().mean = Eigen::Vector2d(p.x, p.y);
+  }
+  return placed;
+}
+
+}  // namespace
+
 void undistortImageSoG(const Camera& camera, ImageSoG* sog) {
   if (!camera.hasDistortion() || (sog->gaussians.empty() && sog->arm_cells == 0)) return;
   cv::Mat K_cv;
   cv::eigen2cv(camera.K, K_cv);
   std::vector<cv::Point2d> in, out;
-  in.reserve(sog->gaussians.size() + 1);
+  in.reserve(sog->gaussians.size() + sog->arm_gaussians.size() + 1);
   for (const ImageGaussian& g : sog->gaussians) in.emplace_back(g.mean.x(), g.mean.y());
+  for (const ImageGaussian& g : sog->arm_gaussians) in.emplace_back(g.mean.x(), g.mean.y());
   in.emplace_back(sog->arm_centroid.x(), sog->arm_centroid.y());
   cv::undistortPoints(in, out, K_cv, camera.distortion, cv::noArray(), K_cv);
-  // A Gaussian the distortion cannot place is dropped rather than passed on as NaN.
   const size_t count = sog->gaussians.size();
-  std::vector<ImageGaussian> placed;
-  placed.reserve(count);
-  for (size_t i = 0; i < count; ++i) {
-    if (!std::isfinite(out[i].x) || !std::isfinite(out[i].y)) continue;
-    placed.push_back(sog->gaussians[i]);
-    placed.back().mean = Eigen::Vector2d(out[i].x, out[i].y);
-  }
-  sog->gaussians = std::move(placed);
+  sog->gaussians = placedGaussians(sog->gaussians, out, 0);
+  sog->arm_gaussians = placedGaussians(sog->arm_gaussians, out, count);
   if (sog->arm_cells > 0) {
     const cv::Point2d& arm = out.back();
     if (std::isfinite(arm.x) && std::isfinite(arm.y)) {
       sog->arm_centroid = Eigen::Vector2d(arm.x, arm.y);
     } else {
       sog->arm_cells = 0;  // the sleeve's centroid cannot be placed: no forearm cue
+      sog->arm_gaussians.clear();
     }
   }
 }

@@ -51,7 +51,7 @@ double meanShapeScore(const HandModel& model, const HandFitParams& params,
     const std::vector<CameraObservation>& observations = frames[f]->observations;
     sum += params.score == HandFitParams::Score::kSilhouette
                ? silhouetteScore(model, observations, foregrounds[f], poses[f],
-                                 params.silhouette_sigmas)
+                                 params.silhouette_sigmas, params.sleeve_charge)
                : shapeScore(model, params.energy, observations, poses[f], params.model_mass_weight);
   }
   return frames.empty() ? 0.0 : sum / frames.size();

@@ -136,6 +136,7 @@ struct Workspace {
   std::vector<unsigned char> sleeve;
   int arm_cells = 0;  // the forearm evidence of the last image (see ImageSoG::arm_cells)
   Eigen::Vector2d arm_sum = Eigen::Vector2d::Zero();
+  std::vector<int> arm_band;  // its cells
 };
 
 Workspace& workspace() {
@@ -562,6 +563,7 @@ bool prepare(const cv::Mat& rgb, const SegmentationParams& params, SegmentationM
   ws.mask.resize(cells);
   ws.arm_cells = 0;
   ws.arm_sum.setZero();
+  ws.arm_band.clear();
   ws.sleeve.assign(use_plate ? cells : 0, 0);
   for (int i = 0; i < cells; ++i) {
     const float* c = &ws.cell_means[3 * i];
@@ -607,6 +609,20 @@ void finishMask(Workspace& ws, int cells_x, int cells_y, int cell_size, CellMask
   mask.cell_size = cell_size;
 }
 
+// The sleeve's cells `band` as ImageSoG::arm_gaussians: one square leaf per cell (a Gaussian of
+// sigma cell_size / sqrt(2 pi), as the quad-tree's leaves), hue 0.
+std::vector<ImageGaussian> armGaussians(const std::vector<int>& band, int cells_x, int cell_size) {
+  std::vector<ImageGaussian> gaussians;
+  gaussians.reserve(band.size());
+  const double sigma = cell_size / std::sqrt(2.0 * M_PI);
+  for (const int i : band) {
+    gaussians.push_back(
+        {Eigen::Vector2d((i % cells_x + 0.5) * cell_size, (i / cells_x + 0.5) * cell_size), sigma,
+         Hsv::Zero()});
+  }
+  return gaussians;
+}
+
 // The forearm evidence of the image SoG (ImageSoG::arm_cells): with the plate, the sleeve cells
 // prepare() marked that lie next to the kept foreground (RoomCueParams::sleeve_band_cells), i.e.
 // where the sleeve meets the hand; without it, what the room cues found (segmentFrame).
@@ -614,16 +630,18 @@ void addArmEvidence(const SegmentationParams& params, Workspace& ws, const CellM
                     bool masked, ImageSoG* sog) {
   if (masked && !ws.sleeve.empty()) {
     ws.arm_cells = 0;
+    ws.arm_band.clear();
     if (params.room.sleeve_band_cells > 0) {
       Eigen::Vector2d centroid;
       detail::sleeveNextToForeground(params, ws.sleeve, mask.cells_x, mask.cells_y, mask.cell_size,
-                                     ws.mask, &ws.arm_cells, &centroid);
+                                     ws.mask, &ws.arm_cells, &centroid, &ws.arm_band);
       ws.arm_sum = centroid * ws.arm_cells;
     }
   }
   if (!masked || ws.arm_cells <= 0) return;
   sog->arm_cells = ws.arm_cells;
   sog->arm_centroid = ws.arm_sum / ws.arm_cells;
+  sog->arm_gaussians = armGaussians(ws.arm_band, mask.cells_x, mask.cell_size);
 }
 
 // The cell mask at image size: 255 where a cell is foreground.
@@ -691,6 +709,7 @@ ImageSoG ImageSegmenter::segment(const cv::Mat& rgb, std::vector<QuadtreeLeaf>* 
   Workspace& ws = workspace();
   CellMask mask;
   ws.arm_cells = 0;
+  ws.arm_band.clear();
   const SegmentationMode mode = effectiveMode();
   const bool masked = prepare(rgb, params_, mode, plate_, "segment", ws, mask);
   const cv::Mat pixels = refineBorderPixelsIfSkinOnly(rgb, params_, mode, masked, ws, mask);
@@ -804,8 +823,10 @@ void ImageSegmenter::sleeveEvidence(const cv::Mat& kept, ImageSoG* sog) const {
     const int y = std::min((i / room_.cells_x) * s + s / 2, room_.height - 1);
     cells[i] = kept.at<unsigned char>(y, x) != 0;
   }
+  std::vector<int> band;
   detail::sleeveNextToForeground(params_, room_.previous_means, room_.cells_x, room_.cells_y, s,
-                                 cells, &sog->arm_cells, &sog->arm_centroid);
+                                 cells, &sog->arm_cells, &sog->arm_centroid, &band);
+  sog->arm_gaussians = armGaussians(band, room_.cells_x, s);
 }
 
 ImageSoG ImageSegmenter::segmentFrame(const cv::Mat& rgb, std::vector<QuadtreeLeaf>* leaves) {
@@ -828,7 +849,8 @@ ImageSoG ImageSegmenter::segmentFrame(const cv::Mat& rgb, std::vector<QuadtreeLe
     if (!use_plate && params_.room.sleeve_band_cells > 0) {
       Eigen::Vector2d centroid;
       detail::sleeveNextToForeground(params_, ws.cell_means, mask.cells_x, mask.cells_y,
-                                     mask.cell_size, ws.mask, &ws.arm_cells, &centroid);
+                                     mask.cell_size, ws.mask, &ws.arm_cells, &centroid,
+                                     &ws.arm_band);
       ws.arm_sum = centroid * ws.arm_cells;
     }
     room_.mask = ws.mask;

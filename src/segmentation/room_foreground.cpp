@@ -739,22 +739,23 @@ std::vector<HandCandidate> roomCandidates(const SegmentationParams& params,
 void sleeveNextToForeground(const SegmentationParams& params, const std::vector<float>& means,
                             int cells_x, int cells_y, int cell_size,
                             const std::vector<unsigned char>& mask, int* arm_cells,
-                            Eigen::Vector2d* arm_centroid) {
+                            Eigen::Vector2d* arm_centroid, std::vector<int>* band) {
   std::vector<unsigned char> sleeve(static_cast<size_t>(cells_x) * cells_y);
   for (size_t i = 0; i < sleeve.size(); ++i) {
     const float* m = &means[3 * i];
     sleeve[i] = isDarkNonSkin(Eigen::Vector3d(m[0], m[1], m[2]), params.background) ? 1 : 0;
   }
-  sleeveNextToForeground(params, sleeve, cells_x, cells_y, cell_size, mask, arm_cells,
-                         arm_centroid);
+  sleeveNextToForeground(params, sleeve, cells_x, cells_y, cell_size, mask, arm_cells, arm_centroid,
+                         band);
 }
 
 void sleeveNextToForeground(const SegmentationParams& params,
                             const std::vector<unsigned char>& sleeve, int cells_x, int cells_y,
                             int cell_size, const std::vector<unsigned char>& mask, int* arm_cells,
-                            Eigen::Vector2d* arm_centroid) {
+                            Eigen::Vector2d* arm_centroid, std::vector<int>* band) {
   *arm_cells = 0;
   *arm_centroid = Eigen::Vector2d::Zero();
+  band->clear();
   const int cells = cells_x * cells_y;
   std::vector<int> distance(cells, -1);
   std::vector<int> queue;
@@ -779,18 +780,19 @@ void sleeveNextToForeground(const SegmentationParams& params,
   growCells(&queue, &distance, cells_x, cells_y, params.room.sleeve_band_cells,
             [&](int n) { return sleeve[n] != 0; });
   Eigen::Vector2d sleeve_sum = Eigen::Vector2d::Zero();
-  const int band = static_cast<int>(queue.size() - seeds);
+  const int band_size = static_cast<int>(queue.size() - seeds);
   for (size_t k = seeds; k < queue.size(); ++k) {
     sleeve_sum += Eigen::Vector2d(queue[k] % cells_x, queue[k] / cells_x);
   }
-  if (band == 0) return;
-  const Eigen::Vector2d sleeve_centre = sleeve_sum / band;
+  if (band_size == 0) return;
+  const Eigen::Vector2d sleeve_centre = sleeve_sum / band_size;
   const Eigen::Vector2d foreground_centre = foreground_sum / foreground;
   const double diagonal = std::hypot(x1 - x0 + 1.0, y1 - y0 + 1.0);
   // Dark cells all around the hand (shadows, a dark table) say nothing about the wrist.
   if ((sleeve_centre - foreground_centre).norm() < params.room.sleeve_min_offset * diagonal) return;
-  *arm_cells = band;
+  *arm_cells = band_size;
   *arm_centroid = (sleeve_centre + Eigen::Vector2d(0.5, 0.5)) * cell_size;
+  band->assign(queue.begin() + static_cast<std::ptrdiff_t>(seeds), queue.end());
 }
 
 }  // namespace detail

@@ -73,17 +73,18 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
 // unsaturated cells (the sleeve) reached from the kept foreground `mask` through such cells within
 // RoomCueParams::sleeve_band_cells; counted and averaged (pixels) when their centroid lies at
 // least sleeve_min_offset of the foreground's box diagonal from the foreground's centroid (to one
-// side, as a sleeve at the wrist does), else 0 cells.
+// side, as a sleeve at the wrist does), else 0 cells. `band` gets those cells' indices (empty with
+// 0 cells).
 void sleeveNextToForeground(const SegmentationParams& params, const std::vector<float>& means,
                             int cells_x, int cells_y, int cell_size,
                             const std::vector<unsigned char>& mask, int* arm_cells,
-                            Eigen::Vector2d* arm_centroid);
+                            Eigen::Vector2d* arm_centroid, std::vector<int>* band);
 // The same with the sleeve's cells given (`sleeve`: 1 where a cell may be sleeve; with the plate,
 // the cells that differ from it and are too dark to be skin).
 void sleeveNextToForeground(const SegmentationParams& params,
                             const std::vector<unsigned char>& sleeve, int cells_x, int cells_y,
                             int cell_size, const std::vector<unsigned char>& mask, int* arm_cells,
-                            Eigen::Vector2d* arm_centroid);
+                            Eigen::Vector2d* arm_centroid, std::vector<int>* band);
 
 // The groups that applyRoomCues would choose from without a region of interest (cue 3), best
 // score first, at most max_candidates; `state` is only read (motion and learned skin colour).

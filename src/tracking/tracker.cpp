@@ -1014,7 +1014,7 @@ bool HandTracker::toggleFingers(const PoseEnergy& energy,
     clampToLimits(model, &toggled);
     const double sigmas = params_.toggle_silhouette_sigmas;
     if (!scored) {
-      if (!silhouette) silhouette.emplace(observations, sigmas);
+      if (!silhouette) silhouette.emplace(observations, sigmas, kSleeveChargedAsBackground);
       tracked_silhouette = silhouette->score(model, result->pose, sigmas);
       best_score = result->energy + weight * tracked_silhouette + params_.toggle_min_gain;
       scored = true;
@@ -1284,7 +1284,7 @@ void HandTracker::adaptSize(const FrameResult& result,
   }
   frames_to_size_trial_ = params_.size_interval - 1;
   const double sigmas = params_.size_silhouette_sigmas;
-  if (!*silhouette) silhouette->emplace(observations, sigmas);
+  if (!*silhouette) silhouette->emplace(observations, sigmas, kSleeveChargedAsBackground);
   double best_score = (*silhouette)->score(model_, result.pose, sigmas) + params_.size_min_gain;
   double best_factor = 1.0;
   for (const double factor : {1.0 + params_.size_step, 1.0 - params_.size_step}) {

@@ -141,7 +141,8 @@ void BM_SilhouetteScore(benchmark::State& state) {
   const HandModel model = loadHandModel(modelPath("sag"));
   const Pose pose = typicalPose(model);
   const auto observations = modelObservations(model, pose, fiveCameraRig(), 4.0);
-  SilhouetteScorer scorer(observations, TrackerParams().toggle_silhouette_sigmas);
+  SilhouetteScorer scorer(observations, TrackerParams().toggle_silhouette_sigmas,
+                          kSleeveChargedAsBackground);
   for (auto _ : state) benchmark::DoNotOptimize(scorer.score(model, pose));
 }
 

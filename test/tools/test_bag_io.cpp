@@ -1670,12 +1670,32 @@ TEST(SogConversions, ForearmEvidenceRoundTripsAndIsValidated) {
   sog.gaussians.push_back({Eigen::Vector2d(10.0, 20.0), 4.0, Hsv(20.0, 0.4, 0.8)});
   sog.arm_cells = 57;
   sog.arm_centroid = Eigen::Vector2d(312.5, 401.0);
+  sog.arm_gaussians.push_back({Eigen::Vector2d(310.0, 402.0), 1.6, Hsv::Zero()});
+  sog.arm_gaussians.push_back({Eigen::Vector2d(314.0, 402.0), 1.6, Hsv::Zero()});
   sag_hand_tracker::SumOfGaussians msg = sogToMsg(sog);
   const ImageSoG back = sogFromMsg(msg);
   EXPECT_EQ(back.arm_cells, 57);
   EXPECT_NEAR(back.arm_centroid.x(), 312.5, 1e-3);
   EXPECT_NEAR(back.arm_centroid.y(), 401.0, 1e-3);
   ASSERT_EQ(back.gaussians.size(), 1u);
+  ASSERT_EQ(back.arm_gaussians.size(), 2u);  // the sleeve's cells (silhouette.h)
+  EXPECT_NEAR(back.arm_gaussians[1].mean.x(), 314.0, 1e-3);
+  EXPECT_NEAR(back.arm_gaussians[1].sigma, 1.6, 1e-6);
+
+  auto rejects = [](const sag_hand_tracker::SumOfGaussians& bad, const std::string& words) {
+    try {
+      sogFromMsg(bad);
+      ADD_FAILURE() << "accepted: " << words;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
+  };
+  sag_hand_tracker::SumOfGaussians bad = msg;
+  bad.arm_gaussians[1].sigma = 0.0f;
+  rejects(bad, "sleeve Gaussian 1");
+  bad = msg;
+  bad.arm_cells = 0;  // cells without the count
+  rejects(bad, "arm_cells 0");
 
   msg.arm_x = std::numeric_limits<float>::quiet_NaN();
   try {

@@ -495,12 +495,13 @@ TEST(HandFitScore, TheSilhouetteScorePeaksAtTheRenderedThickness) {
       foregrounds.push_back(
           foregroundOfSoG(observation.sog, observation.camera.width, observation.camera.height));
     }
+    const double charge = HandFitParams().sleeve_charge;
     const double right =
-        silhouetteScore(handModel(), frame.observations, foregrounds, frame.pose, sigmas);
+        silhouetteScore(handModel(), frame.observations, foregrounds, frame.pose, sigmas, charge);
     const double thinner =
-        silhouetteScore(thin, frame.observations, foregrounds, frame.pose, sigmas);
+        silhouetteScore(thin, frame.observations, foregrounds, frame.pose, sigmas, charge);
     const double thicker =
-        silhouetteScore(thick, frame.observations, foregrounds, frame.pose, sigmas);
+        silhouetteScore(thick, frame.observations, foregrounds, frame.pose, sigmas, charge);
     std::printf(
         "silhouette score: thickness 0.7 %.3f, 1.0 %.3f, 1.4 %.3f; overlap score %.3f, "
         "%.3f, %.3f\n",
@@ -512,9 +513,9 @@ TEST(HandFitScore, TheSilhouetteScorePeaksAtTheRenderedThickness) {
     EXPECT_GT(right, thicker);
   }
   // The foregrounds must match the observations.
-  EXPECT_THROW(
-      silhouetteScore(handModel(), pinch.frames[0].observations, {}, pinch.frames[0].pose, sigmas),
-      InputError);
+  EXPECT_THROW(silhouetteScore(handModel(), pinch.frames[0].observations, {}, pinch.frames[0].pose,
+                               sigmas, 1.0),
+               InputError);
 }
 
 // The silhouette score counts within the silhouette's bounding box; it must be the Dice of the
@@ -528,7 +529,7 @@ TEST(HandFitScore, TheSilhouetteScoreIsTheDiceOfTheWholeImages) {
       sag_test::modelObservations(model, truth, cameras, 4.0);
   const std::vector<cv::Mat> foregrounds = foregroundsOf(observations);
   const double sigmas = HandFitParams().silhouette_sigmas;
-  SilhouetteScorer scorer(observations, sigmas);
+  SilhouetteScorer scorer(observations, sigmas, kSleeveChargedAsBackground);
   std::mt19937 random(7);
   std::normal_distribution<double> noise(0.0, 1.0);
   for (int trial = 0; trial < 8; ++trial) {
@@ -544,10 +545,86 @@ TEST(HandFitScore, TheSilhouetteScoreIsTheDiceOfTheWholeImages) {
                (cv::countNonZero(foregrounds[c]) + cv::countNonZero(silhouette));
     }
     whole /= static_cast<double>(cameras.size());
-    EXPECT_DOUBLE_EQ(silhouetteScore(model, observations, foregrounds, pose, sigmas), whole)
+    EXPECT_DOUBLE_EQ(
+        silhouetteScore(model, observations, foregrounds, pose, sigmas, kSleeveChargedAsBackground),
+        whole)
         << "trial " << trial;
     EXPECT_DOUBLE_EQ(scorer.score(model, pose), whole) << "trial " << trial;
   }
+}
+
+// Where the sleeve meets the hand (ImageSoG::arm_gaussians) a model pixel counts `sleeve_charge`
+// in the model's size: the score is the Dice of the foreground and the model's silhouette with its
+// pixels on the sleeve weighted so. A cuff that hides the heel of the hand then costs the true pose
+// less; charged in full, the heel drawn on the sleeve costs as if on the background and a hand
+// slid toward the fingers scores higher than the truth, the bias that read fitted fingers short.
+TEST(HandFitScore, AModelPixelOnTheSleeveCostsTheSleevesCharge) {
+  const HandModel model = handModel();
+  const std::vector<Camera> cameras = sag_test::fiveCameraRig();
+  const Pose truth = sag_test::typicalPose(model);
+  std::vector<CameraObservation> observations =
+      sag_test::modelObservations(model, truth, cameras, 4.0);
+  const Eigen::Vector3d wrist = truth.translation;  // the root is the wrist
+  int cameras_with_cuff = 0;
+  for (size_t c = 0; c < observations.size(); ++c) {
+    // The cuff: the image Gaussians within 25 px of the wrist become sleeve.
+    const Eigen::Vector3d local = cameras[c].world_to_camera * wrist;
+    const Eigen::Vector2d at = (cameras[c].K * local).hnormalized();
+    ImageSoG& sog = observations[c].sog;
+    std::vector<ImageGaussian> hand;
+    for (const ImageGaussian& g : sog.gaussians) {
+      ((g.mean - at).norm() < 25.0 ? sog.arm_gaussians : hand).push_back(g);
+    }
+    sog.gaussians = hand;
+    sog.arm_cells = static_cast<int>(sog.arm_gaussians.size());
+    if (!sog.arm_gaussians.empty()) ++cameras_with_cuff;
+  }
+  ASSERT_GE(cameras_with_cuff, 3);
+  const std::vector<cv::Mat> foregrounds = foregroundsOf(observations);
+  const double sigmas = HandFitParams().silhouette_sigmas;
+  std::mt19937 random(11);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  for (const double charge : {0.0, 0.5, 1.0}) {
+    SilhouetteScorer scorer(observations, sigmas, charge);
+    for (int trial = 0; trial < 4; ++trial) {
+      Pose pose = truth;
+      pose.translation +=
+          0.005 * trial * Eigen::Vector3d(noise(random), noise(random), noise(random));
+      for (int j = 0; j < kNumJointDof; ++j) pose.joints[j] += 0.05 * trial * noise(random);
+      clampToLimits(model, &pose);
+      const PosedHand hand = forwardKinematics(model, pose);
+      double whole = 0.0;
+      for (size_t c = 0; c < cameras.size(); ++c) {
+        const cv::Mat occluded = foregrounds[c] == kSilhouetteOccluded;
+        EXPECT_EQ(cv::countNonZero(occluded) > 0, !observations[c].sog.arm_gaussians.empty());
+        const cv::Mat seen = foregrounds[c] == 255;
+        const cv::Mat silhouette = projectedModelSilhouette(hand, cameras[c], sigmas, 0);
+        whole += 2.0 * cv::countNonZero(seen & silhouette) /
+                 (cv::countNonZero(seen) + cv::countNonZero(silhouette & ~occluded) +
+                  charge * cv::countNonZero(silhouette & occluded));
+      }
+      whole /= static_cast<double>(cameras.size());
+      EXPECT_NEAR(silhouetteScore(model, observations, foregrounds, pose, sigmas, charge), whole,
+                  1e-12)
+          << "charge " << charge << ", trial " << trial;
+      EXPECT_NEAR(scorer.score(model, pose), whole, 1e-12)
+          << "charge " << charge << ", trial " << trial;
+    }
+  }
+  // The true pose under the cuff, and the hand slid 7 mm toward the fingers (where the visible
+  // palm begins).
+  const Eigen::Vector3d toward_fingers =
+      (fingertips(model, truth)[2] - truth.translation).normalized();
+  Pose slid = truth;
+  slid.translation += 0.007 * toward_fingers;
+  SilhouetteScorer uncharged(observations, sigmas, 0.0);
+  SilhouetteScorer charged(observations, sigmas, kSleeveChargedAsBackground);
+  std::printf("true pose %.4f, slid %.4f; charged in full %.4f, %.4f\n",
+              uncharged.score(model, truth), uncharged.score(model, slid),
+              charged.score(model, truth), charged.score(model, slid));
+  EXPECT_GT(uncharged.score(model, truth), uncharged.score(model, slid));
+  EXPECT_LT(charged.score(model, truth), charged.score(model, slid));
+  EXPECT_GT(uncharged.score(model, truth), charged.score(model, truth) + 0.1);
 }
 
 TEST(HandFitScore, TheForegroundOfASoGIsItsLeaves) {

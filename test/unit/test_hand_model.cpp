@@ -269,7 +269,15 @@ TEST(Camera, UndistortionMovesImageGaussians) {
   undistortImageSoG(camera, &unchanged);
   EXPECT_EQ(unchanged.gaussians[0].mean, sog.gaussians[0].mean);
   camera.distortion = {-0.2, 0.05, 0.0, 0.0, 0.0};
+  ImageSoG with_sleeve = sog;  // the forearm evidence moves with it
+  with_sleeve.arm_cells = 1;
+  with_sleeve.arm_centroid = Eigen::Vector2d(300.0, 220.0);
+  with_sleeve.arm_gaussians = sog.gaussians;
   undistortImageSoG(camera, &sog);
   // Barrel distortion pulls points in: undistorting pushes a corner point outward.
   EXPECT_GT(sog.gaussians[0].mean.x(), 300.0);
+  undistortImageSoG(camera, &with_sleeve);
+  ASSERT_EQ(with_sleeve.arm_gaussians.size(), 1u);
+  EXPECT_EQ(with_sleeve.arm_gaussians[0].mean, sog.gaussians[0].mean);
+  EXPECT_EQ(with_sleeve.arm_centroid, sog.gaussians[0].mean);
 }

@@ -291,6 +291,13 @@ TEST(RoomCues, WithoutAPlateTheSleeveBesideTheHandIsTheForearmEvidence) {
   EXPECT_NEAR(sog.arm_centroid.y(), 120.0, 8.0);
   // Only the band next to the hand counts (4 cells of 4 px), not the whole sleeve.
   EXPECT_GT(sog.arm_centroid.x(), 95.0);
+  ASSERT_EQ(sog.arm_gaussians.size(), static_cast<size_t>(sog.arm_cells));
+  for (const ImageGaussian& g : sog.arm_gaussians) {
+    EXPECT_GT(g.mean.x(), 100.0);  // the band's cells (4 of 4 px), on the sleeve
+    EXPECT_LT(g.mean.x(), 120.0);
+    EXPECT_GT(g.mean.y(), 100.0);
+    EXPECT_LT(g.mean.y(), 140.0);
+  }
 
   // The same for a part of the foreground given as a mask (a still hypothesis' blob), and the
   // sleeve of another blob is not this one's.
@@ -304,6 +311,7 @@ TEST(RoomCues, WithoutAPlateTheSleeveBesideTheHandIsTheForearmEvidence) {
   segmenter.sleeveEvidence(first_blob, &evidence);
   EXPECT_GT(evidence.arm_cells, 6);
   EXPECT_LT(evidence.arm_centroid.x(), 120.0);
+  EXPECT_EQ(evidence.arm_gaussians.size(), static_cast<size_t>(evidence.arm_cells));
   EXPECT_THROW(segmenter.sleeveEvidence(cv::Mat(10, 10, CV_8UC1), &evidence), InputError);
 
   // Dark all around the hand (a shadow, a dark table) says nothing about the wrist.

@@ -597,11 +597,27 @@ TEST(Background, ReportsWhereTheSleeveMeetsTheHandAsForearmEvidenceInEverySegmen
     EXPECT_LT((sog->arm_centroid - band_at).norm(), 1.5 * params.cell_size)
         << "at " << sog->arm_centroid.transpose() << ", the band at " << band_at.transpose()
         << ", the whole sleeve at " << sleeve_at.transpose();
+    // The cells themselves (the silhouette scores' occluded pixels): one leaf per cell, on the
+    // sleeve within the band, averaging to the centroid.
+    ASSERT_EQ(sog->arm_gaussians.size(), static_cast<size_t>(sog->arm_cells));
+    Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+    int on_the_band = 0;
+    for (const ImageGaussian& g : sog->arm_gaussians) {
+      sum += g.mean;
+      EXPECT_NEAR(g.sigma * std::sqrt(2.0 * M_PI), params.cell_size, 1e-9);
+      const cv::Point at(static_cast<int>(g.mean.x()), static_cast<int>(g.mean.y()));
+      on_the_band += sag_test::sleeveMask(o).at<unsigned char>(at) != 0 &&
+                     from_hand.at<float>(at) <= band + params.cell_size;
+    }
+    EXPECT_LT((sum / sog->arm_cells - sog->arm_centroid).norm(), 1e-9);
+    EXPECT_GE(on_the_band, 0.9 * sog->arm_cells);
   }
   EXPECT_EQ(per_frame.arm_cells, once.arm_cells);
   // Without the sleeve there is no evidence.
   o.sleeve = false;
-  EXPECT_EQ(segmenter.segmentFrame(sag_test::scene(o)).arm_cells, 0);
+  const ImageSoG bare = segmenter.segmentFrame(sag_test::scene(o));
+  EXPECT_EQ(bare.arm_cells, 0);
+  EXPECT_TRUE(bare.arm_gaussians.empty());
 }
 
 TEST(Background, FullSceneKeepsOnlyTheHand) {

@@ -171,6 +171,14 @@ struct HandFitParams {
   // 1.3 gives the default hand back unchanged (thickness x0.98, size and finger length x1.00)
   // against the foreground's cells, which reach past the skin's edge by up to a cell.
   double silhouette_sigmas = 1.3;
+  // kSilhouette: what a model pixel on the sleeve next to the hand (ImageSoG::arm_gaussians)
+  // costs against one on the background (silhouetteScore). A cuff covers the heel of the hand, and
+  // charged in full (1) the model slides toward the fingers and the fit reads them short. Less was
+  // measured and not kept (doc/calibration.md "Session 44"): with 0 the named and drawn hands'
+  // fitted tracks are better (8.90 -> 8.63, 8.26 -> 7.94 mm) but the heel hides in the sleeve at
+  // no cost and FitOnStudioHands' bones leave 5 % (short_wide_thick's fingers +11 %); 0.5 is
+  // worse on drawn hands (8.26 -> 8.37).
+  double sleeve_charge = kSleeveChargedAsBackground;
   // kOverlap: the model mass M = model_mass_weight * sum_p 2 pi sqrt(det Sigma_p) (see
   // shapeScore). 0.25: half the area of the projected 1-sigma ellipses (the hand's surface passes
   // at 1 sigma), as sum_q E_qq = pi sigma_q^2 is half the area of the foreground's quad-tree

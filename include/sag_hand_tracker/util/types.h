@@ -31,6 +31,11 @@ struct ImageSoG {
   // 0 cells: no such evidence.
   int arm_cells = 0;
   Eigen::Vector2d arm_centroid = Eigen::Vector2d::Zero();
+  // Those cells themselves, one square Gaussian each (the leaves of a sleeve, hue 0): where the
+  // sleeve may hide the heel of the hand, a silhouette score may charge the model's pixels less
+  // than on the background (foregroundsOf, silhouetteScore's sleeve_charge). Empty when arm_cells
+  // is 0.
+  std::vector<ImageGaussian> arm_gaussians;
 };
 
 // A projected model Gaussian in one camera image (pixels).
