@@ -22,8 +22,8 @@ cv::Mat foregroundOfSoG(const ImageSoG& sog, int width, int height);
 constexpr unsigned char kSilhouetteOccluded = 128;
 
 // The charge of a model pixel on the sleeve that counts it as one on the background: the tracker's
-// finger toggles and size trial score so (with less, the size trial read the default hand larger
-// than it is; doc/calibration.md "Session 44").
+// finger toggles and size trial score so (with 0 there too, the default hand's default-model
+// tracks went 8.13 -> 8.90 mm; doc/calibration.md "Session 44").
 constexpr double kSleeveChargedAsBackground = 1.0;
 
 // foregroundOfSoG of each observation's SoG, at its camera's size, with the sleeve's cells next to
