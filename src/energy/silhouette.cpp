@@ -43,19 +43,32 @@ cv::Mat foregroundOfSoG(const ImageSoG& sog, int width, int height) {
   return mask;
 }
 
-std::vector<cv::Mat> foregroundsOf(const std::vector<CameraObservation>& observations) {
+namespace {
+
+// foregroundsOf, with each mask's |F| (its 255 pixels; 0 for an empty mask) counted before the
+// sleeve's leaves are drawn: one pass, as without them.
+std::vector<cv::Mat> foregroundsAndSizes(const std::vector<CameraObservation>& observations,
+                                         std::vector<int>* sizes) {
   std::vector<cv::Mat> foregrounds;
   foregrounds.reserve(observations.size());
   for (const CameraObservation& observation : observations) {
     if (observation.sog.gaussians.empty()) {
       foregrounds.emplace_back();
+      if (sizes) sizes->push_back(0);
       continue;
     }
     foregrounds.push_back(
         foregroundOfSoG(observation.sog, observation.camera.width, observation.camera.height));
+    if (sizes) sizes->push_back(cv::countNonZero(foregrounds.back()));
     drawLeaves(observation.sog.arm_gaussians, kSilhouetteOccluded, &foregrounds.back());
   }
   return foregrounds;
+}
+
+}  // namespace
+
+std::vector<cv::Mat> foregroundsOf(const std::vector<CameraObservation>& observations) {
+  return foregroundsAndSizes(observations, nullptr);
 }
 
 namespace {
@@ -92,8 +105,15 @@ bool cameraDice(const PosedHand& hand, const Camera& camera, const cv::Mat& fore
   return true;
 }
 
-// |F|: the foreground's pixels (255), not the occluded ones.
-int foregroundSize(const cv::Mat& foreground) { return cv::countNonZero(foreground == 255); }
+// |F|: the foreground's pixels (255), not the sleeve's.
+int foregroundSize(const cv::Mat& foreground) {
+  int size = 0;
+  for (int y = 0; y < foreground.rows; ++y) {
+    const std::uint8_t* row = foreground.ptr<std::uint8_t>(y);
+    for (int x = 0; x < foreground.cols; ++x) size += row[x] == 255;
+  }
+  return size;
+}
 
 // The mean over the cameras with a foreground of cameraDice; `foreground_sizes` (|F| per camera)
 // counted here when null.
@@ -136,13 +156,8 @@ double silhouetteScore(const HandModel& model, const std::vector<CameraObservati
 
 SilhouetteScorer::SilhouetteScorer(const std::vector<CameraObservation>& observations,
                                    double sigmas, double sleeve_charge)
-    : observations_(&observations),
-      sigmas_(sigmas),
-      sleeve_charge_(sleeve_charge),
-      foregrounds_(foregroundsOf(observations)) {
-  for (const cv::Mat& foreground : foregrounds_) {
-    foreground_sizes_.push_back(foreground.empty() ? 0 : foregroundSize(foreground));
-  }
+    : observations_(&observations), sigmas_(sigmas), sleeve_charge_(sleeve_charge) {
+  foregrounds_ = foregroundsAndSizes(observations, &foreground_sizes_);
 }
 
 double SilhouetteScorer::score(const HandModel& model, const Pose& pose) {
