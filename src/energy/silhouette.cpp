@@ -46,9 +46,9 @@ cv::Mat foregroundOfSoG(const ImageSoG& sog, int width, int height) {
 namespace {
 
 // foregroundsOf, with each mask's |F| (its 255 pixels; 0 for an empty mask) counted before the
-// sleeve's leaves are drawn: one pass, as without them.
+// sleeve's leaves are drawn (`mark_sleeve`; without, the sleeve scores as the background).
 std::vector<cv::Mat> foregroundsAndSizes(const std::vector<CameraObservation>& observations,
-                                         std::vector<int>* sizes) {
+                                         bool mark_sleeve, std::vector<int>* sizes) {
   std::vector<cv::Mat> foregrounds;
   foregrounds.reserve(observations.size());
   for (const CameraObservation& observation : observations) {
@@ -60,7 +60,9 @@ std::vector<cv::Mat> foregroundsAndSizes(const std::vector<CameraObservation>& o
     foregrounds.push_back(
         foregroundOfSoG(observation.sog, observation.camera.width, observation.camera.height));
     if (sizes) sizes->push_back(cv::countNonZero(foregrounds.back()));
-    drawLeaves(observation.sog.arm_gaussians, kSilhouetteOccluded, &foregrounds.back());
+    if (mark_sleeve) {
+      drawLeaves(observation.sog.arm_gaussians, kSilhouetteOccluded, &foregrounds.back());
+    }
   }
   return foregrounds;
 }
@@ -68,7 +70,7 @@ std::vector<cv::Mat> foregroundsAndSizes(const std::vector<CameraObservation>& o
 }  // namespace
 
 std::vector<cv::Mat> foregroundsOf(const std::vector<CameraObservation>& observations) {
-  return foregroundsAndSizes(observations, nullptr);
+  return foregroundsAndSizes(observations, true, nullptr);
 }
 
 namespace {
@@ -157,7 +159,9 @@ double silhouetteScore(const HandModel& model, const std::vector<CameraObservati
 SilhouetteScorer::SilhouetteScorer(const std::vector<CameraObservation>& observations,
                                    double sigmas, double sleeve_charge)
     : observations_(&observations), sigmas_(sigmas), sleeve_charge_(sleeve_charge) {
-  foregrounds_ = foregroundsAndSizes(observations, &foreground_sizes_);
+  // Charged as the background, the sleeve's pixels need no mark (the tracker, every frame).
+  foregrounds_ = foregroundsAndSizes(observations, sleeve_charge != kSleeveChargedAsBackground,
+                                     &foreground_sizes_);
 }
 
 double SilhouetteScorer::score(const HandModel& model, const Pose& pose) {
