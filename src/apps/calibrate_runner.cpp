@@ -418,7 +418,8 @@ std::string formatCalibrateHandSummary(const CalibrateHandSummary& s) {
           << fixedNumber(100.0 * e.finger[f], 1) << " %\n";
     }
     out << "    worst bone " << fixedNumber(100.0 * e.worst_bone, 1) << " %, "
-        << e.bonesWithin(0.05) << " of 15 bones within 5 %\n";
+        << e.bonesWithin(kFitBoneTolerance) << " of 15 bones within "
+        << fixedNumber(100.0 * kFitBoneTolerance, 0) << " %\n";
   }
   out << "  output:       " << s.out;
   if (!s.contact_sheet.empty()) out << ", contact sheet " << s.contact_sheet;

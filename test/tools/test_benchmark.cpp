@@ -643,6 +643,7 @@ TEST_F(BenchmarkTool, BenchmarkFittedModelColumnPerHandShape) {
   EXPECT_EQ(results.trackers, (std::vector<std::string>{"sag", "fitted"}));
   ASSERT_EQ(results.fits.size(), 2u);
   const HandModel start = loadHandModel(resolveModelPath("sag", kConfig));
+  std::map<std::string, double> worst_bone_pct;
   for (const ShapeFit& fit : results.fits) {
     SCOPED_TRACE(fit.shape);
     ASSERT_TRUE(fit.ok) << fit.error << "\n" << log.str();
@@ -656,6 +657,13 @@ TEST_F(BenchmarkTool, BenchmarkFittedModelColumnPerHandShape) {
       change += std::fabs(fitted.gaussians[g].cov.trace() / start.gaussians[g].cov.trace() - 1.0);
     }
     EXPECT_GT(change / start.gaussians.size(), 0.01);
+    // The fitted bones against the rendered hand's skeleton (the default model shaped by it).
+    const SkeletonErrors truth = compareSkeletons(
+        fitted, studio::shapeHandModel(start, studio::resolveHandShape(fit.shape, kConfig).shape));
+    EXPECT_EQ(fit.calibration.truth_shape, fit.shape);
+    EXPECT_NEAR(fit.calibration.truth_errors.worst_bone, truth.worst_bone, 1e-4);
+    EXPECT_GT(truth.worst_bone, 0.0);
+    worst_bone_pct[fit.shape] = 100.0 * truth.worst_bone;
     EXPECT_GT(fit.calibration.tracked_frames, 40);
     EXPECT_GT(fit.calibration.fit.score_after, fit.calibration.fit.score_before);
     EXPECT_NE(log.str().find("fitted the model to hand " + fit.shape), std::string::npos)
@@ -688,7 +696,7 @@ TEST_F(BenchmarkTool, BenchmarkFittedModelColumnPerHandShape) {
   for (const char* part :
        {"SAG fitted mean", "Default model against fitted model per hand shape",
         "| hand shape | frames | default mean | fitted mean |", "| default | 14 |", "(reference) |",
-        "The fits (calibrate_hand's code", "| long_distal | fitted | "}) {
+        "The fits (calibrate_hand's code", "| long_distal | fitted | ", "| worst bone % |"}) {
     EXPECT_NE(results.markdown.find(part), std::string::npos) << part << "\n" << results.markdown;
   }
   std::vector<std::string> header;
@@ -716,6 +724,8 @@ TEST_F(BenchmarkTool, BenchmarkFittedModelColumnPerHandShape) {
     EXPECT_LE(number(row, "fit_start_size"), TrackerParams().size_max);
     EXPECT_GT(number(row, "energy_after"), 0.0);
     EXPECT_GT(number(row, "fit_seconds"), 0.0);
+    EXPECT_NEAR(number(row, "fit_worst_bone_pct"), worst_bone_pct[row.at("shape")], 0.01);
+    EXPECT_LE(number(row, "fit_bones_within_5pct"), 15.0);
     const bool lower = number(row, "fitted_mean_mm") < number(row, "default_mean_mm") &&
                        number(row, "fitted_failed") <= number(row, "default_failed");
     EXPECT_EQ(number(row, "fitted_lower"), lower ? 1.0 : 0.0);

@@ -724,7 +724,7 @@ TEST_P(FitOnStudioHands, BoneLengthsWithinFivePercent) {
   for (int f = 0; f < kNumFingers; ++f) {
     for (int b : chains[f]) {
       const double error = fit.model.bones[b].length / truth.bones[b].length - 1.0;
-      EXPECT_LT(std::abs(error), 0.05)
+      EXPECT_LT(std::abs(error), kFitBoneTolerance)
           << shape_case.name << " " << truth.bones[b].name << ": fitted "
           << 1e3 * fit.model.bones[b].length << " mm, true " << 1e3 * truth.bones[b].length
           << " mm (default " << 1e3 * handModel().bones[b].length << " mm)";

@@ -235,6 +235,9 @@ void sampleGaussianColours(const std::vector<CalibrationFrame>& frames,
 HandFitResult fitHandModel(const HandModel& start, const std::vector<CalibrationFrame>& frames,
                            const HandFitParams& params, const FitProgress& progress = nullptr);
 
+// How near a fitted bone's length must come to the truth (fitted / true - 1), issue 10's bar.
+constexpr double kFitBoneTolerance = 0.05;
+
 // A fitted skeleton against a known one (a studio hand: studio::shapeHandModel of its shape), for
 // checking the fit where the truth is known. Errors are fitted / true - 1, per finger thumb..pinky.
 struct SkeletonErrors {
