@@ -151,6 +151,12 @@ SequenceBag prepareBag(const BenchmarkOptions& options, const std::string& seque
     log << "benchmark: reusing " << bag.bag << "\n" << std::flush;
     return bag;
   }
+  // A bag linked in from elsewhere (another run's folder, shared to save the rendering) is not
+  // replaced through the link (render_bag's --overwrite follows one): the link goes, and the
+  // render writes a file of this folder's own. (fs::remove takes a link, not its target.)
+  for (const std::string& path : {bag.bag, bag.gt_csv}) {
+    if (fs::is_symlink(path)) fs::remove(path);
+  }
   fs::remove(stamp_path);
   const RenderBagSummary summary = renderStudioBag(render, nullptr);
   writeOutputFile(stamp_path, stamp);

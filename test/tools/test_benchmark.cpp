@@ -360,6 +360,34 @@ TEST_F(BenchmarkTool, BenchmarkShortRunWritesTablesCsvAndPlots) {
   EXPECT_EQ(number(rows12[0], "frames"), 2.0);
 }
 
+// A bag linked into the bags folder from elsewhere (another run's, shared to save the rendering)
+// that has to be rendered again (other settings) is not replaced through the link: the other
+// run's bag, ground truth and stamp stay as they were, and this run's are files of its own folder.
+TEST_F(BenchmarkTool, BenchmarkNeverReplacesABagThroughALink) {
+  const std::vector<std::string> names{"fingerwave.bag", "fingerwave_gt.csv",
+                                       "fingerwave.render.txt"};
+  fs::create_directories(dir_ / "elsewhere");
+  fs::create_directories(dir_ / "bags");
+  for (const std::string& name : names) {
+    write("elsewhere/" + name, "another run's " + name);
+    fs::create_symlink(dir_ / "elsewhere" / name, dir_ / "bags" / name);
+  }
+  std::ostringstream log;
+  const BenchmarkResults results =
+      runBenchmark(options("--models sag --no-plots --frames 12"), log);
+  EXPECT_NE(log.str().find("rendered fingerwave"), std::string::npos) << log.str();
+  ASSERT_EQ(results.runs.size(), 1u);
+  EXPECT_EQ(results.runs[0].stats.frames, 2);
+  for (const std::string& name : names) {
+    SCOPED_TRACE(name);
+    // (Not EXPECT_EQ: a replaced bag would be printed whole.)
+    EXPECT_TRUE(readAll(path("elsewhere/" + name)) == "another run's " + name)
+        << "the other run's file was replaced through the link";
+    EXPECT_FALSE(fs::is_symlink(dir_ / "bags" / name));
+    EXPECT_TRUE(fs::is_regular_file(dir_ / "bags" / name));
+  }
+}
+
 TEST_F(BenchmarkTool, BenchmarkCameraCountsCoverEveryCombination) {
   std::ostringstream log;
   const BenchmarkResults results =
