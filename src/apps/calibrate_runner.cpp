@@ -418,7 +418,7 @@ std::string formatCalibrateHandSummary(const CalibrateHandSummary& s) {
           << fixedNumber(100.0 * e.finger[f], 1) << " %\n";
     }
     out << "    worst bone " << fixedNumber(100.0 * e.worst_bone, 1) << " %, "
-        << e.bonesWithin(kFitBoneTolerance) << " of 15 bones within "
+        << e.bonesWithin(kFitBoneTolerance) << " of " << kNumFingers * 3 << " bones within "
         << fixedNumber(100.0 * kFitBoneTolerance, 0) << " %\n";
   }
   out << "  output:       " << s.out;

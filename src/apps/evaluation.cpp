@@ -502,25 +502,26 @@ std::string fittedReport(const BenchmarkOptions& options, const BenchmarkResults
   md << "\n";
 
   md << "## The fits (calibrate_hand's code, start model `sag`)\n\n";
-  const std::vector<std::string> fit_header{"hand shape",
-                                            "result",
-                                            "frames with the hand",
-                                            "used",
-                                            "tracker's size x",
-                                            "size x",
-                                            "palm width x",
-                                            "finger length x",
-                                            "thickness x",
-                                            "energy before",
-                                            "energy after",
-                                            "score before",
-                                            "score after",
-                                            "tips on foreground %",
-                                            "palm vs truth %",
-                                            "fingers vs truth % (thumb..pinky)",
-                                            "worst bone %",
-                                            "bones within 5 %",
-                                            "seconds"};
+  const std::vector<std::string> fit_header{
+      "hand shape",
+      "result",
+      "frames with the hand",
+      "used",
+      "tracker's size x",
+      "size x",
+      "palm width x",
+      "finger length x",
+      "thickness x",
+      "energy before",
+      "energy after",
+      "score before",
+      "score after",
+      "tips on foreground %",
+      "palm vs truth %",
+      "fingers vs truth % (thumb..pinky)",
+      "worst bone %",
+      "bones within " + fixedNumber(100.0 * kFitBoneTolerance, 0) + " %",
+      "seconds"};
   md << markdownRow(fit_header) << markdownRule(fit_header.size());
   for (const ShapeFit& fit : results.fits) {
     std::vector<std::string> cells{fit.shape};
