@@ -128,9 +128,9 @@ cv::Mat linePlot(const std::vector<PlotSeries>& series, const std::string& title
   return image;
 }
 
-void writePng(const std::string& path, const cv::Mat& image) {
-  // Keeps the extension, which imwrite goes by. The benchmark's own figures: replaced each run.
-  AtomicOutputFile file(path, /*overwrite=*/true);
+void writePng(const std::string& path, const cv::Mat& image, bool overwrite) {
+  // Keeps the extension, which imwrite goes by.
+  AtomicOutputFile file(path, overwrite);
   bool ok = false;
   try {
     ok = cv::imwrite(file.tempPath(), image);

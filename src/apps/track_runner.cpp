@@ -6,11 +6,13 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <opencv2/imgproc.hpp>
 #include <set>
 #include <sstream>
 
+#include "sag_hand_tracker/apps/plot.h"
+#include "sag_hand_tracker/apps/tracking_overlay.h"
 #include "sag_hand_tracker/camera/camera.h"
-#include "sag_hand_tracker/ros/package_config.h"
 
 #include "sag_hand_tracker/model/pose.h"
 #include "sag_hand_tracker/optimization/optimizer.h"
@@ -87,6 +89,11 @@ Options:
   --generic-skin-gate      without a plate, the generic skin-colour gate even when the model's
                            colours are the user's (default: a model from calibrate_hand gives
                            the gate around its colours, which drops wood and cardboard)
+  --overlay-dir DIR        also draw the tracked model over the images: DIR/frame_<n>.png for
+                           every --overlay-every-th frame after the background, each start and
+                           the first frame of each lost stretch (the foreground bright, the rest
+                           dimmed; yellow ellipses, green fingertips). DIR must be new or empty
+  --overlay-every N        with --overlay-dir: every N-th frame (25)
   --overwrite              replace a file already at --out (default: refused before the bag is
                            read, and a file that appears there during the run is kept too)
   --quiet                  no progress bar
@@ -123,6 +130,10 @@ TrackBagOptions parseTrackBagArguments(const std::vector<std::string>& args) {
       options.fixed_colours = true;
     } else if (arg == "--generic-skin-gate") {
       options.generic_skin_gate = true;
+    } else if (arg == "--overlay-dir") {
+      options.overlay_dir = value();
+    } else if (arg == "--overlay-every") {
+      options.overlay_every = parseIntOption(arg, value(), 1);
     } else if (arg == "--overwrite") {
       options.overwrite = true;
     } else {
@@ -130,6 +141,10 @@ TrackBagOptions parseTrackBagArguments(const std::vector<std::string>& args) {
     }
   }
   requireBagAndOut(options);
+  if (options.overlay_dir.empty() &&
+      std::find(args.begin(), args.end(), "--overlay-every") != args.end()) {
+    throw UsageError("--overlay-every needs --overlay-dir");
+  }
   // Values never begin with "--" (nextOptionValue), so this is the option itself.
   options.background_frames_given =
       std::find(args.begin(), args.end(), "--background-frames") != args.end();
@@ -187,6 +202,10 @@ std::string formatSummary(const TrackBagSummary& summary) {
         << formatMillis(summary.reading.largest_stamp_difference, 1)
         << " apart (the cameras are not stamped together; --stamp-tolerance)\n";
   }
+  if (!summary.overlay_dir.empty()) {
+    out << "  overlays:  " << summary.overlays_written << " pictures in " << summary.overlay_dir
+        << "\n";
+  }
   if (summary.csv_written) {
     out << "  output:    " << summary.tracked_frames + summary.lost_rows << " rows ("
         << summary.tracked_frames << " tracked or started, " << summary.lost_rows << " lost) in "
@@ -233,7 +252,7 @@ TrackingCsvRow toCsvRow(const FrameResult& result) {
 
 TrackBagSummary runTrackBag(BagReader& reader, const TrackFrameFunction& track,
                             TrackingCsvWriter& csv, ProgressBar* progress,
-                            const std::atomic<bool>* stop) {
+                            const std::atomic<bool>* stop, const TrackedFrameObserver& observe) {
   TrackBagSummary summary;
   summary.bag = reader.path();
   summary.csv = csv.path();
@@ -273,6 +292,7 @@ TrackBagSummary runTrackBag(BagReader& reader, const TrackFrameFunction& track,
       }
       if (result.restarted) ++summary.restarted_frames;
     }
+    if (observe) observe(set, processed);
     if (progress) {
       std::string status = "frame " + std::to_string(summary.frames) + ", " +
                            std::to_string(set.images.size()) +
@@ -323,6 +343,7 @@ TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
   // Before anything is opened: --out must not be an input (the bag, the model file).
   checkOutputPath(options.out, {options.bag, model_path});
   checkOutputIsNew(options.out, options.overwrite);
+  if (!options.overlay_dir.empty()) prepareOverlayDir(options.overlay_dir, "--overlay-dir");
   HandModel model = loadHandModel(model_path, options.hand);
 
   BagReaderOptions reader_options;
@@ -375,9 +396,32 @@ TrackBagSummary trackBag(const TrackBagOptions& options, ProgressBar* progress,
   // Without --overwrite the commit replaces nothing: a file created at --out during the run stays.
   AtomicOutputFile out(options.out, options.overwrite, "--out");
   TrackingCsvWriter csv(out.tempPath(), model.parameterNames(), /*status_column=*/true);
+  OverlaySchedule overlay_schedule(options.overlay_every);
+  long set_number = 0;
+  int overlays_written = 0;
+  TrackedFrameObserver overlay;
+  if (!options.overlay_dir.empty()) {
+    overlay = [&](const FrameSet& set, const ProcessedFrame& processed) {
+      ++set_number;
+      if (processed.background || !overlay_schedule.wants(processed.result)) return;
+      std::vector<cv::Mat> foregrounds;
+      for (size_t c = 0; c < reader.cameras().size(); ++c) {
+        foregrounds.push_back(pipeline.foregroundMask(static_cast<int>(c)));
+      }
+      const cv::Mat sheet =
+          trackingOverlaySheet(set, reader.cameras(), foregrounds, pipeline.tracker().model(),
+                               processed.result, set_number);
+      cv::Mat bgr;
+      cv::cvtColor(sheet, bgr, cv::COLOR_RGB2BGR);
+      writePng(overlayPath(options.overlay_dir, set_number), bgr, /*overwrite=*/false);
+      ++overlays_written;
+    };
+  }
   TrackBagSummary summary = runTrackBag(
       reader, [&pipeline](const FrameSet& set) { return pipeline.process(set); }, csv, progress,
-      stop);
+      stop, overlay);
+  summary.overlays_written = overlays_written;
+  summary.overlay_dir = options.overlay_dir;
   summary.csv = options.out;
   summary.out_existed = out_existed;
   summary.handedness = handedness;

@@ -13,13 +13,17 @@
 #include <fstream>
 #include <functional>
 #include <iterator>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <random>
+#include <set>
 #include <sstream>
 
 #include "sag_hand_tracker/apps/csv.h"
 #include "sag_hand_tracker/apps/metrics.h"
 #include "sag_hand_tracker/apps/render_runner.h"
 #include "sag_hand_tracker/apps/track_runner.h"
+#include "sag_hand_tracker/apps/tracking_overlay.h"
 #include "sag_hand_tracker/ros/bag_output.h"
 #include "sag_hand_tracker/ros/conversions.h"
 #include "sag_hand_tracker/segmentation/background_plate.h"
@@ -403,6 +407,74 @@ TEST_F(TrackBagTool, TrackBagNamesImagesWhoseStampsGoBackwards) {
       "kept; the bag's images must come in the order of their stamps; " +
           path("mostly_backward.csv") + " was not written\n");
   EXPECT_FALSE(fs::exists(path("mostly_backward.csv")));
+}
+
+// --overlay-dir: the tracked model drawn over every camera's image for every N-th set after the
+// background and the start; a folder that already holds a file is refused before the bag is read.
+TEST_F(TrackBagTool, TrackBagDrawsTheTrackedModelOverTheImages) {
+  const HandModel model = loadHandModel(sag_test::modelPath("sag"));
+  const std::vector<Camera> cameras = sag_test::renderedRig();
+  const std::string bag = writeSceneBag("scene.bag");
+  const std::string overlays = path("overlays");
+  const ToolRun run =
+      trackBag("--bag '" + bag + "' --out '" + path("track.csv") + "' " + modelArgument() +
+               " --quiet --overlay-dir '" + overlays + "' --overlay-every 3");
+  ASSERT_EQ(run.status, 0) << run.err << run.out;
+  // Sets 4..11 carry the hand: 4 (the start, and the first of every third), 7 and 10.
+  std::set<std::string> names;
+  for (const auto& entry : fs::directory_iterator(overlays)) {
+    names.insert(entry.path().filename().string());
+  }
+  EXPECT_EQ(names,
+            (std::set<std::string>{"frame_000004.png", "frame_000007.png", "frame_000010.png"}));
+  EXPECT_NE(run.out.find("overlays:  3 pictures in " + overlays), std::string::npos) << run.out;
+  EXPECT_EQ(readTrackingCsv(path("track.csv")).rows.size(), static_cast<std::size_t>(kHandFrames));
+
+  // Four cameras: three tiles in the first row, one in the second, under a header line.
+  const cv::Mat sheet = cv::imread(overlayPath(overlays, 4), cv::IMREAD_COLOR);
+  ASSERT_FALSE(sheet.empty());
+  const int w = cameras[0].width, h = cameras[0].height;
+  const int header = sheet.rows - 2 * h;
+  ASSERT_EQ(sheet.cols, 3 * w);
+  ASSERT_GT(header, 0);
+  // Camera 0's tile: the background dimmed (a corner of the desk), the model's ellipses drawn in
+  // yellow where the plain image has none.
+  const cv::Mat image = sag_test::renderHand(model, truthAt(model, 0), cameras[0]);  // RGB
+  const cv::Vec3b plain = image.at<cv::Vec3b>(h - 3, w - 3);
+  const cv::Vec3b drawn = sheet.at<cv::Vec3b>(header + h - 3, w - 3);  // BGR
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(drawn[2 - k], 0.4 * plain[k], 1.0) << k;
+  auto yellowPixels = [](const cv::Mat& bgr) {
+    int count = 0;
+    for (int y = 0; y < bgr.rows; ++y) {
+      for (int x = 0; x < bgr.cols; ++x) {
+        const cv::Vec3b p = bgr.at<cv::Vec3b>(y, x);
+        count += p[2] > 200 && p[1] > 180 && p[0] < 90;
+      }
+    }
+    return count;
+  };
+  cv::Mat plain_bgr;
+  cv::cvtColor(image, plain_bgr, cv::COLOR_RGB2BGR);
+  EXPECT_GT(yellowPixels(sheet(cv::Rect(0, header, w, h))), yellowPixels(plain_bgr) + 100);
+
+  // A folder that holds anything is refused before the bag is read; nothing in it is touched.
+  const ToolRun again = trackBag("--bag '" + bag + "' --out '" + path("again.csv") + "' " +
+                                 modelArgument() + " --quiet --overlay-dir '" + overlays + "'");
+  EXPECT_EQ(again.status, 1);
+  EXPECT_EQ(again.err, "track_bag: error: --overlay-dir " + overlays +
+                           ": already holds files; give a new or empty folder (the pictures "
+                           "never replace a file)\n");
+  EXPECT_FALSE(fs::exists(path("again.csv")));
+  const ToolRun file =
+      trackBag("--bag '" + bag + "' --out '" + path("again.csv") + "' " + modelArgument() +
+               " --quiet --overlay-dir '" + path("track.csv") + "'");
+  EXPECT_EQ(file.status, 1);
+  EXPECT_EQ(file.err,
+            "track_bag: error: --overlay-dir " + path("track.csv") + ": is not a folder\n");
+  const ToolRun every = trackBag("--bag '" + bag + "' --out '" + path("again.csv") + "' " +
+                                 modelArgument() + " --quiet --overlay-every 5");
+  EXPECT_EQ(every.status, 2) << every.err;
+  EXPECT_NE(every.err.find("--overlay-every needs --overlay-dir"), std::string::npos) << every.err;
 }
 
 TEST_F(TrackBagTool, TrackBagNeverOverwritesAnInputOrLosesAnOldOutput) {

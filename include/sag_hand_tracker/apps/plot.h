@@ -20,8 +20,10 @@ cv::Mat linePlot(const std::vector<PlotSeries>& series, const std::string& title
                  const std::string& x_label, const std::string& y_label, int width = 900,
                  int height = 420);
 
-// Writes the plot; throws InputError if the file cannot be written.
-void writePng(const std::string& path, const cv::Mat& image);
+// Writes the image (BGR) complete or not at all; throws InputError if the file cannot be written.
+// With `overwrite` (the benchmark's own figures, replaced each run) it replaces a file at `path`;
+// without, nothing there is replaced (AtomicOutputFile).
+void writePng(const std::string& path, const cv::Mat& image, bool overwrite = true);
 
 // Stacks plots vertically (same width).
 cv::Mat stackVertically(const std::vector<cv::Mat>& images);

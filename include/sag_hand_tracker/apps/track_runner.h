@@ -51,6 +51,11 @@ struct TrackBagOptions {
   bool generic_skin_gate = false;
   std::string root_frame;  // --root-frame FRAME (empty: the root of the bag's tf tree)
   double stamp_tolerance = BagReaderOptions().stamp_tolerance;  // --stamp-tolerance S
+  // --overlay-dir DIR: a picture of the tracked model over the images (tracking_overlay.h) for
+  // every overlay_every-th set after the background (--overlay-every N), each start and the first
+  // frame of each lost stretch. Empty: none.
+  std::string overlay_dir;
+  int overlay_every = 25;
   bool overwrite = false;  // --overwrite: replace a file at --out (default: refused)
   bool quiet = false;      // --quiet: no progress bar
   bool help = false;       // --help
@@ -94,6 +99,8 @@ struct TrackBagSummary {
   std::string skin_gate;
   // The model's size at the end against the one it started with (TrackerParams::size_step).
   double model_size = 1.0;
+  int overlays_written = 0;  // --overlay-dir: the pictures written there
+  std::string overlay_dir;
   // With --hand auto: the hand chosen and why (handednessText); empty otherwise.
   std::string handedness;
   // Why the run's background frames are not the option's (a bag too short for a plate); empty
@@ -115,13 +122,17 @@ bool commitsTrackCsv(const TrackBagSummary& summary, std::size_t rows);
 
 // The per-set tracking call.
 using TrackFrameFunction = std::function<ProcessedFrame(const FrameSet&)>;
+// What a run does with each set and its result besides the CSV (the overlays), outside the timing.
+using TrackedFrameObserver = std::function<void(const FrameSet&, const ProcessedFrame&)>;
 
 // Reads every set of `reader`, calls `track` on it (timed), writes a CSV row for each result
-// with a pose, and updates `progress` (may be null). Stops early, with summary.interrupted set,
-// when `stop` (may be null) becomes true. InputError from the reader or `track` propagates.
+// with a pose, calls `observe` (may be empty; not timed) and updates `progress` (may be null).
+// Stops early, with summary.interrupted set, when `stop` (may be null) becomes true. InputError
+// from the reader, `track` or `observe` propagates.
 TrackBagSummary runTrackBag(BagReader& reader, const TrackFrameFunction& track,
                             TrackingCsvWriter& csv, ProgressBar* progress,
-                            const std::atomic<bool>* stop = nullptr);
+                            const std::atomic<bool>* stop = nullptr,
+                            const TrackedFrameObserver& observe = nullptr);
 
 // The CSV row of a result with a pose, with its status column.
 TrackingCsvRow toCsvRow(const FrameResult& result);
