@@ -93,6 +93,9 @@ PoseEnergy::PoseEnergy(const HandModel& model, const EnergyParams& params)
     const int radial = fingers[f].mcp_abd, ulnar = fingers[f + 1].mcp_abd;
     if (radial >= 0 && ulnar >= 0) abduction_neighbours_.emplace_back(radial, ulnar);
   }
+  for (const LongFingerJoints& finger : fingers) {
+    if (finger.mcp_abd >= 0) long_finger_abductions_.push_back(finger.mcp_abd);
+  }
   // Each bone's finger, from the model's fingertip Gaussians up to the palm (-1: the palm's).
   std::vector<int> finger_of_bone(model_.bones.size(), -1);
   for (int f = 0; f < kNumFingers; ++f) {
@@ -525,6 +528,21 @@ double PoseEnergy::evaluateIn(const Pose& pose, bool with_forearm,
       order_gradient[kFirstJointDof + radial] -= 2.0 * crossing;
     }
   }
+  // Fan-turn prior (EnergyParams::fan_turn_weight).
+  double fan_turn = 0.0;
+  PoseVector fan_turn_gradient = PoseVector::Zero();
+  if (params_.fan_turn_weight > 0.0 && !long_finger_abductions_.empty()) {
+    const double count = static_cast<double>(long_finger_abductions_.size());
+    double common = 0.0;
+    for (const int j : long_finger_abductions_) common += pose.joints[j];
+    common /= count;
+    const double excess = std::fabs(common) - params_.fan_turn_margin;
+    if (excess > 0.0) {
+      fan_turn = excess * excess;
+      const double d_common = 2.0 * excess * (common > 0.0 ? 1.0 : -1.0) / count;
+      for (const int j : long_finger_abductions_) fan_turn_gradient[kFirstJointDof + j] = d_common;
+    }
+  }
   // Finger collision prior (EnergyParams::finger_collision_weight): dF/dmu_p = -2 h f x,
   // dF/dSigma_p = dF/dSigma_q = h f x x^T with x = (Sigma_p + Sigma_q)^-1 d, h = f - f_0.
   double collision = 0.0;
@@ -580,16 +598,18 @@ double PoseEnergy::evaluateIn(const Pose& pose, bool with_forearm,
     wrist /= static_cast<double>(wrist_rays_.size());
     wrist_gradient /= static_cast<double>(wrist_rays_.size());
   }
-  const double total =
-      similarity - params_.limit_weight * penalty - params_.dip_pip_coupling_weight * coupling -
-      params_.finger_order_weight * order - params_.finger_collision_weight * collision - range -
-      params_.wrist_weight * wrist;  // paper eq. 9 + priors
+  const double total = similarity - params_.limit_weight * penalty -
+                       params_.dip_pip_coupling_weight * coupling -
+                       params_.finger_order_weight * order - params_.fan_turn_weight * fan_turn -
+                       params_.finger_collision_weight * collision - range -
+                       params_.wrist_weight * wrist;  // paper eq. 9 + priors
 
   if (terms) {
     terms->similarity = similarity;
     terms->limit_penalty = penalty;
     terms->coupling_penalty = coupling;
     terms->order_penalty = order;
+    terms->fan_turn_penalty = fan_turn;
     terms->collision_penalty = collision;
     terms->range_penalty = range;
     terms->wrist_penalty = wrist;
@@ -632,6 +652,7 @@ double PoseEnergy::evaluateIn(const Pose& pose, bool with_forearm,
   *gradient -= params_.limit_weight * limit_gradient;
   *gradient -= params_.dip_pip_coupling_weight * coupling_gradient;
   *gradient -= params_.finger_order_weight * order_gradient;
+  *gradient -= params_.fan_turn_weight * fan_turn_gradient;
   *gradient -= range_gradient;
   for (int i = 0; i < 3; ++i) {
     (*gradient)[kRootTranslation + i] -= params_.wrist_weight * wrist_gradient[i];

@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <array>
+
 #include <cmath>
 #include <functional>
 #include <optional>
@@ -114,6 +116,7 @@ double weightedTotal(const EnergyParams& params, const EnergyTerms& terms) {
   return terms.similarity - params.limit_weight * terms.limit_penalty -
          params.dip_pip_coupling_weight * terms.coupling_penalty -
          params.finger_order_weight * terms.order_penalty -
+         params.fan_turn_weight * terms.fan_turn_penalty -
          params.finger_collision_weight * terms.collision_penalty -
          terms.range_penalty -  // weighted per joint (EnergyParams::thumb_range_weight)
          params.wrist_weight * terms.wrist_penalty;
@@ -186,6 +189,17 @@ TEST(EnergyGradient, SagWithStrongFingerOrderPriorMatchesCentralDifferences) {
   checkGradient("sag", defaults.dip_pip_coupling_weight, defaults.model_area_weight,
                 defaults.joint_range_weight, defaults.saturation_softness,
                 defaults.occlusion_depth_scale, 5.0);
+}
+
+// The same with a strong fan-turn prior: every pose charged (margin 0), and only the random poses
+// whose long fingers turn together by more than a small margin.
+TEST(EnergyGradient, SagWithStrongFanTurnPriorMatchesCentralDifferences) {
+  for (const double margin : {0.0, 0.05}) {
+    EnergyParams params;
+    params.fan_turn_weight = 5.0;
+    params.fan_turn_margin = margin;
+    checkGradientWith("sag", params);
+  }
 }
 
 // The same with a strong finger collision prior: every pair of neighbouring fingers' Gaussians
@@ -383,6 +397,44 @@ TEST(Energy, FingerOrderPriorChargesNeighboursTurnedAcrossEachOther) {
   EnergyTerms unpriced;
   EXPECT_NEAR(without.evaluate(pose, nullptr, &unpriced), total + weight * expected, 1e-9);
   EXPECT_EQ(unpriced.order_penalty, 0.0);
+}
+
+// The fan-turn prior charges the long fingers' common sideways turn beyond its margin, not their
+// spread: a fan opened or closed about the middle costs nothing.
+TEST(Energy, FanTurnPriorChargesTheLongFingersTurnedTogether) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  EnergyParams params;
+  params.fan_turn_weight = 1.0;
+  PoseEnergy energy(model, params);
+  energy.setFrame(modelObservations(model, typicalPose(model), fiveCameraRig(), 6.0));
+  const char* fingers[] = {"index", "middle", "ring", "pinky"};
+  auto withAbductions = [&](const std::array<double, 4>& abductions) {
+    Pose pose = typicalPose(model);
+    for (int f = 0; f < 4; ++f) {
+      pose.joints[jointNamed(model, std::string(fingers[f]) + "_mcp_abd")] = abductions[f];
+    }
+    return pose;
+  };
+  auto penalty = [&](const Pose& pose, double* total = nullptr) {
+    EnergyTerms terms;
+    const double value = energy.evaluate(pose, nullptr, &terms);
+    if (total) *total = value;
+    EXPECT_NEAR(value, weightedTotal(params, terms), 1e-9);
+    return terms.fan_turn_penalty;
+  };
+  EXPECT_EQ(penalty(withAbductions({0.3, 0.1, -0.1, -0.3})), 0.0);  // spread wide
+  EXPECT_EQ(penalty(withAbductions({0.0, 0.0, 0.0, 0.0})), 0.0);    // closed
+  EXPECT_EQ(penalty(withAbductions({0.2, 0.15, 0.12, 0.1})), 0.0);  // turned within the margin
+  // All four turned toward the thumb (mean 0.3) and toward the pinky (mean -0.25).
+  EXPECT_NEAR(penalty(withAbductions({0.35, 0.3, 0.3, 0.25})), std::pow(0.3 - 0.15, 2), 1e-12);
+  double total = 0.0;
+  const Pose turned = withAbductions({-0.2, -0.25, -0.3, -0.25});
+  EXPECT_NEAR(penalty(turned, &total), std::pow(0.25 - 0.15, 2), 1e-12);
+  // Switched off, it costs nothing.
+  params.fan_turn_weight = 0.0;
+  PoseEnergy without(model, params);
+  without.setFrame(modelObservations(model, typicalPose(model), fiveCameraRig(), 6.0));
+  EXPECT_NEAR(without.evaluate(turned), total + 1.0 * std::pow(0.1, 2), 1e-9);
 }
 
 // The finger collision prior (opt-in) charges a straight finger laid along its straight neighbour,

@@ -61,6 +61,22 @@ struct EnergyParams {
   // 19.0; fitted models 10.8 -> 10.4 (doc/history.md "Session 24"). 0 disables it.
   double finger_order_weight = 0.25;
   double finger_order_margin = 0.08;
+  // The long fingers turned sideways together (issue 9; opt-in). A soft prior
+  // -w_f max(0, |c| - m_f)^2, c the mean MCP abduction (<finger>_mcp_abd) of the long fingers: the
+  // fingers may fan out and close freely, but their common turn beyond `fan_turn_margin` rad
+  // costs. The palm's turn about its normal and all four fingers' abductions the other way put the
+  // fingers in nearly the same place, and the energy tells them apart poorly where the fingers are
+  // curled: the tracker had |c| above 0.15 rad in 16-53 % of the frames of every studio motion
+  // (fingercount, flexex1, raised about half), with the palm turned by up to 35 degrees, where
+  // the truth's |c| never exceeds 0.14. With w_f 0.3 no tracked |c| exceeded 0.25 (14 % of the
+  // frames before) and frames with the palm turned by more than 10 degrees went 10.3 -> 8.7 %
+  // (default model) and 5.9 -> 5.1 % (fitted); benchmark, 17 hands x 12 motions: default model
+  // 10.21 -> 10.20 mm pooled (the default hand 8.13 -> 8.54), fitted models 8.53 -> 8.32, no frame
+  // reversed or rolled over; but five of the tracker's behaviour tests failed with it (the
+  // kitchen's fitted model on the other arm 15 frames longer, the open and curl toggles' scenes),
+  // and w_f 0.5 and 1 rolled tracks over (doc/history.md "Session 46"). 0 disables it.
+  double fan_turn_weight = 0.0;
+  double fan_turn_margin = 0.15;
   // Finger collision (opt-in): two fingers cannot lie in one place. A soft prior
   // -w_k sum max(0, f_pq - f_0)^2 over the model Gaussians p, q of neighbouring long fingers
   // (index-middle, middle-ring, ring-pinky), f_pq = exp(-1/2 d^T (Sigma_p + Sigma_q)^-1 d) with
@@ -156,11 +172,12 @@ struct EnergyTerms {
   double limit_penalty = 0.0;     // E_lim
   double coupling_penalty = 0.0;  // sum_f (theta_dip - k theta_pip)^2 (EnergyParams)
   double order_penalty = 0.0;     // sum max(0, abd_ulnar - abd_radial - m_o)^2 (EnergyParams)
+  double fan_turn_penalty = 0.0;  // max(0, |mean long-finger abduction| - m_f)^2 (EnergyParams)
   double collision_penalty = 0.0;  // sum max(0, f_pq - f_0)^2 (EnergyParams)
   double range_penalty = 0.0;      // sum_j w_j ((theta_j - m_j) / h_j)^2, w_j its weight
                                    // (joint_range_weight, or thumb_range_weight for the thumb)
   double wrist_penalty = 0.0;      // mean_c rho(d_c), the wrist's distance from the sleeve's end
-  // E_sim - w_l E_lim - w_c coupling - w_o order - w_k collision - range - w_s wrist
+  // E_sim - w_l E_lim - w_c coupling - w_o order - w_f fan turn - w_k collision - range - w_s wrist
   double total = 0.0;
   std::vector<double> per_camera;
   // Model Gaussians that could not be projected into a camera that sees foreground (behind it,
@@ -253,6 +270,8 @@ class PoseEnergy {
   std::vector<std::pair<int, int>> pip_dip_pairs_;    // joint indices of coupled PIP, DIP
   // Joint indices of neighbouring fingers' MCP abductions (radial, ulnar): the finger order prior.
   std::vector<std::pair<int, int>> abduction_neighbours_;
+  // Joint indices of the long fingers' MCP abductions: the fan-turn prior.
+  std::vector<int> long_finger_abductions_;
   // Model Gaussian pairs of neighbouring long fingers: the finger collision prior.
   std::vector<std::pair<int, int>> collision_pairs_;
   // occluding_pairs_[p * numGaussians() + r]: whether r may hide p (visibility.h).
