@@ -104,6 +104,21 @@ void PoseAscent::iterate(int iterations) {
   }
 }
 
+int PoseAscent::iterateWhileRising(int iterations, int extra, int chunk, double min_gain) {
+  if (extra <= 0 || chunk <= 0 || iterations < chunk) {
+    iterate(iterations);
+    return 0;
+  }
+  iterate(iterations - chunk);
+  int done = 0;
+  while (true) {
+    const double before = bestEnergy();
+    iterate(chunk);
+    if (done + chunk > extra || stopped_ || !(bestEnergy() - before > min_gain)) return done;
+    done += chunk;
+  }
+}
+
 OptimizationResult PoseAscent::finish() {
   OptimizationResult best = best_;
   // The last step has not been scored yet.

@@ -952,7 +952,8 @@ OptimizationResult HandTracker::trackFromPrediction(const PoseEnergy& energy,
   }
   const int race = static_cast<int>(std::lround(params_.counter_turn_race_share * iterations));
   if (!counter || race <= 0 || race >= iterations) {
-    ascent.iterate(iterations);
+    ascent.iterateWhileRising(iterations, params_.rising_extra_iterations, params_.rising_chunk,
+                              params_.rising_min_gain);
     OptimizationResult result = ascent.finish();
     boundRotation(energy, current, start, &result);
     if (!counter) return result;
@@ -966,7 +967,8 @@ OptimizationResult HandTracker::trackFromPrediction(const PoseEnergy& energy,
   counter_ascent.iterate(race);
   const bool counter_leads = counter_ascent.bestEnergy() > ascent.bestEnergy();
   PoseAscent& leader = counter_leads ? counter_ascent : ascent;
-  leader.iterate(iterations - race);
+  leader.iterateWhileRising(iterations - race, params_.rising_extra_iterations,
+                            params_.rising_chunk, params_.rising_min_gain);
   OptimizationResult result = leader.finish();
   boundRotation(energy, current, counter_leads ? *counter : start, &result);
   return result;

@@ -92,16 +92,23 @@ TEST(Optimizer, KeepsParametersInsideLimitsAndCountsEvaluations) {
   EXPECT_EQ(result.evaluations, params.iterations + 1);
 }
 
+// The model's own images in five cameras, and a start perturbed from the pose that made them.
+class AscentFromPerturbedStart : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    energy.setFrame(modelObservations(model, truth, fiveCameraRig()));
+    std::mt19937 rng(5);
+    start = perturbed(model, truth, rng);
+  }
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const Pose truth = typicalPose(model);
+  PoseEnergy energy{model, EnergyParams()};
+  Pose start;
+};
+
 // An ascent stopped and resumed (PoseAscent, which the counter-turn race uses) goes exactly where
 // one run of as many iterations goes, for both step controls.
-TEST(Optimizer, ResumedAscentEqualsOneRun) {
-  const HandModel model = loadHandModel(modelPath("sag"));
-  const std::vector<Camera> cameras = fiveCameraRig();
-  const Pose truth = typicalPose(model);
-  PoseEnergy energy(model, EnergyParams());
-  energy.setFrame(modelObservations(model, truth, cameras));
-  std::mt19937 rng(5);
-  const Pose start = perturbed(model, truth, rng);
+TEST_F(AscentFromPerturbedStart, ResumedAscentEqualsOneRun) {
   for (const StepControl control : {StepControl::kRprop, StepControl::kFixed}) {
     OptimizerParams params;
     params.step_control = control;
@@ -121,6 +128,34 @@ TEST(Optimizer, ResumedAscentEqualsOneRun) {
     EXPECT_EQ(resumed.pose.toVector(), whole.pose.toVector()) << toString(control);
     EXPECT_GT(whole.energy, energy.evaluate(start)) << toString(control);
   }
+}
+
+// More iterations only while the ascent still rises: far from the maximum the extra chunks run
+// (up to the bound) and the energy goes on rising; at the maximum none runs; without extra
+// iterations it is iterate() exactly.
+TEST_F(AscentFromPerturbedStart, ExtraIterationsRunOnlyWhileTheEnergyRises) {
+  OptimizerParams params;
+  params.iterations = 6;
+
+  PoseAscent plain(energy, start, params);
+  plain.iterate(params.iterations);
+  PoseAscent rising(energy, start, params);
+  const int extra = rising.iterateWhileRising(params.iterations, 10, 3, 1e-4);
+  EXPECT_EQ(extra, 9) << "far from the maximum every chunk within the bound runs";
+  EXPECT_EQ(rising.iterations(), params.iterations + extra);
+  EXPECT_GT(rising.bestEnergy(), plain.bestEnergy() + 1e-4);
+
+  PoseAscent off(energy, start, params);
+  EXPECT_EQ(off.iterateWhileRising(params.iterations, 0, 3, 1e-4), 0);
+  EXPECT_EQ(off.finish().pose.toVector(), plain.finish().pose.toVector());
+
+  // From the converged pose nothing rises by the gain any more.
+  params.iterations = 200;
+  const Pose converged = optimizePose(energy, start, params).pose;
+  params.iterations = 6;
+  PoseAscent at_maximum(energy, converged, params);
+  EXPECT_EQ(at_maximum.iterateWhileRising(params.iterations, 10, 3, 1e-3), 0);
+  EXPECT_EQ(at_maximum.iterations(), params.iterations);
 }
 
 TEST(Optimizer, ParsesStepControl) {

@@ -49,6 +49,10 @@ class PoseAscent {
   PoseAscent(const PoseEnergy& energy, const Pose& start, const OptimizerParams& params);
   // Up to `iterations` more iterations (none once an evaluation was not finite).
   void iterate(int iterations);
+  // iterate(iterations), then up to `extra` more in chunks of `chunk` while the best energy rose
+  // by more than `min_gain` over the last chunk: more iterations only where the ascent is still
+  // rising; never more than `extra`. Returns the number of extra iterations run.
+  int iterateWhileRising(int iterations, int extra, int chunk, double min_gain);
   int iterations() const { return iterations_; }
   // The best energy scored so far (-infinity before the first iteration).
   double bestEnergy() const { return best_.energy; }

@@ -159,6 +159,16 @@ struct TrackerParams {
   // (frames/s 215 -> 241, medians of an interleaved run); a quarter gave 14.5 mm, 0.4 gave
   // 14.6 mm and 0.28 % rolled (doc/history.md "Session 17"). calibrate_hand tracks without it.
   double counter_turn_race_share = 0.5;
+  // More iterations only where the frame's ascent is still rising (issue 9, item 4): after the
+  // optimiser's iterations, up to rising_extra_iterations more, in chunks of rising_chunk, while
+  // the best energy rose by more than rising_min_gain over the last chunk. 0: off. Measured at 10
+  // / 1e-3 (doc/history.md "Session 47"): fitted models 8.45 -> 8.34 mm over 17 hands, the
+  // default model unchanged (10.21 -> 10.22; named 10.55 -> 10.39, drawn 9.83 -> 10.02), the
+  // default hand 8.13 -> 8.43; `random` moves by up to 7 mm per track both ways. At 20 / 5e-4 a
+  // fitted track rolled over. Off: no gain the benchmark can tell from chaos.
+  int rising_extra_iterations = 0;
+  int rising_chunk = 5;
+  double rising_min_gain = 1e-3;
   // Finger toggles judged by the silhouette (issue 9, doc/history.md "Session 27"). The energy
   // scores a long finger tracked straight over its opened neighbour, or out where the truth has it
   // curled, as well as the curled truth (eq. 8 never charges model over background), and the
