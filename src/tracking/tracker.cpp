@@ -950,9 +950,11 @@ OptimizationResult HandTracker::trackFromPrediction(const PoseEnergy& energy,
       counter->translation = rootAt(handCentre(start), counter->rotation);
     }
   }
+  const int rising_extra =
+      frames_since_start_ >= params_.rising_min_track_frames ? params_.rising_extra_iterations : 0;
   const int race = static_cast<int>(std::lround(params_.counter_turn_race_share * iterations));
   if (!counter || race <= 0 || race >= iterations) {
-    ascent.iterateWhileRising(iterations, params_.rising_extra_iterations, params_.rising_chunk,
+    ascent.iterateWhileRising(iterations, rising_extra, params_.rising_chunk,
                               params_.rising_min_gain);
     OptimizationResult result = ascent.finish();
     boundRotation(energy, current, start, &result);
@@ -967,8 +969,8 @@ OptimizationResult HandTracker::trackFromPrediction(const PoseEnergy& energy,
   counter_ascent.iterate(race);
   const bool counter_leads = counter_ascent.bestEnergy() > ascent.bestEnergy();
   PoseAscent& leader = counter_leads ? counter_ascent : ascent;
-  leader.iterateWhileRising(iterations - race, params_.rising_extra_iterations,
-                            params_.rising_chunk, params_.rising_min_gain);
+  leader.iterateWhileRising(iterations - race, rising_extra, params_.rising_chunk,
+                            params_.rising_min_gain);
   OptimizationResult result = leader.finish();
   boundRotation(energy, current, counter_leads ? *counter : start, &result);
   return result;
