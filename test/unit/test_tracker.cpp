@@ -142,6 +142,40 @@ TEST(Tracker, TracksMotionAndRestartsWhenLost) {
   EXPECT_LT(meanFingertipError(jumped.fingertips, fingertips(model, truth)), 0.025);
 }
 
+// The extra iterations of a still rising ascent (TrackerParams::rising_*) wait for the track's
+// rising_min_track_frames-th frame: a track that never gets there is the one without them, to
+// the bit; from its first frame on they run and the track changes. Short ascents (6 iterations,
+// chunks of 2) end while the energy still rises.
+TEST(Tracker, RisingIterationsWaitForAnEstablishedTrack) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  auto track = [&](int extra, int min_track_frames) {
+    TrackerParams params;
+    params.optimizer.iterations = 6;
+    params.rising_chunk = 2;
+    params.rising_extra_iterations = extra;
+    params.rising_min_track_frames = min_track_frames;
+    HandTracker tracker(model, params);
+    Pose truth = typicalPose(model);
+    std::vector<PoseVector> poses;
+    for (int frame = 0; frame < 12; ++frame) {
+      truth.translation.x() += 0.004;
+      truth.joints[4] = 0.2 + 0.4 * std::sin(frame * 0.3);
+      const FrameResult result =
+          tracker.update(modelObservations(model, truth, cameras, 3.0), frame * 0.04);
+      EXPECT_TRUE(result.has_pose) << "frame " << frame;
+      poses.push_back(result.pose.toVector());
+    }
+    return poses;
+  };
+  const std::vector<PoseVector> without = track(0, 0);
+  EXPECT_EQ(track(10, 1000), without) << "the extra iterations ran before the track's frame 1000";
+  const std::vector<PoseVector> from_start = track(10, 0);
+  int changed = 0;
+  for (size_t i = 0; i < without.size(); ++i) changed += from_start[i] != without[i] ? 1 : 0;
+  EXPECT_GT(changed, 0) << "the extra iterations never ran";
+}
+
 namespace {
 
 // The fingertip errors of the restarts after the hand jumps away from a tracked pose (a search
