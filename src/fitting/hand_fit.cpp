@@ -101,6 +101,7 @@ RoutineTracking RoutineTracking::of(const TrackerParams& params) {
   routine.counter_turn_race_share = params.counter_turn_race_share;
   routine.redetect_race_iterations = params.redetect_race_iterations;
   routine.curled_refine_iterations = params.curled_refine_iterations;
+  routine.rising_extra_iterations = params.rising_extra_iterations;
   routine.wrist_weight = params.energy.wrist_weight;
   return routine;
 }
@@ -109,6 +110,7 @@ void RoutineTracking::applyTo(TrackerParams* params) const {
   params->counter_turn_race_share = counter_turn_race_share;
   params->redetect_race_iterations = redetect_race_iterations;
   params->curled_refine_iterations = curled_refine_iterations;
+  params->rising_extra_iterations = rising_extra_iterations;
   params->energy.wrist_weight = wrist_weight;
 }
 
@@ -116,6 +118,7 @@ bool RoutineTracking::operator==(const RoutineTracking& other) const {
   return counter_turn_race_share == other.counter_turn_race_share &&
          redetect_race_iterations == other.redetect_race_iterations &&
          curled_refine_iterations == other.curled_refine_iterations &&
+         rising_extra_iterations == other.rising_extra_iterations &&
          wrist_weight == other.wrist_weight;
 }
 

@@ -33,7 +33,8 @@
 //   plus the dynamic_reconfigure parameters of cfg/Tracker.cfg (its start_model_area_weight, -1
 //   by default, replaces the mode's weight when it is at least 0; its curled_refine_iterations,
 //   -1 by default, the curled hand's refinement: as offline, on with mode plate and off with
-//   mode skin); the open finger toggles and the model's size adaptation as offline too
+//   mode skin; its rising_extra_iterations, 0 by default: the offline tools' 10 cost latency);
+//   the open finger toggles and the model's size adaptation as offline too
 //   (TrackerParams::toggle_curled_flexion, size_step: on with mode plate, off with mode skin). The
 //   tf, markers and fingertips are the tracker's model's, at the size it has taken.
 //
@@ -67,12 +68,13 @@
 // the sets of the next `duration` seconds (image stamps) as CalibrationFrames (the observations
 // the tracker gets and its pose, for sets with a tracked hand) while tracking goes on (tracked
 // meanwhile as calibrate_hand tracks a routine, RoutineTracking: whole ascents instead of races,
-// no wrist prior, no curled hand's refinement), checks the routine (checkCalibrationRoutine), fits
-// (fitHandModel: the same fit as calibrate_hand, colours sampled from the image SoGs, which carry
-// them) on a thread of its own, optionally writes the model file (atomic; never replaces a file),
-// then rebuilds the HandTracker with the fitted model under mutex_. The service has its own
-// callback queue and two threads: a call waiting for its frames or its fit takes none of the
-// manager's worker threads, and a second call is answered (refused) at once.
+// no wrist prior, no curled hand's refinement, no extra iterations), checks the routine
+// (checkCalibrationRoutine), fits (fitHandModel: the same fit as calibrate_hand, colours sampled
+// from the image SoGs, which carry them) on a thread of its own, optionally writes the model file
+// (atomic; never replaces a file), then rebuilds the HandTracker with the fitted model under
+// mutex_. The service has its own callback queue and two threads: a call waiting for its frames or
+// its fit takes none of the manager's worker threads, and a second call is answered (refused) at
+// once.
 //
 // Synchronization: CameraSetSynchronizer (tracking/camera_set_synchronizer.h; message_filters'
 // synchronizers take at most 9 inputs): a set is processed as soon as every camera that is not
@@ -356,12 +358,14 @@ class TrackerNodelet : public nodelet::Nodelet {
     params.catch_up_seconds = catch_up_seconds_;
     params.worker_niceness = worker_niceness_;
     params.search_threads = search_threads_;
+    params.rising_extra_iterations = 0;  // cfg/Tracker.cfg's live default
     return params;
   }
 
   void reconfigure(TrackerConfig& config) {
     TrackerParams params = liveTrackerParams();
     params.optimizer.iterations = config.iterations;
+    params.rising_extra_iterations = config.rising_extra_iterations;
     try {
       params.optimizer.step_control = parseStepControl(config.step_control);
     } catch (const std::exception& e) {
@@ -840,7 +844,8 @@ class TrackerNodelet : public nodelet::Nodelet {
       recording_.emplace();
       recording_->duration = request.duration;
       // The routine is tracked as calibrate_hand tracks it (RoutineTracking: whole ascents, no
-      // wrist prior, no curled hand's refinement); the tracker's own settings are back after it.
+      // wrist prior, no curled hand's refinement, no extra iterations); the tracker's own
+      // settings are back after it.
       const RoutineTracking live = RoutineTracking::of(tracker_->params());
       setRoutineTracking(RoutineTracking());
       setCalibrationState("collecting");

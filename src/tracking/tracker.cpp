@@ -952,14 +952,21 @@ OptimizationResult HandTracker::trackFromPrediction(const PoseEnergy& energy,
   }
   const int rising_extra =
       frames_since_start_ >= params_.rising_min_track_frames ? params_.rising_extra_iterations : 0;
+  // The rest of an ascent: its iterations up to `iterations`, then the extra ones while it rises.
+  auto ascend = [&](PoseAscent* a) {
+    a->iterateWhileRising(iterations - a->iterations(), rising_extra, params_.rising_chunk,
+                          params_.rising_min_gain);
+  };
   const int race = static_cast<int>(std::lround(params_.counter_turn_race_share * iterations));
   if (!counter || race <= 0 || race >= iterations) {
-    ascent.iterateWhileRising(iterations, rising_extra, params_.rising_chunk,
-                              params_.rising_min_gain);
+    ascend(&ascent);
     OptimizationResult result = ascent.finish();
     boundRotation(energy, current, start, &result);
     if (!counter) return result;
-    OptimizationResult other = optimizePose(energy, *counter, params_.optimizer);
+    // Two whole ascents, each with the same iterations (the race below is measured against this).
+    PoseAscent counter_ascent(energy, *counter, params_.optimizer);
+    ascend(&counter_ascent);
+    OptimizationResult other = counter_ascent.finish();
     boundRotation(energy, current, *counter, &other);
     return other.energy > result.energy ? other : result;
   }
@@ -969,8 +976,7 @@ OptimizationResult HandTracker::trackFromPrediction(const PoseEnergy& energy,
   counter_ascent.iterate(race);
   const bool counter_leads = counter_ascent.bestEnergy() > ascent.bestEnergy();
   PoseAscent& leader = counter_leads ? counter_ascent : ascent;
-  leader.iterateWhileRising(iterations - race, rising_extra, params_.rising_chunk,
-                            params_.rising_min_gain);
+  ascend(&leader);
   OptimizationResult result = leader.finish();
   boundRotation(energy, current, counter_leads ? *counter : start, &result);
   return result;

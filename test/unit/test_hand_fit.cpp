@@ -114,20 +114,23 @@ TEST_F(HandModelWriter, MirroredAndRotatedGaussiansRoundTrip) {
   expectSameModel(model, loadFromText(this, text, path("left.yaml")));
 }
 
-// A routine is tracked without the races, the curled hand's refinement and the wrist prior
-// (RoutineTracking): calibrate_hand's tracker is the default one with those off, and the live
-// ~calibrate switches a running tracker to them and back without touching what a reconfigure set.
-// The size adaptation stays as the tracker has it: the fit starts at the size it found.
+// A routine is tracked without the races, the curled hand's refinement, the extra iterations of a
+// rising ascent and the wrist prior (RoutineTracking): calibrate_hand's tracker is the default one
+// with those off, and the live ~calibrate switches a running tracker to them and back without
+// touching what a reconfigure set. The size adaptation stays as the tracker has it: the fit starts
+// at the size it found.
 TEST(RoutineTracking, SwitchesATrackerToTheRoutineAndBack) {
   const TrackerParams defaults;
   ASSERT_GT(defaults.counter_turn_race_share, 0.0);
   ASSERT_GT(defaults.redetect_race_iterations, 0);
   ASSERT_GT(defaults.curled_refine_iterations, 0);
+  ASSERT_GT(defaults.rising_extra_iterations, 0);
   ASSERT_GT(defaults.energy.wrist_weight, 0.0);
   const TrackerParams offline = calibrationTrackerParams();
   EXPECT_EQ(offline.counter_turn_race_share, 0.0);
   EXPECT_EQ(offline.redetect_race_iterations, 0);
   EXPECT_EQ(offline.curled_refine_iterations, 0);
+  EXPECT_EQ(offline.rising_extra_iterations, 0);
   EXPECT_EQ(offline.energy.wrist_weight, calibrationEnergyParams().wrist_weight);
   EXPECT_EQ(offline.energy.wrist_weight, 0.0);
   EXPECT_EQ(offline.optimizer.iterations, defaults.optimizer.iterations);
@@ -137,7 +140,8 @@ TEST(RoutineTracking, SwitchesATrackerToTheRoutineAndBack) {
   live.optimizer.iterations = 10;
   live.energy.model_area_weight = 0.7;
   live.curled_refine_iterations = 6;
-  live.size_step = 0.0;  // switched off by a reconfigure
+  live.rising_extra_iterations = 4;  // the live default is 0; a reconfigure set 4
+  live.size_step = 0.0;              // switched off by a reconfigure
   const RoutineTracking saved = RoutineTracking::of(live);
   EXPECT_FALSE(saved == RoutineTracking());
   TrackerParams during = live;
@@ -145,6 +149,7 @@ TEST(RoutineTracking, SwitchesATrackerToTheRoutineAndBack) {
   EXPECT_TRUE(RoutineTracking::of(during) == RoutineTracking());
   EXPECT_EQ(during.counter_turn_race_share, 0.0);
   EXPECT_EQ(during.curled_refine_iterations, 0);
+  EXPECT_EQ(during.rising_extra_iterations, 0);
   EXPECT_EQ(during.energy.wrist_weight, 0.0);
   EXPECT_EQ(during.optimizer.iterations, 10);
   EXPECT_EQ(during.energy.model_area_weight, 0.7);
@@ -154,6 +159,7 @@ TEST(RoutineTracking, SwitchesATrackerToTheRoutineAndBack) {
   EXPECT_EQ(during.counter_turn_race_share, live.counter_turn_race_share);
   EXPECT_EQ(during.redetect_race_iterations, live.redetect_race_iterations);
   EXPECT_EQ(during.curled_refine_iterations, 6);
+  EXPECT_EQ(during.rising_extra_iterations, 4);
   EXPECT_EQ(during.energy.wrist_weight, live.energy.wrist_weight);
   EXPECT_EQ(during.energy.model_area_weight, 0.5);
 }
