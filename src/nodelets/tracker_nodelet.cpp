@@ -33,10 +33,10 @@
 //   plus the dynamic_reconfigure parameters of cfg/Tracker.cfg (its start_model_area_weight, -1
 //   by default, replaces the mode's weight when it is at least 0; its curled_refine_iterations,
 //   -1 by default, the curled hand's refinement: as offline, on with mode plate and off with
-//   mode skin; its rising_extra_iterations, 0 by default: the offline tools' 10 cost latency);
-//   the open finger toggles and the model's size adaptation as offline too
-//   (TrackerParams::toggle_curled_flexion, size_step: on with mode plate, off with mode skin). The
-//   tf, markers and fingertips are the tracker's model's, at the size it has taken.
+//   mode skin; its rising_extra_iterations, 10, as offline); the open finger toggles and the
+//   model's size adaptation as offline too (TrackerParams::toggle_curled_flexion, size_step: on
+//   with mode plate, off with mode skin). The tf, markers and fingertips are the tracker's model's,
+//   at the size it has taken.
 //
 // Room cues (issue 11; ros/live_room_cues.h, doc/segmentation.md "The live graph"; the segmentation
 // nodelets' room_cues must be on too): after every set the tracked hand is published to each
@@ -358,7 +358,6 @@ class TrackerNodelet : public nodelet::Nodelet {
     params.catch_up_seconds = catch_up_seconds_;
     params.worker_niceness = worker_niceness_;
     params.search_threads = search_threads_;
-    params.rising_extra_iterations = 0;  // cfg/Tracker.cfg's live default
     return params;
   }
 
@@ -396,9 +395,10 @@ class TrackerNodelet : public nodelet::Nodelet {
     tracker_->setParams(params);
     // Read back from the tracker: what it now runs (the replay_reconfigure rostest checks it).
     NODELET_INFO(
-        "tracker: parameters set: %d optimizer iterations per set, the starts' model-area weight "
-        "%g",
-        tracker_->params().optimizer.iterations, tracker_->params().start_model_area_weight);
+        "tracker: parameters set: %d optimizer iterations per set (up to %d more while the ascent "
+        "rises), the starts' model-area weight %g",
+        tracker_->params().optimizer.iterations, tracker_->params().rising_extra_iterations,
+        tracker_->params().start_model_area_weight);
     if (config.reset) {
       NODELET_INFO("tracker reset requested");
       tracker_->reset();

@@ -140,7 +140,7 @@ TEST(RoutineTracking, SwitchesATrackerToTheRoutineAndBack) {
   live.optimizer.iterations = 10;
   live.energy.model_area_weight = 0.7;
   live.curled_refine_iterations = 6;
-  live.rising_extra_iterations = 4;  // the live default is 0; a reconfigure set 4
+  live.rising_extra_iterations = 4;
   live.size_step = 0.0;              // switched off by a reconfigure
   const RoutineTracking saved = RoutineTracking::of(live);
   EXPECT_FALSE(saved == RoutineTracking());

@@ -696,13 +696,13 @@ double meanErrorAfterARollTurnsBack(const TrackerParams& params) {
 
 }  // namespace
 
-// With eq. 8's hard cap and the paper's 10 iterations, as the live tracker runs them (no extra
-// iterations while the ascent rises), the counter-turn start follows the roll back exactly (0.04
-// rad at worst, 0.34 without); with the offline tools' extra iterations (TrackerParams::
-// rising_extra_iterations) at 10 iterations, 0.056 against 0.33. With the default 20 iterations
-// the hard cap's track climbs further up the wrong branch before the two are compared (0.14 rad,
-// 0.46 without). With the default soft cap (saturation_softness 0.5) this synthetic hand is
-// tracked less tightly after the turn, and the counter-turn start still divides the error (0.07
+// With eq. 8's hard cap and the paper's 10 iterations, none more (the extra iterations while the
+// ascent rises, TrackerParams::rising_extra_iterations, off), the counter-turn start follows the
+// roll back exactly (0.04 rad at worst, 0.34 without); with the extra iterations, 0.056 against
+// 0.33 (averaged over seven speeds, as below, 0.111 against 0.113 without them). With the default
+// 20 iterations the hard cap's track climbs further up the wrong branch before the two are compared
+// (0.14 rad, 0.46 without). With the default soft cap (saturation_softness 0.5) this synthetic hand
+// is tracked less tightly after the turn, and the counter-turn start still divides the error (0.07
 // rad against 0.33).
 TEST(TrackerOrientation, CounterTurnStartFollowsARollThatTurnsBack) {
   TrackerParams params;
@@ -718,7 +718,7 @@ TEST(TrackerOrientation, CounterTurnStartFollowsARollThatTurnsBack) {
       << "hard cap, 10 iterations and the extra ones: " << with_rising << " rad with, "
       << without_rising << " without";
   params.counter_turn_start = true;
-  params.rising_extra_iterations = 0;  // the live tracker's 10 iterations
+  params.rising_extra_iterations = 0;  // the paper's 10 iterations exactly
   const double with = errorAfterARollTurnsBack(params);
   params.counter_turn_start = false;
   const double without = errorAfterARollTurnsBack(params);

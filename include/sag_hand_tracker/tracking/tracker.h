@@ -168,7 +168,8 @@ struct TrackerParams {
   // +-0.3 mm with any change; doc/history.md "Session 47"): 10.35 -> 10.22 mm, the three runs
   // within 0.05 mm of each other instead of 0.28, no track above 26.1 mm (29.4); fitted models
   // 8.45 -> 8.37 at 20. Both of a counter-turn's starts get them (TrackerOrientation tests). The
-  // live graph runs 0 (cfg/Tracker.cfg: its 10 iterations keep the latency bar).
+  // live graph runs them too (cfg/Tracker.cfg: no latency cost measured); calibration's routine
+  // does not (RoutineTracking).
   int rising_extra_iterations = 10;
   int rising_chunk = 5;
   double rising_min_gain = 1e-3;
