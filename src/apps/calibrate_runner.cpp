@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "sag_hand_tracker/apps/track_runner.h"
+#include "sag_hand_tracker/apps/tracking_overlay.h"
 #include "sag_hand_tracker/camera/camera.h"
 #include "sag_hand_tracker/model/hand_model.h"
 #include "sag_hand_tracker/ros/bag_input.h"
@@ -59,15 +60,12 @@ cv::Mat fittedContactSheet(const CalibrateHandOptions& options,
     const CalibrationFrame& frame = frames[fit.frame_indices[row]];
     if (std::abs(set.stamp() - frame.stamp) > 1e-6) continue;
     for (const CameraImage& image : set.images) {
-      cv::Mat tile = drawModelOverlay(image.rgb, cameras[image.camera], fit.model, fit.poses[row]);
-      cv::resize(tile, tile, cv::Size(tile_w, tile_h));
-      cv::putText(tile,
-                  cameras[image.camera].name +
-                      " t=" + fixedNumber(frame.stamp - frames.front().stamp, 2) + " s",
-                  cv::Point(5, 15), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(255, 255, 255), 1,
-                  cv::LINE_AA);
-      tile.copyTo(sheet(
-          cv::Rect(image.camera * tile_w, static_cast<int>(next_row) * tile_h, tile_w, tile_h)));
+      pasteSheetTile(
+          drawModelOverlay(image.rgb, cameras[image.camera], fit.model, fit.poses[row]),
+          cameras[image.camera].name + " t=" + fixedNumber(frame.stamp - frames.front().stamp, 2) +
+              " s",
+          cv::Rect(image.camera * tile_w, static_cast<int>(next_row) * tile_h, tile_w, tile_h),
+          &sheet);
     }
     ++next_row;
   }

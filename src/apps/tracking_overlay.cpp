@@ -57,15 +57,19 @@ cv::Mat trackingOverlaySheet(const FrameSet& set, const std::vector<Camera>& cam
       shaded.copyTo(tile, mask == 0);
     }
     if (result.has_pose) tile = drawModelOverlay(tile, camera, model, result.pose);
-    if (tile.cols != tile_w || tile.rows != tile_h) {
-      cv::resize(tile, tile, cv::Size(tile_w, tile_h), 0, 0, cv::INTER_AREA);
-    }
-    cv::putText(tile, camera.name, cv::Point(5, 15), cv::FONT_HERSHEY_SIMPLEX, 0.45,
-                cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
-    tile.copyTo(sheet(
-        cv::Rect((t % columns) * tile_w, kHeaderPixels + (t / columns) * tile_h, tile_w, tile_h)));
+    pasteSheetTile(
+        tile, camera.name,
+        cv::Rect((t % columns) * tile_w, kHeaderPixels + (t / columns) * tile_h, tile_w, tile_h),
+        &sheet);
   }
   return sheet;
+}
+
+void pasteSheetTile(cv::Mat tile, const std::string& label, const cv::Rect& where, cv::Mat* sheet) {
+  if (tile.size() != where.size()) cv::resize(tile, tile, where.size(), 0, 0, cv::INTER_AREA);
+  cv::putText(tile, label, cv::Point(5, 15), cv::FONT_HERSHEY_SIMPLEX, 0.45,
+              cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+  tile.copyTo((*sheet)(where));
 }
 
 bool OverlaySchedule::wants(const FrameResult& result) {

@@ -409,6 +409,26 @@ TEST_F(TrackBagTool, TrackBagNamesImagesWhoseStampsGoBackwards) {
   EXPECT_FALSE(fs::exists(path("mostly_backward.csv")));
 }
 
+// The sheets' tile step (track_bag's overlays, calibrate_hand's contact sheet): a tile of another
+// size is resized into its place, labelled in white at its top left, and nothing else is touched.
+TEST(OverlaySheet, PastesATileResizedAndLabelledInItsPlaceOnly) {
+  cv::Mat sheet(60, 100, CV_8UC3, cv::Scalar(10, 20, 30));
+  const cv::Mat tile(80, 120, CV_8UC3, cv::Scalar(0, 0, 200));  // twice the place's size
+  const cv::Rect where(40, 20, 60, 40);
+  pasteSheetTile(tile, "cam0", where, &sheet);
+  EXPECT_EQ(sheet.at<cv::Vec3b>(55, 95), cv::Vec3b(0, 0, 200));   // the tile, bottom right
+  EXPECT_EQ(sheet.at<cv::Vec3b>(10, 10), cv::Vec3b(10, 20, 30));  // outside: as it was
+  EXPECT_EQ(sheet.at<cv::Vec3b>(19, 95), cv::Vec3b(10, 20, 30));  // the row above the place
+  int white = 0;
+  for (int y = where.y; y < where.y + 20; ++y) {
+    for (int x = where.x; x < where.x + 40; ++x) {
+      const cv::Vec3b p = sheet.at<cv::Vec3b>(y, x);
+      white += p[0] > 200 && p[1] > 200 && p[2] > 200;
+    }
+  }
+  EXPECT_GT(white, 20) << "the label's pixels";
+}
+
 // --overlay-dir: the tracked model drawn over every camera's image for every N-th set after the
 // background and the start; a folder that already holds a file is refused before the bag is read.
 TEST_F(TrackBagTool, TrackBagDrawsTheTrackedModelOverTheImages) {

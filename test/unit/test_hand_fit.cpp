@@ -141,7 +141,7 @@ TEST(RoutineTracking, SwitchesATrackerToTheRoutineAndBack) {
   live.energy.model_area_weight = 0.7;
   live.curled_refine_iterations = 6;
   live.rising_extra_iterations = 4;
-  live.size_step = 0.0;              // switched off by a reconfigure
+  live.size_step = 0.0;  // switched off by a reconfigure
   const RoutineTracking saved = RoutineTracking::of(live);
   EXPECT_FALSE(saved == RoutineTracking());
   TrackerParams during = live;

@@ -26,6 +26,11 @@ cv::Mat trackingOverlaySheet(const FrameSet& set, const std::vector<Camera>& cam
                              const std::vector<cv::Mat>& foregrounds, const HandModel& model,
                              const FrameResult& result, long frame_number);
 
+// Pastes `tile` (RGB) into `sheet` at `where`: resized to its size if it differs, `label` written
+// at its top left in white. The one tile step of trackingOverlaySheet and calibrate_hand's contact
+// sheet.
+void pasteSheetTile(cv::Mat tile, const std::string& label, const cv::Rect& where, cv::Mat* sheet);
+
 // Which sets get a sheet: every `every`-th set with the hand's tracking under way (counted from the
 // first set after the background), a track's start or restart, and the first frame of each lost
 // stretch.
