@@ -33,10 +33,10 @@
 //   plus the dynamic_reconfigure parameters of cfg/Tracker.cfg (its start_model_area_weight, -1
 //   by default, replaces the mode's weight when it is at least 0; its curled_refine_iterations,
 //   -1 by default, the curled hand's refinement: as offline, on with mode plate and off with
-//   mode skin; its rising_extra_iterations, 10, as offline); the open finger toggles and the
-//   model's size adaptation as offline too (TrackerParams::toggle_curled_flexion, size_step: on
-//   with mode plate, off with mode skin). The tf, markers and fingertips are the tracker's model's,
-//   at the size it has taken.
+//   mode skin; its rising_extra_iterations, 10, and size_calibrated_models, true, as offline);
+//   the open finger toggles and the model's size adaptation as offline too
+//   (TrackerParams::toggle_curled_flexion, size_step: on with mode plate, off with mode skin). The
+//   tf, markers and fingertips are the tracker's model's, at the size it has taken.
 //
 // Room cues (issue 11; ros/live_room_cues.h, doc/segmentation.md "The live graph"; the segmentation
 // nodelets' room_cues must be on too): after every set the tracked hand is published to each
@@ -386,6 +386,7 @@ class TrackerNodelet : public nodelet::Nodelet {
             : curledRefineIterations(PipelineParams(), skin_mode_);  // as offline
     params.toggle_curled_flexion = toggleCurledFlexion(PipelineParams(), skin_mode_);
     params.size_step = sizeStep(PipelineParams(), skin_mode_);
+    params.size_calibrated_models = config.size_calibrated_models;
     params.lost_similarity = config.lost_similarity;
     params.min_foreground_gaussians = config.min_foreground_gaussians;
     params.min_cameras_for_start = config.min_cameras_for_start;

@@ -1274,7 +1274,7 @@ void HandTracker::adaptSize(const FrameResult& result,
   // A bare forearm continues the foreground past the wrist: a larger model that slides back along
   // it covers more, and the next trial grows it again (the studio's `wristflex`: 1.15-1.2 on
   // every hand, the wrist 27-39 mm off). During a fast turn the tracked pose lags the images.
-  if (!(params_.size_step > 0.0) || model_.colours_fitted ||
+  if (!(params_.size_step > 0.0) || (model_.colours_fitted && !params_.size_calibrated_models) ||
       result.status != TrackStatus::kTracking ||
       frames_since_start_ < params_.toggle_min_track_frames ||
       static_cast<int>(observations.size()) < params_.size_min_cameras || forearm_present_ ||

@@ -1004,7 +1004,8 @@ TEST(Tracker, FingerTogglesOpenAFingerTheImagesShowOpen) {
 // (1-sigma ellipses on a grid, read as a hand about 6 % smaller than it is: the studio's rendered
 // hands in test_hand_fit.cpp measure the size itself): an open hand 8 % larger makes the model
 // larger than its own hand does, an 8 % smaller one smaller, within [size_min, size_max]. A fist
-// shows no finger's length (no trial), a calibrated model keeps its size, step 0 is off.
+// shows no finger's length (no trial), a calibrated model takes the size too unless
+// size_calibrated_models is off, step 0 is off.
 TEST(Tracker, TheModelTakesTheSizeOfTheHandItTracks) {
   const HandModel model = loadHandModel(modelPath("sag"));
   const std::vector<Camera> cameras = fiveCameraRig();
@@ -1016,12 +1017,13 @@ TEST(Tracker, TheModelTakesTheSizeOfTheHandItTracks) {
   const Pose fist = countingPose(model, {"index", "middle", "ring", "pinky"});
   auto track = [&](const HandModel& tracked, double hand_size, const Pose& pose, double step,
                    double size_min = TrackerParams().size_min,
-                   double size_max = TrackerParams().size_max) {
+                   double size_max = TrackerParams().size_max, bool calibrated_too = true) {
     const HandModel hand = scaleHandModel(model, hand_size, 1.0);
     TrackerParams params;
     params.size_step = step;
     params.size_min = size_min;
     params.size_max = size_max;
+    params.size_calibrated_models = calibrated_too;
     HandTracker tracker(tracked, params);
     for (int frame = 0; frame < 60; ++frame) {
       Pose truth = pose;  // drifting slowly, so that the track is a track
@@ -1054,9 +1056,15 @@ TEST(Tracker, TheModelTakesTheSizeOfTheHandItTracks) {
   EXPECT_LT(smaller_bounded, 0.96 * (1.0 + defaults.size_step));
   EXPECT_EQ(track(model, 1.08, open, 0.0).sizeFactor(), 1.0);
   EXPECT_EQ(track(model, 1.08, fist, defaults.size_step).sizeFactor(), 1.0);
+  // A model from calibrate_hand (colours fitted) takes the hand's size too, unless
+  // size_calibrated_models is off.
+  ASSERT_TRUE(defaults.size_calibrated_models);
   HandModel calibrated = model;
   calibrated.colours_fitted = true;
-  EXPECT_EQ(track(calibrated, 1.08, open, defaults.size_step).sizeFactor(), 1.0);
+  const double calibrated_smaller = track(calibrated, 0.92, open, defaults.size_step).sizeFactor();
+  EXPECT_LT(calibrated_smaller, 1.0 - defaults.size_step);
+  EXPECT_NEAR(calibrated_smaller, smaller, defaults.size_step + 1e-12);
+  EXPECT_EQ(track(calibrated, 0.92, open, defaults.size_step, 0.85, 1.2, false).sizeFactor(), 1.0);
 
   // A still scene's trial start is made with the tracker's model at its size; adopted, the track
   // keeps that size (and model). reset starts again at 1.
