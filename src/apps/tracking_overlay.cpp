@@ -65,11 +65,16 @@ cv::Mat trackingOverlaySheet(const FrameSet& set, const std::vector<Camera>& cam
   return sheet;
 }
 
-void pasteSheetTile(cv::Mat tile, const std::string& label, const cv::Rect& where, cv::Mat* sheet) {
-  if (tile.size() != where.size()) cv::resize(tile, tile, where.size(), 0, 0, cv::INTER_AREA);
-  cv::putText(tile, label, cv::Point(5, 15), cv::FONT_HERSHEY_SIMPLEX, 0.45,
+void pasteSheetTile(const cv::Mat& tile, const std::string& label, const cv::Rect& where,
+                    cv::Mat* sheet) {
+  cv::Mat place = (*sheet)(where);
+  if (tile.size() == where.size()) {
+    tile.copyTo(place);
+  } else {
+    cv::resize(tile, place, where.size(), 0, 0, cv::INTER_AREA);
+  }
+  cv::putText(place, label, cv::Point(5, 15), cv::FONT_HERSHEY_SIMPLEX, 0.45,
               cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
-  tile.copyTo((*sheet)(where));
 }
 
 bool OverlaySchedule::wants(const FrameResult& result) {

@@ -27,9 +27,10 @@ cv::Mat trackingOverlaySheet(const FrameSet& set, const std::vector<Camera>& cam
                              const FrameResult& result, long frame_number);
 
 // Pastes `tile` (RGB) into `sheet` at `where`: resized to its size if it differs, `label` written
-// at its top left in white. The one tile step of trackingOverlaySheet and calibrate_hand's contact
-// sheet.
-void pasteSheetTile(cv::Mat tile, const std::string& label, const cv::Rect& where, cv::Mat* sheet);
+// at its top left in white on the sheet (`tile` itself is not drawn on). The one tile step of
+// trackingOverlaySheet and calibrate_hand's contact sheet.
+void pasteSheetTile(const cv::Mat& tile, const std::string& label, const cv::Rect& where,
+                    cv::Mat* sheet);
 
 // Which sets get a sheet: every `every`-th set with the hand's tracking under way (counted from the
 // first set after the background), a track's start or restart, and the first frame of each lost
