@@ -25,7 +25,9 @@
 //   re-detecting worker's nice value above the frame path's; 0-19), search_threads (2: threads of
 //   one start or re-detection search, which give the same result as one; 1-16), room_cues
 //   (false; the launch files set it to mode == skin), multi_view (true), recheck_interval (1),
-//   still_hypotheses (3; 0-16, 0 = a still scene never starts) and still_retry_seconds (2.0)
+//   still_hypotheses (3; 0-16, 0 = a still scene never starts), still_retry_seconds (2.0) and
+//   min_view_share (0.5; 0-1: a start needs more than this share of the views with candidates,
+//   5 cameras: 3; 0 = any 2)
 //   (below), skin_gate_from_model (true: publish cam<i>/skin_gate, above; false: the
 //   segmentations keep their own gate), mode (plate: the segmentations' mode; with skin the
 //   starts are scored with the model's area charged, TrackerParams::start_model_area_weight, as
@@ -241,6 +243,13 @@ class TrackerNodelet : public nodelet::Nodelet {
         NODELET_ERROR("still_hypotheses must be in [0, 16] (got %d); using %d",
                       multi_view.still_hypotheses, fallback);
         multi_view.still_hypotheses = fallback;
+      }
+      multi_view.min_view_share = pnh.param("min_view_share", multi_view.min_view_share);
+      if (!(multi_view.min_view_share >= 0.0 && multi_view.min_view_share < 1.0)) {
+        const double fallback = MultiViewParams().min_view_share;
+        NODELET_ERROR("min_view_share must be in [0, 1) (got %g); using %g",
+                      multi_view.min_view_share, fallback);
+        multi_view.min_view_share = fallback;
       }
       double still_retry_seconds = pnh.param("still_retry_seconds", 2.0);
       if (!(still_retry_seconds >= 0.0 && still_retry_seconds <= 60.0)) {

@@ -107,6 +107,9 @@ void validate(const MultiViewParams& params) {
   if (!(params.support_radius > 0.0)) fail("support_radius must be > 0");
   if (!(params.min_depth > 0.0)) fail("min_depth must be > 0");
   if (params.min_views < 2) fail("min_views must be >= 2");
+  if (!(params.min_view_share >= 0.0 && params.min_view_share < 1.0)) {
+    fail("min_view_share must be in [0, 1)");
+  }
   if (!(params.min_moving_share >= 0.0 && params.min_moving_share <= 1.0)) {
     fail("min_moving_share must be in [0, 1]");
   }
@@ -123,16 +126,25 @@ void validate(const MultiViewParams& params) {
   }
 }
 
+int viewsNeeded(const std::vector<std::vector<HandCandidate>>& candidates,
+                const MultiViewParams& params) {
+  int views = 0;
+  for (const std::vector<HandCandidate>& view : candidates) views += !view.empty();
+  const int majority = static_cast<int>(std::floor(params.min_view_share * views)) + 1;
+  return std::max(params.min_views, majority);
+}
+
 namespace {
 
 // Every point proposed by a pair of candidates of two views (moving ones only when
-// `require_motion`), with its supporting views; points with fewer than min_views are left out.
+// `require_motion`), with its supporting views; points with fewer than viewsNeeded are left out.
 std::vector<MultiViewChoice> proposedChoices(
     const std::vector<Camera>& cameras, const std::vector<std::vector<HandCandidate>>& candidates,
     const MultiViewParams& params, bool require_motion, const char* caller) {
   const std::vector<std::vector<Eigen::Vector2d>> centroids =
       undistortedCentroids(cameras, candidates, params, caller);
   const size_t views = cameras.size();
+  const int min_views = viewsNeeded(candidates, params);
   std::vector<std::vector<Ray>> rays(views);
   std::vector<std::vector<bool>> moves(views);
   for (size_t c = 0; c < views; ++c) {
@@ -180,7 +192,7 @@ std::vector<MultiViewChoice> proposedChoices(
           }
           MultiViewChoice choice = tally(candidates, point, std::move(chosen));
           choice.found = true;
-          if (choice.supporting_views >= params.min_views) choices.push_back(std::move(choice));
+          if (choice.supporting_views >= min_views) choices.push_back(std::move(choice));
         }
       }
     }

@@ -25,6 +25,11 @@ struct MultiViewParams {
   double support_radius = 0.05;
   double min_depth = 0.05;  // m in front of every camera (TrackerParams::min_camera_depth)
   int min_views = 2;        // supporting views needed for a choice
+  // ... and more than this share of the views that have candidates (viewsNeeded; 5 cameras: 3).
+  // The user's hand is where the rig looks, in most views; the other hand reaching in at the edge
+  // of two of five views is not (the kitchen: a fitted model's own gate started on it and stayed
+  // 50 frames, 195 mm; doc/segmentation.md "Session 49"). 0: min_views alone.
+  double min_view_share = 0.5;
   // The hand moves: only a pair of candidates of which at least this share of cells moves (in
   // both views) can propose a point; a still face, a photograph or a resting object cannot start
   // the track. 0: no motion needed.
@@ -77,11 +82,17 @@ struct MultiViewChoice {
   std::vector<int> chosen;  // per view: index into its candidates, -1 for none
 };
 
+// The supporting views a choice needs: min_views, and more than min_view_share of the views with
+// at least one candidate (a camera without an image in the set, or that sees nothing, does not
+// count).
+int viewsNeeded(const std::vector<std::vector<HandCandidate>>& candidates,
+                const MultiViewParams& params);
+
 // `candidates[c]` are camera c's (best first). Every pair of moving candidates (min_moving_share)
 // of two views is triangulated; a pair that agrees (max_ray_distance) on a point at least min_depth
 // in front of every camera gathers the views whose candidates lie at the point's projection. The
 // choice has the most supporting views, then the highest score; its point is re-triangulated from
-// all of them. Not found when no point has min_views supporting views. Throws InputError when the
+// all of them. Not found when no point has viewsNeeded supporting views. Throws InputError when the
 // sizes of `cameras` and `candidates` differ.
 MultiViewChoice chooseConsistentCandidates(
     const std::vector<Camera>& cameras, const std::vector<std::vector<HandCandidate>>& candidates,
