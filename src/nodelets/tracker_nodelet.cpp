@@ -26,7 +26,7 @@
 //   one start or re-detection search, which give the same result as one; 1-16), room_cues
 //   (false; the launch files set it to mode == skin), multi_view (true), recheck_interval (1),
 //   still_hypotheses (3; 0-16, 0 = a still scene never starts), still_retry_seconds (2.0) and
-//   min_view_share (0.5; 0-1: a start needs more than this share of the views with candidates,
+//   min_view_share (0.5; [0, 1): a start needs more than this share of the views with candidates,
 //   5 cameras: 3; 0 = any 2)
 //   (below), skin_gate_from_model (true: publish cam<i>/skin_gate, above; false: the
 //   segmentations keep their own gate), mode (plate: the segmentations' mode; with skin the

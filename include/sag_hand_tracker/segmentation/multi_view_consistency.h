@@ -28,7 +28,7 @@ struct MultiViewParams {
   // ... and more than this share of the views that have candidates (viewsNeeded; 5 cameras: 3).
   // The user's hand is where the rig looks, in most views; the other hand reaching in at the edge
   // of two of five views is not (the kitchen: a fitted model's own gate started on it and stayed
-  // 50 frames, 195 mm; doc/segmentation.md "Session 49"). 0: min_views alone.
+  // 52 frames, 195 mm; doc/segmentation.md "Session 49"). 0: min_views alone.
   double min_view_share = 0.5;
   // The hand moves: only a pair of candidates of which at least this share of cells moves (in
   // both views) can propose a point; a still face, a photograph or a resting object cannot start
