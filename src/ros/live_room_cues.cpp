@@ -30,6 +30,7 @@ std::vector<sag_hand_tracker::ImageCandidate> candidatesToMsg(
     m.cell_size = static_cast<uint32_t>(std::max(c.cell_size, 0));
     m.cells_x = static_cast<uint32_t>(std::max(c.cells_x, 0));
     m.cell_indices.assign(c.cell_indices.begin(), c.cell_indices.end());
+    m.moving_cell_indices.assign(c.moving_cell_indices.begin(), c.moving_cell_indices.end());
   }
   return msgs;
 }
@@ -66,14 +67,26 @@ std::vector<HandCandidate> candidatesFromMsg(const sag_hand_tracker::SumOfGaussi
     c.moving = m.moving;
     c.cell_size = static_cast<int>(m.cell_size);
     c.cells_x = static_cast<int>(m.cells_x);
-    c.cell_indices.reserve(m.cell_indices.size());
-    for (const uint32_t index : m.cell_indices) {
-      if (index >= cells_x * cells_y) {
-        throw InputError(which + ": cell index " + std::to_string(index) + " outside the " +
-                         std::to_string(cells_x) + "x" + std::to_string(cells_y) + " cells");
+    auto cellIndices = [&](const std::vector<uint32_t>& indices, const char* what) {
+      std::vector<int> cells;
+      cells.reserve(indices.size());
+      for (const uint32_t index : indices) {
+        if (index >= cells_x * cells_y) {
+          throw InputError(which + ": " + what + " " + std::to_string(index) + " outside the " +
+                           std::to_string(cells_x) + "x" + std::to_string(cells_y) + " cells");
+        }
+        cells.push_back(static_cast<int>(index));
       }
-      c.cell_indices.push_back(static_cast<int>(index));
+      return cells;
+    };
+    c.cell_indices = cellIndices(m.cell_indices, "cell index");
+    // Empty: the moving cells' places are not known, and each counts wherever it is.
+    if (!m.moving_cell_indices.empty() &&
+        m.moving_cell_indices.size() != static_cast<size_t>(std::max(m.moving, 0))) {
+      throw InputError(which + ": " + std::to_string(m.moving_cell_indices.size()) +
+                       " moving cells listed but moving is " + std::to_string(m.moving));
     }
+    c.moving_cell_indices = cellIndices(m.moving_cell_indices, "moving cell index");
     candidates.push_back(std::move(c));
   }
   return candidates;

@@ -83,17 +83,44 @@ std::vector<std::vector<Eigen::Vector2d>> undistortedCentroids(
   return centroids;
 }
 
-// `chosen` (per view, a candidate or -1) at `point`, with its views, score and moving cells.
-MultiViewChoice tally(const std::vector<std::vector<HandCandidate>>& candidates,
-                      const Eigen::Vector3d& point, std::vector<int> chosen) {
+// The candidate's moving cells whose centres lie within `reach` (m, at the point's depth) of
+// `point`'s projection in `camera`; all of them for reach 0, a point not in front of the camera,
+// or a candidate without its moving cells' places.
+int movingNear(const Camera& camera, const HandCandidate& candidate, const Eigen::Vector3d& point,
+               double reach) {
+  const bool placed = candidate.cells_x > 0 && candidate.cell_size > 0 &&
+                      candidate.moving_cell_indices.size() == static_cast<size_t>(candidate.moving);
+  const double depth = (camera.world_to_camera * point).z();
+  Eigen::Vector2d pixel;
+  if (!(reach > 0.0) || !placed || !(depth > 0.0) || !camera.projectDistorted(point, &pixel)) {
+    return candidate.moving;
+  }
+  const double radius = camera.K(0, 0) * reach / depth;
+  const double s = candidate.cell_size;
+  int near = 0;
+  for (const int i : candidate.moving_cell_indices) {
+    const Eigen::Vector2d centre(((i % candidate.cells_x) + 0.5) * s - 0.5,
+                                 ((i / candidate.cells_x) + 0.5) * s - 0.5);
+    near += (centre - pixel).norm() <= radius;
+  }
+  return near;
+}
+
+// `chosen` (per view, a candidate or -1) at `point`, with its views, score and the moving cells
+// near it.
+MultiViewChoice tally(const std::vector<Camera>& cameras,
+                      const std::vector<std::vector<HandCandidate>>& candidates,
+                      const Eigen::Vector3d& point, std::vector<int> chosen,
+                      const MultiViewParams& params) {
   MultiViewChoice choice;
   choice.point = point;
   choice.chosen = std::move(chosen);
   for (size_t c = 0; c < choice.chosen.size(); ++c) {
     if (choice.chosen[c] < 0) continue;
+    const HandCandidate& candidate = candidates[c][choice.chosen[c]];
     ++choice.supporting_views;
-    choice.score += candidates[c][choice.chosen[c]].score;
-    choice.moving += candidates[c][choice.chosen[c]].moving;
+    choice.score += candidate.score;
+    choice.moving += movingNear(cameras[c], candidate, point, params.moving_reach);
   }
   return choice;
 }
@@ -114,6 +141,7 @@ void validate(const MultiViewParams& params) {
     fail("min_moving_share must be in [0, 1]");
   }
   if (params.region_margin_cells < 0) fail("region_margin_cells must be >= 0");
+  if (!(params.moving_reach >= 0.0)) fail("moving_reach must be >= 0");
   if (params.recheck_interval < 0) fail("recheck_interval must be >= 0");
   if (!(params.switch_distance > 0.0)) fail("switch_distance must be > 0");
   if (params.still_hypotheses < 0) fail("still_hypotheses must be >= 0");
@@ -190,7 +218,7 @@ std::vector<MultiViewChoice> proposedChoices(
               chosen = refined_chosen;
             }
           }
-          MultiViewChoice choice = tally(candidates, point, std::move(chosen));
+          MultiViewChoice choice = tally(cameras, candidates, point, std::move(chosen), params);
           choice.found = true;
           if (choice.supporting_views >= min_views) choices.push_back(std::move(choice));
         }
@@ -274,7 +302,7 @@ MultiViewChoice supportAt(const std::vector<Camera>& cameras,
       if (candidateCoversPixel(candidates[c][j], pixel)) chosen[c] = static_cast<int>(j);
     }
   }
-  return tally(candidates, point, std::move(chosen));
+  return tally(cameras, candidates, point, std::move(chosen), params);
 }
 
 bool replacesTrack(const MultiViewChoice& challenger, const MultiViewChoice& tracked,

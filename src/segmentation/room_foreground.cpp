@@ -297,7 +297,8 @@ std::vector<unsigned char> groupAround(const std::vector<Component>& components,
   return group;
 }
 
-// A candidate of `cell_indices` (row after row): its moving cells, centroid and box; score 0.
+// A candidate of `cell_indices` (row after row): its moving cells (their number and which they
+// are), centroid and box; score 0.
 HandCandidate candidateOfCells(std::vector<int> cell_indices, const std::vector<float>& motion,
                                int cells_x, int cell_size, int width, int height) {
   HandCandidate candidate;
@@ -309,7 +310,10 @@ HandCandidate candidateOfCells(std::vector<int> cell_indices, const std::vector<
   int x0 = cells_x, y0 = std::numeric_limits<int>::max(), x1 = -1, y1 = -1;
   for (const int i : candidate.cell_indices) {
     const int cx = i % cells_x, cy = i / cells_x;
-    if (motion[i] > 0.5f) ++candidate.moving;
+    if (motion[i] > 0.5f) {
+      ++candidate.moving;
+      candidate.moving_cell_indices.push_back(i);
+    }
     sum += Eigen::Vector2d((cx + 0.5) * cell_size - 0.5, (cy + 0.5) * cell_size - 0.5);
     x0 = std::min(x0, cx);
     y0 = std::min(y0, cy);

@@ -68,6 +68,11 @@ HandCandidate candidateAt(const Camera& camera, const Eigen::Vector3d& point, do
   candidate.centroid = pixel;
   candidate.score = score;
   candidate.moving = moving;
+  // The first `moving` cells move (all of them near the point).
+  candidate.moving_cell_indices.assign(
+      candidate.cell_indices.begin(),
+      candidate.cell_indices.begin() + std::min<size_t>(static_cast<size_t>(std::max(moving, 0)),
+                                                        candidate.cell_indices.size()));
   candidate.box = cv::Rect((cx - half) * kCell, (cy - half) * kCell, (2 * half + 1) * kCell,
                            (2 * half + 1) * kCell);
   return candidate;
@@ -123,6 +128,7 @@ TEST(LiveRoomCues, CandidatesSurviveTheMessage) {
   EXPECT_EQ(back[0].box, candidates[0].box);
   EXPECT_EQ(back[0].moving, 7);
   EXPECT_EQ(back[0].cell_indices, candidates[0].cell_indices);
+  EXPECT_EQ(back[0].moving_cell_indices, candidates[0].moving_cell_indices);
   // The regions they give are the same.
   EXPECT_EQ(cv::countNonZero(candidateRegion(&back[0], camera.width, camera.height, 2) !=
                              candidateRegion(&candidates[0], camera.width, camera.height, 2)),
@@ -147,6 +153,12 @@ TEST(LiveRoomCues, BadCandidatesAreNamed) {
   const auto good = msg.candidates[0];
   msg.candidates[0].cell_indices.push_back(1000000);
   expectError("cell index 1000000");
+  msg.candidates[0] = good;
+  msg.candidates[0].moving = 1;
+  msg.candidates[0].moving_cell_indices = {1000000};
+  expectError("moving cell index 1000000");
+  msg.candidates[0].moving_cell_indices = {good.cell_indices[0], good.cell_indices[1]};
+  expectError("2 moving cells listed but moving is 1");
   msg.candidates[0] = good;
   msg.candidates[0].cells_x += 1;
   expectError("cells_x");

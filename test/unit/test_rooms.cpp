@@ -1096,6 +1096,79 @@ TEST(MultiViewConsistency, ATrackOnAHandMergedWithTheTableKeepsTheViewsThatSeeIt
   EXPECT_TRUE(replacesTrack(arm_choice, beside, params));
 }
 
+// The kitchen's re-check (doc/segmentation.md, "Session 49"): in every view the user's hand is one
+// blob with the table or a wall photograph that also reaches the other arm, on which the track
+// is. The user's fingers move at the blob's far end: they are not the track's moving cells.
+TEST(MultiViewConsistency, ATrackCountsOnlyTheMovingCellsNearIt) {
+  const std::vector<Camera>& cameras = dexter5();
+  const Eigen::Vector3d hand = studioPose().translation;
+  const Eigen::Vector3d other_arm = hand + Eigen::Vector3d(0.25, -0.05, 0.0);
+  const int cell_size = 4;
+  std::vector<std::vector<HandCandidate>> candidates(cameras.size());
+  int total_moving = 0, views = 0;
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    Eigen::Vector2d at_hand, at_arm;
+    const Eigen::AlignedBox2d image(Eigen::Vector2d::Zero(),
+                                    Eigen::Vector2d(cameras[c].width - 1, cameras[c].height - 1));
+    if (!cameras[c].projectDistorted(hand, &at_hand) ||
+        !cameras[c].projectDistorted(other_arm, &at_arm) || !image.contains(at_hand) ||
+        !image.contains(at_arm)) {
+      continue;  // a view that does not see both
+    }
+    // Only views where the user's moving fingers (within 3 cells of the hand's projection) lie
+    // beyond moving_reach around the arm's projection (the default, 12 cm at the arm's depth).
+    const double reach_pixels = cameras[c].K(0, 0) * MultiViewParams().moving_reach /
+                                (cameras[c].world_to_camera * other_arm).z();
+    if ((at_hand - at_arm).norm() < reach_pixels + 5 * cell_size) continue;
+    ++views;
+    // One blob over the box of both projections (grown by 3 cells), its cells within 3 cells of
+    // the hand's projection moving.
+    HandCandidate blob;
+    blob.cell_size = cell_size;
+    blob.cells_x = cameras[c].width / cell_size;
+    const int cells_y = cameras[c].height / cell_size;
+    const Eigen::Vector2i h = (at_hand / cell_size).cast<int>();
+    const Eigen::Vector2i a = (at_arm / cell_size).cast<int>();
+    for (int y = std::max(0, std::min(h.y(), a.y()) - 3);
+         y <= std::min(cells_y - 1, std::max(h.y(), a.y()) + 3); ++y) {
+      for (int x = std::max(0, std::min(h.x(), a.x()) - 3);
+           x <= std::min(blob.cells_x - 1, std::max(h.x(), a.x()) + 3); ++x) {
+        const int i = y * blob.cells_x + x;
+        blob.cell_indices.push_back(i);
+        if (std::abs(x - h.x()) <= 3 && std::abs(y - h.y()) <= 3)
+          blob.moving_cell_indices.push_back(i);
+      }
+    }
+    blob.moving = static_cast<int>(blob.moving_cell_indices.size());
+    blob.centroid = 0.5 * (at_hand + at_arm);
+    blob.score = static_cast<double>(blob.cell_indices.size());
+    total_moving += blob.moving;
+    candidates[c].push_back(blob);
+  }
+  ASSERT_GE(views, 2);
+  ASSERT_GT(total_moving, 0);
+  const MultiViewParams params;
+  const MultiViewChoice at_hand = supportAt(cameras, candidates, hand, params);
+  const MultiViewChoice at_arm = supportAt(cameras, candidates, other_arm, params);
+  EXPECT_EQ(at_hand.moving, total_moving);
+  EXPECT_EQ(at_hand.supporting_views, views);
+  EXPECT_EQ(at_arm.supporting_views, views);  // the blob reaches both
+  EXPECT_EQ(at_arm.moving, 0);
+  // Counting every moving cell of the blob (moving_reach 0, as before session 49), the arm had
+  // the user's fingers too.
+  MultiViewParams whole_blob = params;
+  whole_blob.moving_reach = 0.0;
+  EXPECT_EQ(supportAt(cameras, candidates, other_arm, whole_blob).moving, total_moving);
+  // A candidate made without its moving cells' places counts all of them, wherever they are.
+  for (std::vector<HandCandidate>& view : candidates) {
+    for (HandCandidate& candidate : view) candidate.moving_cell_indices.clear();
+  }
+  EXPECT_EQ(supportAt(cameras, candidates, other_arm, params).moving, total_moving);
+  MultiViewParams bad;
+  bad.moving_reach = -0.01;
+  EXPECT_THROW(validate(bad), InputError);
+}
+
 // The kitchen's start (doc/segmentation.md, "Session 49"): the other arm's hand reaches into two
 // of the five views at their edges and drifts, while the user's hand, still, is in every view. Two
 // views are not a majority: nothing starts until three agree.

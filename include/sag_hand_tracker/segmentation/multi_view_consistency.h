@@ -35,6 +35,13 @@ struct MultiViewParams {
   // the track. 0: no motion needed.
   double min_moving_share = 0.1;
   int region_margin_cells = 2;  // the chosen candidate's cells grown by this for the region
+  // The moving cells a choice counts (MultiViewChoice::moving, what the re-check compares) are
+  // those of its candidates within this (m, at the point's depth) of the point's projection, a
+  // hand's reach from its centre: a blob that merges the hand with a table or a wall photograph
+  // supports a track beside it, but the fingers moving at its other end are not that track's
+  // (the kitchen: a track on the other arm counted the user's fingers and kept the track 23 sets
+  // longer, drawn4's fitted model 236 mm; doc/segmentation.md "Session 49"). 0: all of them.
+  double moving_reach = 0.12;
   // While a hand is tracked, every this many sets the choice is made again on the whole images;
   // a choice at least `switch_distance` (m) from the tracked hand, with more supporting views and
   // more than twice the moving cells of the candidates at the tracked hand, replaces the track
@@ -78,7 +85,7 @@ struct MultiViewChoice {
   Eigen::Vector3d point = Eigen::Vector3d::Zero();  // root frame: the hand's centroid
   int supporting_views = 0;
   double score = 0.0;       // sum of the chosen candidates' scores
-  int moving = 0;           // sum of the chosen candidates' moving cells
+  int moving = 0;           // sum of the chosen candidates' moving cells near point (moving_reach)
   std::vector<int> chosen;  // per view: index into its candidates, -1 for none
 };
 

@@ -217,6 +217,9 @@ struct HandCandidate {
   cv::Rect box;                                        // pixels
   int moving = 0;                                      // its cells that move (cue 4)
   std::vector<int> cell_indices;                       // its cells, row after row
+  // The moving ones among them, row after row (the multi-view check counts those near a point:
+  // MultiViewParams::moving_reach); empty when it has none or was made without them.
+  std::vector<int> moving_cell_indices;
   int cell_size = 1;
   int cells_x = 0;  // cells per row
 };
