@@ -1,5 +1,6 @@
 #include "sag_hand_tracker/ros/sog_conversions.h"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -90,6 +91,88 @@ sag_hand_tracker::SumOfGaussians sogToMsg(const ImageSoG& sog) {
     msg.arm_gaussians = gaussiansToMsg(sog.arm_gaussians);
   }
   return msg;
+}
+
+std::vector<sag_hand_tracker::ImageCandidate> candidatesToMsg(
+    const std::vector<HandCandidate>& candidates) {
+  std::vector<sag_hand_tracker::ImageCandidate> msgs(candidates.size());
+  for (size_t i = 0; i < candidates.size(); ++i) {
+    const HandCandidate& c = candidates[i];
+    sag_hand_tracker::ImageCandidate& m = msgs[i];
+    m.score = static_cast<float>(c.score);
+    m.centroid_x = static_cast<float>(c.centroid.x());
+    m.centroid_y = static_cast<float>(c.centroid.y());
+    m.box_x = c.box.x;
+    m.box_y = c.box.y;
+    m.box_width = c.box.width;
+    m.box_height = c.box.height;
+    m.moving = c.moving;
+    m.cell_size = static_cast<uint32_t>(std::max(c.cell_size, 0));
+    m.cells_x = static_cast<uint32_t>(std::max(c.cells_x, 0));
+    m.cell_indices.assign(c.cell_indices.begin(), c.cell_indices.end());
+    m.moving_cell_indices.assign(c.moving_cell_indices.begin(), c.moving_cell_indices.end());
+  }
+  return msgs;
+}
+
+std::vector<HandCandidate> candidatesFromMsg(const sag_hand_tracker::SumOfGaussians& msg) {
+  if (msg.candidates.size() > static_cast<size_t>(kMaxHandCandidates)) {
+    throw InputError("the SoG carries " + std::to_string(msg.candidates.size()) +
+                     " hand candidates, more than the limit of " +
+                     std::to_string(kMaxHandCandidates));
+  }
+  std::vector<HandCandidate> candidates;
+  candidates.reserve(msg.candidates.size());
+  for (size_t i = 0; i < msg.candidates.size(); ++i) {
+    const sag_hand_tracker::ImageCandidate& m = msg.candidates[i];
+    const std::string which = "hand candidate " + std::to_string(i);
+    if (!std::isfinite(m.score) || !std::isfinite(m.centroid_x) || !std::isfinite(m.centroid_y)) {
+      throw InputError(which + ": score or centroid not finite");
+    }
+    if (m.cell_size < 1 || m.cell_size > msg.width || m.cell_size > msg.height) {
+      throw InputError(which + ": cell_size " + std::to_string(m.cell_size) +
+                       " does not fit the image");
+    }
+    const uint32_t cells_x = (msg.width + m.cell_size - 1) / m.cell_size;
+    const uint32_t cells_y = (msg.height + m.cell_size - 1) / m.cell_size;
+    if (m.cells_x != cells_x) {
+      throw InputError(which + ": cells_x " + std::to_string(m.cells_x) + " but a " +
+                       std::to_string(msg.width) + " pixel wide image has " +
+                       std::to_string(cells_x) + " cells of " + std::to_string(m.cell_size));
+    }
+    HandCandidate c;
+    c.score = m.score;
+    c.centroid = Eigen::Vector2d(m.centroid_x, m.centroid_y);
+    c.box = cv::Rect(m.box_x, m.box_y, m.box_width, m.box_height);
+    c.moving = m.moving;
+    c.cell_size = static_cast<int>(m.cell_size);
+    c.cells_x = static_cast<int>(m.cells_x);
+    auto cellIndices = [&](const std::vector<uint32_t>& indices, const char* what) {
+      std::vector<int> cells;
+      cells.reserve(indices.size());
+      for (const uint32_t index : indices) {
+        if (index >= cells_x * cells_y) {
+          throw InputError(which + ": " + what + " " + std::to_string(index) + " outside the " +
+                           std::to_string(cells_x) + "x" + std::to_string(cells_y) + " cells");
+        }
+        cells.push_back(static_cast<int>(index));
+      }
+      return cells;
+    };
+    c.cell_indices = cellIndices(m.cell_indices, "cell index");
+    if (m.moving < 0) {
+      throw InputError(which + ": moving " + std::to_string(m.moving) + " is negative");
+    }
+    // Empty: the moving cells' places are not known, and each counts wherever it is.
+    if (!m.moving_cell_indices.empty() &&
+        m.moving_cell_indices.size() != static_cast<size_t>(m.moving)) {
+      throw InputError(which + ": " + std::to_string(m.moving_cell_indices.size()) +
+                       " moving cells listed but moving is " + std::to_string(m.moving));
+    }
+    c.moving_cell_indices = cellIndices(m.moving_cell_indices, "moving cell index");
+    candidates.push_back(std::move(c));
+  }
+  return candidates;
 }
 
 }  // namespace sag_hand_tracker

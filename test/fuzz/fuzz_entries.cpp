@@ -243,6 +243,25 @@ void fuzzLiveMessages(const std::uint8_t* data, std::size_t size) {
       for (const auto& g : sog.gaussians) {
         if (!g.mean.allFinite() || !std::isfinite(g.sigma)) finding("accepted SoG not finite");
       }
+      // The hand candidates the tracker's multi-view check reads (room cues): every accepted cell
+      // in the image, the moving cells as many as `moving` or none.
+      for (const sag_hand_tracker::HandCandidate& c : sag_hand_tracker::candidatesFromMsg(*msg)) {
+        if (!c.centroid.allFinite() || !std::isfinite(c.score)) {
+          finding("accepted candidate not finite");
+        }
+        if (c.moving < 0) finding("accepted candidate with a negative number of moving cells");
+        const int image_cells = ((sog.width + c.cell_size - 1) / c.cell_size) *
+                                ((sog.height + c.cell_size - 1) / c.cell_size);
+        for (const std::vector<int>* indices : {&c.cell_indices, &c.moving_cell_indices}) {
+          for (const int i : *indices) {
+            if (i < 0 || i >= image_cells) finding("accepted candidate cell outside the image");
+          }
+        }
+        if (!c.moving_cell_indices.empty() &&
+            c.moving_cell_indices.size() != static_cast<size_t>(c.moving)) {
+          finding("accepted candidate's moving cells not `moving` of them");
+        }
+      }
     } else if (kind == 1) {
       const auto info = deserializeLive<sensor_msgs::CameraInfo>(bytes);
       if (info) checkCamera(sag_hand_tracker::fromCameraInfo(*info, "cam0"));
@@ -256,12 +275,10 @@ void fuzzLiveMessages(const std::uint8_t* data, std::size_t size) {
 }
 
 const std::vector<FuzzTarget>& fuzzTargets() {
-  static const std::vector<FuzzTarget> targets{{"model_yaml", fuzzModelYaml},
-                                               {"rig_yaml", fuzzRigYaml},
-                                               {"motion_yaml", fuzzMotionYaml},
-                                               {"bag", fuzzBag},
-                                               {"messages", fuzzMessages},
-                                               {"live_messages", fuzzLiveMessages}};
+  static const std::vector<FuzzTarget> targets{
+      {"model_yaml", fuzzModelYaml},   {"rig_yaml", fuzzRigYaml},
+      {"motion_yaml", fuzzMotionYaml}, {"bag", fuzzBag},
+      {"messages", fuzzMessages},      {"live_messages", fuzzLiveMessages}};
   return targets;
 }
 

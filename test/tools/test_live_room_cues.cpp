@@ -159,6 +159,9 @@ TEST(LiveRoomCues, BadCandidatesAreNamed) {
   expectError("moving cell index 1000000");
   msg.candidates[0].moving_cell_indices = {good.cell_indices[0], good.cell_indices[1]};
   expectError("2 moving cells listed but moving is 1");
+  msg.candidates[0].moving_cell_indices.clear();
+  msg.candidates[0].moving = -3;
+  expectError("moving -3 is negative");
   msg.candidates[0] = good;
   msg.candidates[0].cells_x += 1;
   expectError("cells_x");

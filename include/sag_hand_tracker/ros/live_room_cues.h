@@ -37,6 +37,7 @@
 #include "sag_hand_tracker/SumOfGaussians.h"
 #include "sag_hand_tracker/camera/camera.h"
 #include "sag_hand_tracker/model/kinematics.h"
+#include "sag_hand_tracker/ros/sog_conversions.h"
 #include "sag_hand_tracker/segmentation/background_plate.h"
 #include "sag_hand_tracker/segmentation/multi_view_consistency.h"
 #include "sag_hand_tracker/segmentation/quadtree_segmentation.h"
@@ -45,13 +46,7 @@
 namespace sag_hand_tracker {
 
 // ---- messages ----
-std::vector<sag_hand_tracker::ImageCandidate> candidatesToMsg(
-    const std::vector<HandCandidate>& candidates);
-// The candidates of a SoG message. Throws InputError naming the candidate and the problem: a
-// non-finite score or centroid, a cell size < 1, cells_x that does not cover the image's width, a
-// cell index outside the image, more candidates than kMaxHandCandidates.
-std::vector<HandCandidate> candidatesFromMsg(const sag_hand_tracker::SumOfGaussians& msg);
-constexpr int kMaxHandCandidates = 64;
+// The candidates' conversions (candidatesToMsg, candidatesFromMsg): sog_conversions.h.
 
 // The tracked hand for one camera: `hand`'s Gaussians in `camera`'s optical frame.
 sag_hand_tracker::HandRegion handRegionMsg(const PosedHand& hand, const Camera& camera);
