@@ -226,7 +226,7 @@ bool LiveRoomCues::beforeUpdate(std::vector<LiveView>* views_in, LiveStillTrials
     sets_since_recheck_ = 0;
     int views_with_candidates = 0;
     for (const auto& c : candidates) views_with_candidates += !c.empty();
-    recheck = views_with_candidates >= viewsNeeded(candidates, params_);
+    recheck = views_with_candidates >= params_.min_views;
   }
   if (recheck) {
     ++rechecks_;

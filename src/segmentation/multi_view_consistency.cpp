@@ -96,33 +96,38 @@ int movingNear(const Camera& camera, const HandCandidate& candidate, const Eigen
     return candidate.moving;
   }
   const double radius = camera.K(0, 0) * reach / depth;
-  const double s = candidate.cell_size;
   int near = 0;
   for (const int i : candidate.moving_cell_indices) {
-    const Eigen::Vector2d centre(((i % candidate.cells_x) + 0.5) * s - 0.5,
-                                 ((i / candidate.cells_x) + 0.5) * s - 0.5);
-    near += (centre - pixel).norm() <= radius;
+    near += (candidate.cellCentre(i) - pixel).norm() <= radius;
   }
   return near;
 }
 
-// `chosen` (per view, a candidate or -1) at `point`, with its views, score and the moving cells
-// near it.
-MultiViewChoice tally(const std::vector<Camera>& cameras,
-                      const std::vector<std::vector<HandCandidate>>& candidates,
-                      const Eigen::Vector3d& point, std::vector<int> chosen,
-                      const MultiViewParams& params) {
+// `chosen` (per view, a candidate or -1) at `point`, with its views and score; its moving cells
+// are counted only for a choice that is returned (countMoving), not for every proposal.
+MultiViewChoice tally(const std::vector<std::vector<HandCandidate>>& candidates,
+                      const Eigen::Vector3d& point, std::vector<int> chosen) {
   MultiViewChoice choice;
   choice.point = point;
   choice.chosen = std::move(chosen);
   for (size_t c = 0; c < choice.chosen.size(); ++c) {
     if (choice.chosen[c] < 0) continue;
-    const HandCandidate& candidate = candidates[c][choice.chosen[c]];
     ++choice.supporting_views;
-    choice.score += candidate.score;
-    choice.moving += movingNear(cameras[c], candidate, point, params.moving_reach);
+    choice.score += candidates[c][choice.chosen[c]].score;
   }
   return choice;
+}
+
+// Sets `choice`'s moving cells: those of its candidates near its point (moving_reach).
+void countMoving(const std::vector<Camera>& cameras,
+                 const std::vector<std::vector<HandCandidate>>& candidates,
+                 const MultiViewParams& params, MultiViewChoice* choice) {
+  choice->moving = 0;
+  for (size_t c = 0; c < choice->chosen.size(); ++c) {
+    if (choice->chosen[c] < 0) continue;
+    choice->moving += movingNear(cameras[c], candidates[c][choice->chosen[c]], choice->point,
+                                 params.moving_reach);
+  }
 }
 
 }  // namespace
@@ -218,7 +223,7 @@ std::vector<MultiViewChoice> proposedChoices(
               chosen = refined_chosen;
             }
           }
-          MultiViewChoice choice = tally(cameras, candidates, point, std::move(chosen), params);
+          MultiViewChoice choice = tally(candidates, point, std::move(chosen));
           choice.found = true;
           if (choice.supporting_views >= min_views) choices.push_back(std::move(choice));
         }
@@ -241,7 +246,10 @@ MultiViewChoice chooseConsistentCandidates(
     const MultiViewParams& params) {
   std::vector<MultiViewChoice> choices =
       proposedChoices(cameras, candidates, params, true, "chooseConsistentCandidates");
-  if (!choices.empty()) return std::move(choices.front());
+  if (!choices.empty()) {
+    countMoving(cameras, candidates, params, &choices.front());
+    return std::move(choices.front());
+  }
   MultiViewChoice none;
   none.chosen.assign(cameras.size(), -1);
   return none;
@@ -281,7 +289,9 @@ std::vector<MultiViewChoice> stillHypotheses(
       repeats = repeats || k.chosen == choice.chosen ||
                 (k.point - choice.point).norm() < params.support_radius;
     }
-    if (!repeats) kept.push_back(std::move(choice));
+    if (repeats) continue;
+    countMoving(cameras, candidates, params, &choice);
+    kept.push_back(std::move(choice));
   }
   return kept;
 }
@@ -302,7 +312,9 @@ MultiViewChoice supportAt(const std::vector<Camera>& cameras,
       if (candidateCoversPixel(candidates[c][j], pixel)) chosen[c] = static_cast<int>(j);
     }
   }
-  return tally(cameras, candidates, point, std::move(chosen), params);
+  MultiViewChoice choice = tally(candidates, point, std::move(chosen));
+  countMoving(cameras, candidates, params, &choice);
+  return choice;
 }
 
 bool replacesTrack(const MultiViewChoice& challenger, const MultiViewChoice& tracked,

@@ -314,7 +314,7 @@ HandCandidate candidateOfCells(std::vector<int> cell_indices, const std::vector<
       ++candidate.moving;
       candidate.moving_cell_indices.push_back(i);
     }
-    sum += Eigen::Vector2d((cx + 0.5) * cell_size - 0.5, (cy + 0.5) * cell_size - 0.5);
+    sum += candidate.cellCentre(i);
     x0 = std::min(x0, cx);
     y0 = std::min(y0, cy);
     x1 = std::max(x1, cx);

@@ -222,6 +222,12 @@ struct HandCandidate {
   std::vector<int> moving_cell_indices;
   int cell_size = 1;
   int cells_x = 0;  // cells per row
+
+  // The centre (pixels, as `centroid`) of cell `index` of the image's cell grid.
+  Eigen::Vector2d cellCentre(int index) const {
+    return Eigen::Vector2d((index % cells_x + 0.5) * cell_size - 0.5,
+                           (index / cells_x + 0.5) * cell_size - 0.5);
+  }
 };
 
 // Where a region of interest comes from (ImageSegmenter::setRegionOfInterest).
