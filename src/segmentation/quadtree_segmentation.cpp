@@ -456,6 +456,12 @@ void validate(const SegmentationParams& params) {
   if (!(r.older_quantile >= 0.0 && r.older_quantile <= 1.0)) {
     fail("room.older_quantile must be in [0, 1]");
   }
+  if (!(r.first_frame_hand_share >= 0.0 && std::isfinite(r.first_frame_hand_share))) {
+    fail("room.first_frame_hand_share must be >= 0 (above 1: off)");
+  }
+  if (r.first_frame_hand_reach_cells < 0 || r.first_frame_hand_reach_cells > 1000) {
+    fail("room.first_frame_hand_reach_cells must be in [0, 1000] (0: no limit)");
+  }
   if (!(r.unchanged_chromaticity > 0.0 && r.unchanged_chromaticity < 1.0)) {
     fail("room.unchanged_chromaticity must be in (0, 1)");
   }

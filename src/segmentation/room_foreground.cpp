@@ -401,7 +401,9 @@ void updateUnchangedFrames(const RoomCueParams& room, const std::vector<float>& 
     state.unchanged_frames.assign(cells, 0);
     state.unchanged_colour = means;
     state.light = 1.0;
+    state.memory_frames = 0;
   }
+  ++state.memory_frames;
   state.light *= gain;
   for (size_t i = 0; i < cells; ++i) {
     float* colour = &state.unchanged_colour[3 * i];
@@ -429,6 +431,39 @@ int ageQuantile(const RoomCueParams& room, const RoomCueState& state, const std:
       std::min(ages.size() - 1, static_cast<size_t>(room.older_quantile * ages.size()));
   std::nth_element(ages.begin(), ages.begin() + q, ages.end());
   return ages[q];
+}
+
+// Cue 8: whether at least first_frame_hand_share of `cells` have not changed since the camera's
+// first frame (the hand was in view then: nothing is older than it).
+bool heldSinceFirstFrame(const RoomCueParams& room, const RoomCueState& state,
+                         const std::vector<int>& cells) {
+  if (cells.empty()) return false;
+  int unchanged = 0;
+  for (const int i : cells) unchanged += state.unchanged_frames[i] >= state.memory_frames;
+  return unchanged >= room.first_frame_hand_share * static_cast<double>(cells.size());
+}
+
+// Cue 8: drops the kept cells older than `limit`, but not those unchanged since the first frame
+// when the hand was in view then; with reach_cells > 0, only those within reach_cells cells
+// (8-neighbour steps) of a kept cell no older than `limit` (the hand's moving part).
+void dropOlderThan(const RoomCueState& state, int limit, bool hand_from_first_frame,
+                   int reach_cells, int cells_x, int cells_y, std::vector<unsigned char>& mask) {
+  cv::Mat near_young;
+  if (hand_from_first_frame && reach_cells > 0) {
+    cv::Mat young(cells_y, cells_x, CV_8UC1, cv::Scalar(0));
+    for (int i = 0; i < cells_x * cells_y; ++i) {
+      if (mask[i] && state.unchanged_frames[i] <= limit) young.data[i] = 255;
+    }
+    const int side = 2 * reach_cells + 1;
+    cv::dilate(young, near_young, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(side, side)));
+  }
+  for (int i = 0; i < cells_x * cells_y; ++i) {
+    const int age = state.unchanged_frames[i];
+    if (age <= limit) continue;
+    const bool as_old_as_the_hand = hand_from_first_frame && age >= state.memory_frames &&
+                                    (near_young.empty() || near_young.data[i] != 0);
+    if (!as_old_as_the_hand) mask[i] = 0;
+  }
 }
 
 }  // namespace
@@ -496,7 +531,8 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
 
   // Cue 8 (without a plate): what lay there unchanged before the hand came. The hand arrived
   // moving: its cells changed then, so none is older than the track (or, at the start, than the
-  // youngest of the region's cells) by more than the margin, however still it holds later.
+  // youngest of the region's cells) by more than the margin, however still it holds later. A hand
+  // in view from the first frame changed only where it moved: there, what never changed is kept.
   const bool model_given = model_silhouette.size() == cv::Size(width, height);
   if (plate != nullptr || !room.drop_older_than_hand) {
     state.unchanged_frames.clear();
@@ -520,13 +556,13 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
           }
         }
         state.track_age_reference = ageQuantile(room, state, hand, room.skin_min_cells);
+        state.hand_from_first_frame =
+            state.track_age_reference >= 0 && heldSinceFirstFrame(room, state, hand);
         state.track_frames = 0;
       }
       if (state.track_age_reference >= 0) {
         const int limit = state.track_age_reference + state.track_frames + room.older_margin_frames;
-        for (int i = 0; i < cells; ++i) {
-          if (state.unchanged_frames[i] > limit) mask[i] = 0;
-        }
+        dropOlderThan(state, limit, state.hand_from_first_frame, 0, cells_x, cells_y, mask);
         ++state.track_frames;
       }
     } else {
@@ -541,9 +577,9 @@ void applyRoomCues(const SegmentationParams& params, const std::vector<float>& m
         }
         const int reference = ageQuantile(room, state, kept, room.skin_min_cells);
         if (reference >= 0) {
-          for (int i = 0; i < cells; ++i) {
-            if (state.unchanged_frames[i] > reference + room.older_margin_frames) mask[i] = 0;
-          }
+          dropOlderThan(state, reference + room.older_margin_frames,
+                        heldSinceFirstFrame(room, state, kept), room.first_frame_hand_reach_cells,
+                        cells_x, cells_y, mask);
         }
       }
     }

@@ -133,9 +133,19 @@ struct RoomCueParams {
   //    that lay unchanged beside the hand before the hand came into view, even once the model
   //    covers it. A hand that arrived moving is younger than that however still it holds; a hand
   //    held still from the first frame sets the quantile itself and is kept. Off when false.
+  //    A hand in view from the camera's first frame (no frame without it: the kitchen, a graph
+  //    started with the hand in view) is as old as the room: when at least
+  //    first_frame_hand_share of the cells the quantile is taken from have not changed since
+  //    that frame, cells unchanged since then are not dropped (only the moving fingers would
+  //    set the quantile, and the still palm would go; doc/segmentation.md "Session 50"); at the
+  //    start only those within first_frame_hand_reach_cells of the region's younger cells (the
+  //    candidate blob can hold a table or a photograph joined with the hand; 0: all).
+  //    first_frame_hand_share above 1 turns this off.
   bool drop_older_than_hand = true;
   int older_margin_frames = 3;
   double older_quantile = 0.25;
+  double first_frame_hand_share = 0.5;
+  int first_frame_hand_reach_cells = 4;
   double unchanged_chromaticity = 0.03;
   double unchanged_brightness = 3.0;
   // 9. a candidate larger than split_candidate_share of the image's cells (cue 3's group: a
@@ -197,6 +207,9 @@ struct RoomCueState {
   std::vector<int> unchanged_frames;
   std::vector<float> unchanged_colour;
   double light = 1.0;
+  int memory_frames = 0;  // frames since unchanged_frames began: a cell at it never changed
+  // Cue 8: the tracked hand was in view from the first frame (first_frame_hand_share).
+  bool hand_from_first_frame = false;
   // Cue 8: the age quantile of the tracked hand's cells in the track's first frame with enough of
   // them (-1: not yet taken), and the frames tracked since.
   int track_age_reference = -1;
