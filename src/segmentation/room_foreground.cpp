@@ -393,6 +393,10 @@ bool colourChanged(const RoomCueParams& room, const float* now, const double* th
          std::fabs(now[1] / sum_now - then[1] / sum_then) > room.unchanged_chromaticity;
 }
 
+// Cue 8: where the counts of frames stop (~500 days at 25 frames/s); a cell that never changed
+// keeps the same count as the memory.
+constexpr int kMaxUnchangedFrames = 1 << 30;
+
 // Cue 8: counts, per cell, the frames since its colour last changed (state.unchanged_frames).
 void updateUnchangedFrames(const RoomCueParams& room, const std::vector<float>& means, double gain,
                            RoomCueState& state) {
@@ -403,7 +407,7 @@ void updateUnchangedFrames(const RoomCueParams& room, const std::vector<float>& 
     state.light = 1.0;
     state.memory_frames = 0;
   }
-  ++state.memory_frames;
+  if (state.memory_frames < kMaxUnchangedFrames) ++state.memory_frames;
   state.light *= gain;
   for (size_t i = 0; i < cells; ++i) {
     float* colour = &state.unchanged_colour[3 * i];
@@ -413,7 +417,7 @@ void updateUnchangedFrames(const RoomCueParams& room, const std::vector<float>& 
     if (colourChanged(room, &means[3 * i], then)) {
       frames = 0;
       for (int k = 0; k < 3; ++k) colour[k] = static_cast<float>(means[3 * i + k] / state.light);
-    } else if (frames < (1 << 30)) {  // ~500 days at 25 frames/s
+    } else if (frames < kMaxUnchangedFrames) {
       ++frames;
     }
   }
