@@ -27,6 +27,11 @@ bool closestApproach(const Ray& a, const Ray& b, Eigen::Vector3d* midpoint, doub
   return midpoint->allFinite();
 }
 
+// A length of `metres` at `depth` (m) in front of `camera`, in pixels.
+double pixelsAtDepth(const Camera& camera, double metres, double depth) {
+  return camera.K(0, 0) * metres / depth;
+}
+
 // Per view, the candidate whose centroid is nearest the point's projection, within the support
 // radius; -1 for none.
 std::vector<int> support(const std::vector<Camera>& cameras,
@@ -37,7 +42,7 @@ std::vector<int> support(const std::vector<Camera>& cameras,
     const double depth = (cameras[c].world_to_camera * point).z();
     Eigen::Vector2d pixel;
     if (!cameras[c].project(point, &pixel)) continue;
-    const double radius = cameras[c].K(0, 0) * params.support_radius / depth;
+    const double radius = pixelsAtDepth(cameras[c], params.support_radius, depth);
     double best = radius;
     for (size_t j = 0; j < centroids[c].size(); ++j) {
       const double d = (centroids[c][j] - pixel).norm();
@@ -95,7 +100,7 @@ int movingNear(const Camera& camera, const HandCandidate& candidate, const Eigen
   if (!(reach > 0.0) || !placed || !(depth > 0.0) || !camera.projectDistorted(point, &pixel)) {
     return candidate.moving;
   }
-  const double radius = camera.K(0, 0) * reach / depth;
+  const double radius = pixelsAtDepth(camera, reach, depth);
   int near = 0;
   for (const int i : candidate.moving_cell_indices) {
     near += (candidate.cellCentre(i) - pixel).norm() <= radius;

@@ -452,20 +452,24 @@ bool heldSinceFirstFrame(const RoomCueParams& room, const RoomCueState& state,
 // (8-neighbour steps) of a kept cell no older than `limit` (the hand's moving part).
 void dropOlderThan(const RoomCueState& state, int limit, bool hand_from_first_frame,
                    int reach_cells, int cells_x, int cells_y, std::vector<unsigned char>& mask) {
-  cv::Mat near_young;
+  const int cells = cells_x * cells_y;
+  std::vector<int> steps_from_young;  // empty: no reach limit
   if (hand_from_first_frame && reach_cells > 0) {
-    cv::Mat young(cells_y, cells_x, CV_8UC1, cv::Scalar(0));
-    for (int i = 0; i < cells_x * cells_y; ++i) {
-      if (mask[i] && state.unchanged_frames[i] <= limit) young.data[i] = 255;
+    steps_from_young.assign(cells, -1);
+    std::vector<int> queue;
+    for (int i = 0; i < cells; ++i) {
+      if (mask[i] && state.unchanged_frames[i] <= limit) {
+        steps_from_young[i] = 0;
+        queue.push_back(i);
+      }
     }
-    const int side = 2 * reach_cells + 1;
-    cv::dilate(young, near_young, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(side, side)));
+    growCells(&queue, &steps_from_young, cells_x, cells_y, reach_cells, [](int) { return true; });
   }
-  for (int i = 0; i < cells_x * cells_y; ++i) {
+  for (int i = 0; i < cells; ++i) {
     const int age = state.unchanged_frames[i];
     if (age <= limit) continue;
     const bool as_old_as_the_hand = hand_from_first_frame && age >= state.memory_frames &&
-                                    (near_young.empty() || near_young.data[i] != 0);
+                                    (steps_from_young.empty() || steps_from_young[i] >= 0);
     if (!as_old_as_the_hand) mask[i] = 0;
   }
 }

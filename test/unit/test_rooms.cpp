@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <opencv2/imgproc.hpp>
 
 #include "sag_hand_tracker/apps/room_evaluation.h"
@@ -806,72 +807,39 @@ TEST(RoomCues, ThePlateFollowsTheLightWhereTheHandIsNot) {
 }
 
 TEST(RoomCues, BadParametersAreNamed) {
-  SegmentationParams params;
-  params.room.motion_decay = 1.0;
-  try {
-    validate(params);
-    FAIL() << "motion_decay 1 accepted";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("room.motion_decay"), std::string::npos) << e.what();
-  }
-  SegmentationParams rim;
-  rim.room.colour_rim_depth = rim.room.colour_core_depth;  // the rim would reach the core
-  try {
-    validate(rim);
-    FAIL() << "colour_rim_depth == colour_core_depth accepted";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("room.colour_core_depth"), std::string::npos) << e.what();
-  }
-  SegmentationParams still;
-  still.room.still_object_frames = -1;
-  try {
-    validate(still);
-    FAIL() << "still_object_frames -1 accepted";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("room.still_object_frames"), std::string::npos)
-        << e.what();
-  }
+  // `change` makes the default parameters bad; the error names `name`.
+  auto expectNamed = [](const std::function<void(RoomCueParams&)>& change, const std::string& name,
+                        const std::string& what) {
+    SegmentationParams params;
+    change(params.room);
+    try {
+      validate(params);
+      ADD_FAILURE() << what << " accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("room." + name), std::string::npos) << e.what();
+    }
+  };
+  expectNamed([](RoomCueParams& r) { r.motion_decay = 1.0; }, "motion_decay", "motion_decay 1");
+  expectNamed(
+      [](RoomCueParams& r) { r.colour_rim_depth = r.colour_core_depth; },  // rim reaches core
+      "colour_core_depth", "colour_rim_depth == colour_core_depth");
+  expectNamed([](RoomCueParams& r) { r.still_object_frames = -1; }, "still_object_frames",
+              "still_object_frames -1");
   SegmentationParams split;
   split.room.split_candidate_share = 1.5;
   EXPECT_THROW(validate(split), InputError);
   split = SegmentationParams();
   split.room.split_margin_cells = -1;
   EXPECT_THROW(validate(split), InputError);
-  SegmentationParams older;
-  older.room.unchanged_brightness = 1.0;  // every change of brightness would be a change
-  try {
-    validate(older);
-    FAIL() << "unchanged_brightness 1 accepted";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("room.unchanged_brightness"), std::string::npos)
-        << e.what();
-  }
-  older = SegmentationParams();
-  older.room.older_quantile = 1.5;
-  try {
-    validate(older);
-    FAIL() << "older_quantile 1.5 accepted";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("room.older_quantile"), std::string::npos) << e.what();
-  }
-  older = SegmentationParams();
-  older.room.first_frame_hand_share = -0.1;
-  try {
-    validate(older);
-    FAIL() << "first_frame_hand_share -0.1 accepted";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("room.first_frame_hand_share"), std::string::npos)
-        << e.what();
-  }
-  older = SegmentationParams();
-  older.room.first_frame_hand_reach_cells = -1;
-  try {
-    validate(older);
-    FAIL() << "first_frame_hand_reach_cells -1 accepted";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("room.first_frame_hand_reach_cells"), std::string::npos)
-        << e.what();
-  }
+  // Every change of brightness would be a change.
+  expectNamed([](RoomCueParams& r) { r.unchanged_brightness = 1.0; }, "unchanged_brightness",
+              "unchanged_brightness 1");
+  expectNamed([](RoomCueParams& r) { r.older_quantile = 1.5; }, "older_quantile",
+              "older_quantile 1.5");
+  expectNamed([](RoomCueParams& r) { r.first_frame_hand_share = -0.1; }, "first_frame_hand_share",
+              "first_frame_hand_share -0.1");
+  expectNamed([](RoomCueParams& r) { r.first_frame_hand_reach_cells = -1; },
+              "first_frame_hand_reach_cells", "first_frame_hand_reach_cells -1");
 }
 
 TEST(RoomCues, ProjectedHandBoxCoversTheHandAndIsEmptyBehindTheCamera) {
