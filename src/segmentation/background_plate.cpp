@@ -113,7 +113,14 @@ void BackgroundPlate::reset(int cell_size) {
   width_ = height_ = cells_x_ = cells_y_ = frames_ = 0;
   sum_.clear();
   sum_sq_.clear();
-  cells_.clear();
+  resizeCells(0);
+}
+
+void BackgroundPlate::resizeCells(std::size_t cells) {
+  mean_.assign(3 * cells, 0.0f);
+  spread_.assign(3 * cells, 0.0f);
+  chroma_.assign(3 * cells, 0.0f);
+  brightness_.assign(cells, 0.0f);
 }
 
 void BackgroundPlate::addFrame(int width, int height, const std::vector<float>& cell_means) {
@@ -138,7 +145,7 @@ void BackgroundPlate::addFrame(int width, int height, const std::vector<float>& 
     cells_y_ = cells_y;
     sum_.assign(values, 0.0);
     sum_sq_.assign(values, 0.0);
-    cells_.assign(values / 3, Cell());
+    resizeCells(values / 3);
   }
   for (std::size_t i = 0; i < values; ++i) {
     const double m = cell_means[i];
@@ -150,41 +157,78 @@ void BackgroundPlate::addFrame(int width, int height, const std::vector<float>& 
 }
 
 void BackgroundPlate::updateCell(int cell) {
-  Cell& c = cells_[cell];
   const double n = frames_;
   double brightness = 0.0;
   for (int k = 0; k < 3; ++k) {
     const double mean = sum_[3 * cell + k] / n;
     const double variance = std::max(0.0, sum_sq_[3 * cell + k] / n - mean * mean);
-    c.mean[k] = static_cast<float>(mean);
-    c.spread[k] = static_cast<float>(std::sqrt(variance));
+    mean_[3 * cell + k] = static_cast<float>(mean);
+    spread_[3 * cell + k] = static_cast<float>(std::sqrt(variance));
     brightness += mean;
   }
-  c.brightness = static_cast<float>(brightness);
+  brightness_[cell] = static_cast<float>(brightness);
   for (int k = 0; k < 3; ++k) {
-    c.chroma[k] = brightness > 0.0 ? static_cast<float>(c.mean[k] / brightness) : 1.0f / 3.0f;
+    chroma_[3 * cell + k] =
+        brightness > 0.0 ? static_cast<float>(mean_[3 * cell + k] / brightness) : 1.0f / 3.0f;
   }
+}
+
+namespace {
+
+// The colour distance of BackgroundParams in tolerances (k_sigma spreads, at least min_tolerance),
+// squared; background within 1.
+inline double plateDistanceSq(const float* rgb, const float* mean, const float* spread,
+                              const BackgroundParams& params) {
+  double distance_sq = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    const double tolerance = std::max(params.k_sigma * spread[k], params.min_tolerance);
+    const double d = (rgb[k] - mean[k]) / tolerance;
+    distance_sq += d * d;
+  }
+  return distance_sq;
+}
+
+}  // namespace
+
+bool BackgroundPlate::isShadow(int cell, const float* rgb, const BackgroundParams& params) const {
+  const float plate_brightness = brightness_[cell];
+  if (plate_brightness < params.shadow_min_plate_brightness) return false;
+  const double brightness = static_cast<double>(rgb[0]) + rgb[1] + rgb[2];
+  const double ratio = brightness / plate_brightness;
+  if (ratio < params.shadow_min_ratio || ratio > 1.0 || brightness <= 0.0) return false;
+  for (int k = 0; k < 3; ++k) {
+    if (std::fabs(rgb[k] / brightness - chroma_[3 * cell + k]) > params.shadow_chroma_tolerance) {
+      return false;
+    }
+  }
+  return true;
 }
 
 bool BackgroundPlate::isBackground(int cell, const float* rgb,
                                    const BackgroundParams& params) const {
-  const Cell& p = cells_[cell];
-  double distance_sq = 0.0;
-  for (int k = 0; k < 3; ++k) {
-    const double tolerance = std::max(params.k_sigma * p.spread[k], params.min_tolerance);
-    const double d = (rgb[k] - p.mean[k]) / tolerance;
-    distance_sq += d * d;
+  if (plateDistanceSq(rgb, &mean_[3 * cell], &spread_[3 * cell], params) <= 1.0) return true;
+  return isShadow(cell, rgb, params);
+}
+
+void BackgroundPlate::differingCells(const std::vector<float>& cell_means,
+                                     const BackgroundParams& params,
+                                     std::vector<unsigned char>* differs) const {
+  const int cells = cells_x_ * cells_y_;
+  if (cell_means.size() != mean_.size()) {
+    throw InputError("BackgroundPlate::differingCells: expected " + std::to_string(mean_.size()) +
+                     " cell mean values, got " + std::to_string(cell_means.size()));
   }
-  if (distance_sq <= 1.0) return true;
-  // Shadow: darker, same chromaticity.
-  if (p.brightness < params.shadow_min_plate_brightness) return false;
-  const double brightness = static_cast<double>(rgb[0]) + rgb[1] + rgb[2];
-  const double ratio = brightness / p.brightness;
-  if (ratio < params.shadow_min_ratio || ratio > 1.0 || brightness <= 0.0) return false;
-  for (int k = 0; k < 3; ++k) {
-    if (std::fabs(rgb[k] / brightness - p.chroma[k]) > params.shadow_chroma_tolerance) return false;
+  differs->resize(cells);
+  const float* rgb = cell_means.data();
+  const float* mean = mean_.data();
+  const float* spread = spread_.data();
+  unsigned char* out = differs->data();
+  for (int i = 0; i < cells; ++i) {
+    out[i] = plateDistanceSq(rgb + 3 * i, mean + 3 * i, spread + 3 * i, params) <= 1.0 ? 0 : 1;
   }
-  return true;
+  for (int i = 0; i < cells; ++i) {
+    if (out[i] && isShadow(i, rgb + 3 * i, params)) out[i] = 0;
+  }
 }
 
 void BackgroundPlate::adaptCell(int cell, const float* rgb, double rate) {
@@ -203,7 +247,7 @@ cv::Mat BackgroundPlate::mean() const {
   cv::Mat out(cells_y_, cells_x_, CV_32FC3);
   for (int cell = 0; cell < cells_x_ * cells_y_; ++cell) {
     out.at<cv::Vec3f>(cell / cells_x_, cell % cells_x_) =
-        cv::Vec3f(cells_[cell].mean[0], cells_[cell].mean[1], cells_[cell].mean[2]);
+        cv::Vec3f(mean_[3 * cell], mean_[3 * cell + 1], mean_[3 * cell + 2]);
   }
   return out;
 }
@@ -212,7 +256,7 @@ cv::Mat BackgroundPlate::spread() const {
   cv::Mat out(cells_y_, cells_x_, CV_32FC3);
   for (int cell = 0; cell < cells_x_ * cells_y_; ++cell) {
     out.at<cv::Vec3f>(cell / cells_x_, cell % cells_x_) =
-        cv::Vec3f(cells_[cell].spread[0], cells_[cell].spread[1], cells_[cell].spread[2]);
+        cv::Vec3f(spread_[3 * cell], spread_[3 * cell + 1], spread_[3 * cell + 2]);
   }
   return out;
 }
@@ -274,7 +318,7 @@ void BackgroundPlate::load(const std::string& path) {
   const std::size_t cells = static_cast<std::size_t>(cells_x) * cells_y;
   plate.sum_.resize(3 * cells);
   plate.sum_sq_.resize(3 * cells);
-  plate.cells_.resize(cells);
+  plate.resizeCells(cells);
   for (std::size_t cell = 0; cell < cells; ++cell) {
     const cv::Vec3f& m = mean.at<cv::Vec3f>(cell / cells_x, cell % cells_x);
     const cv::Vec3f& s = spread.at<cv::Vec3f>(cell / cells_x, cell % cells_x);

@@ -26,6 +26,7 @@ struct ColourIntegral {
   int width = 0;   // pixels
   int height = 0;  // pixels
   int step = 1;    // g
+  int shift = 0;   // log2(g): index() divides by a shift, not an integer division per corner
   int cols = 0;    // entries per row: ceil(width / g) + 1
   int rows = 0;    // ceil(height / g) + 1
   std::vector<std::uint32_t> data;
@@ -36,7 +37,7 @@ struct ColourIntegral {
   void compute(const cv::Mat& rgb, int step);
 
   // Entry index of a pixel coordinate that is a multiple of step or the image border.
-  int index(int pixel) const { return (pixel + step - 1) / step; }
+  int index(int pixel) const { return (pixel + step - 1) >> shift; }
   const std::uint32_t* entry(int j, int i) const {
     return data.data() + (static_cast<std::size_t>(j) * cols + i) * kLanes;
   }

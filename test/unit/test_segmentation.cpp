@@ -1014,3 +1014,118 @@ TEST(ColourIntegral, GivesTheExactSumsOverGridRectangles) {
     EXPECT_GT(checked, 0);
   }
 }
+
+TEST(ColourIntegral, CellMeansAreTheMeansOfTheirPixels) {
+  std::mt19937 random(11);
+  std::uniform_int_distribution<int> byte(0, 255);
+  struct Size {
+    int width, height, step, cell_size;
+  };
+  // Whole cells only, cells cut by the right and bottom borders, cells of several grid steps.
+  for (const Size& size :
+       {Size{64, 32, 4, 4}, Size{37, 23, 4, 4}, Size{50, 29, 4, 8}, Size{19, 17, 2, 8},
+        Size{13, 11, 1, 2}, Size{70, 41, 16, 16}, Size{3, 5, 4, 4}}) {
+    cv::Mat rgb(size.height, size.width, CV_8UC3);
+    for (auto it = rgb.begin<cv::Vec3b>(); it != rgb.end<cv::Vec3b>(); ++it) {
+      *it = cv::Vec3b(byte(random), byte(random), byte(random));
+    }
+    detail::ColourIntegral integral;
+    integral.compute(rgb, size.step);
+    std::vector<float> means;
+    detail::cellMeans(integral, size.cell_size, means);
+    const int cells_x = detail::cellCount(size.width, size.cell_size);
+    const int cells_y = detail::cellCount(size.height, size.cell_size);
+    ASSERT_EQ(means.size(), static_cast<size_t>(3 * cells_x * cells_y));
+    for (int cy = 0; cy < cells_y; ++cy) {
+      for (int cx = 0; cx < cells_x; ++cx) {
+        double sum[3] = {0, 0, 0};
+        int pixels = 0;
+        for (int y = cy * size.cell_size; y < std::min((cy + 1) * size.cell_size, size.height);
+             ++y) {
+          for (int x = cx * size.cell_size; x < std::min((cx + 1) * size.cell_size, size.width);
+               ++x) {
+            for (int k = 0; k < 3; ++k) sum[k] += rgb.at<cv::Vec3b>(y, x)[k];
+            ++pixels;
+          }
+        }
+        for (int k = 0; k < 3; ++k) {
+          ASSERT_NEAR(means[3 * (cy * cells_x + cx) + k], sum[k] / pixels, 1e-4)
+              << "channel " << k << " of cell (" << cx << ", " << cy << ") in a " << size.width
+              << "x" << size.height << " image, cells of " << size.cell_size << ", step "
+              << size.step;
+        }
+      }
+    }
+  }
+}
+
+TEST(Background, DifferingCellsIsTheCellTestOverAWholeFrame) {
+  // A plate of noisy, coloured cells; frames with the plate itself, its shadows, other colours
+  // and colours at the tolerance's edge: the whole-frame test must agree with the per-cell one.
+  std::mt19937 random(5);
+  std::uniform_real_distribution<float> colour(0.0f, 255.0f), noise(-6.0f, 6.0f), unit(0.0f, 1.0f);
+  const int width = 52, height = 36, cell_size = 4;
+  const int cells = detail::cellCount(width, cell_size) * detail::cellCount(height, cell_size);
+  std::vector<float> base(3 * cells);
+  for (float& v : base) v = colour(random);
+  BackgroundPlate plate(cell_size);
+  for (int frame = 0; frame < 8; ++frame) {
+    std::vector<float> means = base;
+    for (float& v : means) v = std::clamp(v + noise(random), 0.0f, 255.0f);
+    plate.addFrame(width, height, means);
+  }
+  const cv::Mat mean = plate.mean(), spread = plate.spread();
+  const BackgroundParams params;
+  int differing = 0, shadows = 0;
+  for (int frame = 0; frame < 6; ++frame) {
+    std::vector<float> means(3 * cells);
+    for (int i = 0; i < cells; ++i) {
+      const cv::Vec3f m = mean.at<cv::Vec3f>(i / mean.cols, i % mean.cols);
+      const cv::Vec3f s = spread.at<cv::Vec3f>(i / mean.cols, i % mean.cols);
+      const float kind = unit(random);
+      // At the edge: a colour distance of 0.8-1.2 tolerances, shared by the channels.
+      const float edge = std::sqrt((0.8f + 0.4f * unit(random)) / 3.0f);
+      for (int k = 0; k < 3; ++k) {
+        float v = m[k];
+        if (kind < 0.25f) {
+          v = m[k] + noise(random);  // the plate
+        } else if (kind < 0.5f) {
+          v = m[k] * (0.3f + 0.6f * unit(random));  // a shadow or something darker
+        } else if (kind < 0.75f) {
+          v = colour(random);  // something else
+        } else {
+          const float tolerance = std::max(static_cast<float>(params.k_sigma) * s[k],
+                                           static_cast<float>(params.min_tolerance));
+          v = m[k] + (unit(random) < 0.5f ? -1.0f : 1.0f) * tolerance * edge;
+        }
+        means[3 * i + k] = v;
+      }
+    }
+    std::vector<unsigned char> differs;
+    plate.differingCells(means, params, &differs);
+    ASSERT_EQ(differs.size(), static_cast<size_t>(cells));
+    for (int i = 0; i < cells; ++i) {
+      const bool background = plate.isBackground(i, &means[3 * i], params);
+      ASSERT_EQ(differs[i] != 0, !background) << "cell " << i << " of frame " << frame;
+      differing += differs[i];
+      if (background) {
+        const cv::Vec3f m = mean.at<cv::Vec3f>(i / mean.cols, i % mean.cols);
+        const double darker =
+            (means[3 * i] + means[3 * i + 1] + means[3 * i + 2]) / (m[0] + m[1] + m[2]);
+        shadows += darker < 0.8 ? 1 : 0;
+      }
+    }
+  }
+  // Every kind of cell was met: both answers, and shadows kept as background.
+  EXPECT_GT(differing, cells);
+  EXPECT_LT(differing, 5 * cells);
+  EXPECT_GT(shadows, 0);
+  // A frame of another size is named.
+  std::vector<unsigned char> differs;
+  try {
+    plate.differingCells(std::vector<float>(3 * cells - 3), params, &differs);
+    FAIL() << "a frame of the wrong size was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(std::to_string(3 * cells)), std::string::npos) << e.what();
+  }
+}

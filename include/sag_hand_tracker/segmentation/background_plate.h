@@ -113,6 +113,11 @@ class BackgroundPlate {
   // Whether a cell (index row * cellsX() + col) with mean colour rgb is background or a shadow
   // on it. Requires frameCount() > 0.
   bool isBackground(int cell, const float* rgb, const BackgroundParams& params) const;
+  // The same test for a whole frame given as its cell means (addFrame's layout): differs[cell] is
+  // 1 where the cell is not background (nor a shadow on it), else 0. The colour distance runs
+  // over all cells in one vectorised loop, the shadow test only on the cells that failed it.
+  void differingCells(const std::vector<float>& cell_means, const BackgroundParams& params,
+                      std::vector<unsigned char>* differs) const;
 
   // Blends a cell's mean toward rgb: mean <- (1 - rate) mean + rate rgb (the spread is kept).
   // For a plate that follows slow changes of the scene where the hand is not.
@@ -129,13 +134,10 @@ class BackgroundPlate {
   void load(const std::string& path);
 
  private:
-  struct Cell {
-    float mean[3];
-    float spread[3];
-    float brightness;  // r + g + b of the mean
-    float chroma[3];   // normalised rgb of the mean
-  };
   void updateCell(int cell);
+  void resizeCells(std::size_t cells);
+  // The shadow test of a cell that failed the colour distance: darker, the same chromaticity.
+  bool isShadow(int cell, const float* rgb, const BackgroundParams& params) const;
 
   int cell_size_ = 4;
   int width_ = 0;
@@ -145,7 +147,13 @@ class BackgroundPlate {
   int frames_ = 0;
   std::vector<double> sum_;     // per cell and channel: sum over frames of the cell mean
   std::vector<double> sum_sq_;  // same, squares
-  std::vector<Cell> cells_;
+  // Per cell, in the cell means' layout (R,G,B per cell, row after row) so that the frame's test
+  // runs over all cells with vector loads: the mean and spread, the chromaticity (normalised rgb)
+  // of the mean, and its brightness (r + g + b, one per cell).
+  std::vector<float> mean_;
+  std::vector<float> spread_;
+  std::vector<float> chroma_;
+  std::vector<float> brightness_;
 };
 
 }  // namespace sag_hand_tracker
