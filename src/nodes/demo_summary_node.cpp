@@ -16,12 +16,19 @@
 //     latency, the tracker's work, fingertip error), to see which sets make the latency's tail
 //   end_launch (false): after the summary, SIGINT the parent process when it is roslaunch (else,
 //     and 10 s after the signal if still running, the node shuts itself down)
-// Latency: ros::WallTime::now() when the joint state arrives minus its header stamp (the image
-// stamp); meaningful with wall-clock stamps (no use_sim_time; the studio stamps with now()).
-// Late joint states (the tracker's catch-up: a set first reported without a pose while a search
-// ran, its status with `late`) count as joint states, so their sets are not dropped; their
-// latency is in every latency figure, and also reported on its own beside the on-time ones', with
-// a histogram of both.
+// Sets are counted from the first one that comes when this node is connected to the tracker's
+// and the studio's outputs (joint_states, fingertips, status, ground_truth/fingertips): the
+// connections from this process to the nodelet manager's publishers are made after the studio
+// may have started (it waits only for the segmentation nodelets), and a set published before
+// them would look dropped though the tracker may have processed it (session 51: in one of three
+// runs the first 55 sets, 0.9 s, had no status here). The summary says how many sets came before.
+// Outputs not connected 5 s after the first set (a tracker that died) no longer hold the count
+// back: its sets then count as dropped. Latency: ros::WallTime::now() when the joint state arrives
+// minus its header stamp (the image stamp); meaningful with wall-clock stamps (no use_sim_time; the
+// studio stamps with now()). Late joint states (the tracker's catch-up: a set first reported
+// without a pose while a search ran, its status with `late`) count as joint states, so their sets
+// are not dropped; their latency is in every latency figure, and also reported on its own beside
+// the on-time ones', with a histogram of both.
 #include <geometry_msgs/PoseArray.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
@@ -129,7 +136,7 @@ class DemoSummary {
           "cam" + std::to_string(i) + "/camera_info", 20,
           [this](const sensor_msgs::CameraInfo::ConstPtr& msg) { onCameraInfo(*msg); }));
     }
-    subs_.push_back(nh_.subscribe<sensor_msgs::JointState>(
+    outputs_.push_back(nh_.subscribe<sensor_msgs::JointState>(
         "joint_states", 20, [this](const sensor_msgs::JointState::ConstPtr& msg) {
           const ros::WallTime now = ros::WallTime::now();
           std::lock_guard<std::mutex> lock(mutex_);
@@ -139,7 +146,7 @@ class DemoSummary {
           set->latency = now.toSec() - msg->header.stamp.toSec();
           ++joint_states_;
         }));
-    subs_.push_back(nh_.subscribe<geometry_msgs::PoseArray>(
+    outputs_.push_back(nh_.subscribe<geometry_msgs::PoseArray>(
         "fingertips", 20, [this](const geometry_msgs::PoseArray::ConstPtr& msg) {
           std::lock_guard<std::mutex> lock(mutex_);
           SetRecord* set = find(msg->header.stamp);
@@ -147,7 +154,7 @@ class DemoSummary {
           set->fingertips = true;
           set->tips = flatten(*msg);
         }));
-    subs_.push_back(nh_.subscribe<geometry_msgs::PoseArray>(
+    outputs_.push_back(nh_.subscribe<geometry_msgs::PoseArray>(
         "ground_truth/fingertips", 20, [this](const geometry_msgs::PoseArray::ConstPtr& msg) {
           std::lock_guard<std::mutex> lock(mutex_);
           SetRecord* set = find(msg->header.stamp);
@@ -156,7 +163,7 @@ class DemoSummary {
           set->truth = flatten(*msg);
           set->sequence = sequence_;
         }));
-    subs_.push_back(nh_.subscribe<sag_hand_tracker::TrackingStatus>(
+    outputs_.push_back(nh_.subscribe<sag_hand_tracker::TrackingStatus>(
         "status", 20, [this](const sag_hand_tracker::TrackingStatus::ConstPtr& msg) {
           std::lock_guard<std::mutex> lock(mutex_);
           SetRecord* set = find(msg->header.stamp);
@@ -204,8 +211,27 @@ class DemoSummary {
   void onCameraInfo(const sensor_msgs::CameraInfo& msg) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (ending_) return;  // sets after the end are not counted
-    if (sets_.empty()) first_wall_ = ros::WallTime::now();
+    const ros::WallTime now = ros::WallTime::now();
+    if (sets_.empty()) {
+      if (unobserved_.empty()) first_info_wall_ = now;
+      // Not yet connected (a tracker that never comes is counted after kConnectWait: every set
+      // dropped); a set that began before stays uncounted, all its cameras.
+      const bool waiting = !outputsConnected() && (now - first_info_wall_).toSec() < kConnectWait;
+      if (waiting || unobserved_.count(msg.header.stamp) > 0) {
+        unobserved_.insert(msg.header.stamp);
+        return;
+      }
+      first_wall_ = now;
+    }
     ++sets_[msg.header.stamp].cameras;
+  }
+
+  // Whether every output topic has its publisher connected to this node.
+  bool outputsConnected() const {
+    for (const ros::Subscriber& output : outputs_) {
+      if (output.getNumPublishers() == 0) return false;
+    }
+    return true;
   }
 
   void onTimer() {
@@ -290,6 +316,13 @@ class DemoSummary {
                   "camera sets published: %ld (%ld with all %d cameras), %.2f sets/s\n", sets,
                   complete, num_cameras_, sets / seconds);
     out << line;
+    if (!unobserved_.empty()) {
+      std::snprintf(line, sizeof line,
+                    "  before them, %zu sets came while this node was not yet connected to the "
+                    "tracker's and the studio's outputs: not counted\n",
+                    unobserved_.size());
+      out << line;
+    }
     std::snprintf(line, sizeof line,
                   "tracker: %ld sets processed (a status), %ld not (%ld with the hand in view; "
                   "the others: empty frames, e.g. the segmentation's background-plate frames); "
@@ -355,8 +388,9 @@ class DemoSummary {
     if (!summary_file_.empty()) {
       std::ofstream file(summary_file_);
       file << "seconds: " << seconds << "\ncameras: " << num_cameras_ << "\nsets: " << sets
-           << "\ncomplete_sets: " << complete << "\nprocessed_sets: " << with_status
-           << "\nunprocessed_sets: " << sets - with_status
+           << "\ncomplete_sets: " << complete
+           << "\nsets_before_outputs_connected: " << unobserved_.size()
+           << "\nprocessed_sets: " << with_status << "\nunprocessed_sets: " << sets - with_status
            << "\nunprocessed_sets_with_hand: " << hand_unprocessed
            << "\njoint_states: " << with_joints << "\njoint_state_rate: " << with_joints / seconds
            << "\ndropped_sets: " << hand_without_joints << "\nhand_sets: " << hand_sets
@@ -407,10 +441,14 @@ class DemoSummary {
   ros::WallTime launch_signalled_;
   std::string summary_file_, sets_file_;
   std::vector<ros::Subscriber> subs_;
+  std::vector<ros::Subscriber> outputs_;  // the tracker's and the studio's outputs
   ros::WallTimer timer_;
 
   std::mutex mutex_;
   std::map<ros::Time, SetRecord> sets_;
+  std::set<ros::Time> unobserved_;  // sets before the outputs were connected (not counted)
+  ros::WallTime first_info_wall_;   // the first camera set's arrival, counted or not
+  static constexpr double kConnectWait = 5.0;  // seconds
   std::string sequence_;
   std::vector<std::string> sequences_;
   long joint_states_ = 0, restarts_ = 0, late_statuses_ = 0;
