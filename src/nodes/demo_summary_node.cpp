@@ -211,13 +211,15 @@ class DemoSummary {
   void onCameraInfo(const sensor_msgs::CameraInfo& msg) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (ending_) return;  // sets after the end are not counted
+    // A set that began before the count did stays uncounted, all its cameras (also those that
+    // come once the count has begun).
+    if (unobserved_.count(msg.header.stamp) > 0) return;
     const ros::WallTime now = ros::WallTime::now();
     if (sets_.empty()) {
       if (unobserved_.empty()) first_info_wall_ = now;
       // Not yet connected (a tracker that never comes is counted after kConnectWait: every set
-      // dropped); a set that began before stays uncounted, all its cameras.
-      const bool waiting = !outputsConnected() && (now - first_info_wall_).toSec() < kConnectWait;
-      if (waiting || unobserved_.count(msg.header.stamp) > 0) {
+      // dropped).
+      if (!outputsConnected() && (now - first_info_wall_).toSec() < kConnectWait) {
         unobserved_.insert(msg.header.stamp);
         return;
       }

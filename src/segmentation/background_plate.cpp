@@ -243,23 +243,21 @@ void BackgroundPlate::adaptCell(int cell, const float* rgb, double rate) {
   updateCell(cell);
 }
 
-cv::Mat BackgroundPlate::mean() const {
-  cv::Mat out(cells_y_, cells_x_, CV_32FC3);
-  for (int cell = 0; cell < cells_x_ * cells_y_; ++cell) {
-    out.at<cv::Vec3f>(cell / cells_x_, cell % cells_x_) =
-        cv::Vec3f(mean_[3 * cell], mean_[3 * cell + 1], mean_[3 * cell + 2]);
-  }
+namespace {
+
+// Per-cell values in the cell means' layout (R,G,B per cell, row after row) as a CV_32FC3 image
+// of cells_y x cells_x: the same memory order, copied.
+cv::Mat cellImage(int cells_y, int cells_x, const std::vector<float>& values) {
+  cv::Mat out(cells_y, cells_x, CV_32FC3);
+  if (!values.empty()) std::copy(values.begin(), values.end(), out.ptr<float>());
   return out;
 }
 
-cv::Mat BackgroundPlate::spread() const {
-  cv::Mat out(cells_y_, cells_x_, CV_32FC3);
-  for (int cell = 0; cell < cells_x_ * cells_y_; ++cell) {
-    out.at<cv::Vec3f>(cell / cells_x_, cell % cells_x_) =
-        cv::Vec3f(spread_[3 * cell], spread_[3 * cell + 1], spread_[3 * cell + 2]);
-  }
-  return out;
-}
+}  // namespace
+
+cv::Mat BackgroundPlate::mean() const { return cellImage(cells_y_, cells_x_, mean_); }
+
+cv::Mat BackgroundPlate::spread() const { return cellImage(cells_y_, cells_x_, spread_); }
 
 void BackgroundPlate::save(const std::string& path) const {
   if (frames_ == 0) throw InputError("BackgroundPlate::save: the plate is empty (no frames)");

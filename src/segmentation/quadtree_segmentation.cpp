@@ -592,7 +592,7 @@ bool prepare(const cv::Mat& rgb, const SegmentationParams& params, SegmentationM
   ws.arm_cells = 0;
   ws.arm_sum.setZero();
   ws.arm_band.clear();
-  ws.sleeve.assign(use_plate ? cells : 0, 0);
+  ws.sleeve.resize(use_plate ? cells : 0);  // every cell is written below
   if (use_plate) plate.differingCells(ws.cell_means, params.background, &ws.differs);
   // Raw pointers: a store through unsigned char may alias anything, and through the vectors the
   // compiler reloaded their data pointers for every cell.

@@ -1608,6 +1608,26 @@ TEST(StudioRooms, TheTrackStartsInTheKitchenAndStaysOnTheUsersHand) {
   onTheHand(results[4], 30, "the default model");
 }
 
+namespace {
+
+// `sequence` in the kitchen (the hand in view from the first frame) on the default hand or
+// `hand`, tracked by the default model with the generic skin gate and the room cues.
+RoomRunResult kitchenFromTheFirstFrame(const std::string& sequence, int frames,
+                                       const std::string& hand = "") {
+  const Motion motion = loadMotion(resolveMotionPath(sequence, kConfigDir), model("sag"), 1);
+  const RoomParams kitchen = builtinRoom("kitchen");
+  RoomSequenceOptions options;
+  options.frames = frames;
+  options.empty_frames = 0;
+  if (!hand.empty()) options.hand = resolveHandShape(hand, kConfigDir);
+  const auto results = evaluateRoomSequence(model("sag"), dexter5(), motion, &kitchen, kConfigDir,
+                                            {skinGateWithRoomCues()}, options);
+  EXPECT_EQ(results.size(), 1u);
+  return results.at(0);
+}
+
+}  // namespace
+
 // Pinch in the kitchen, the default model with the generic gate: the hand is in view from the
 // first frame and only its fingers move. Cue 8 (what lay there before the hand) took its age
 // quantile from the moving fingers and dropped the still palm, unchanged since the first frame
@@ -1616,15 +1636,7 @@ TEST(StudioRooms, TheTrackStartsInTheKitchenAndStaysOnTheUsersHand) {
 // Cells as old as the first frame are now kept when most of the hand is that old (RoomCueParams::
 // first_frame_hand_share; doc/segmentation.md "Session 50"): 4-15 mm over these 60 frames.
 TEST(StudioRooms, ThePalmThatHoldsStillFromTheFirstFrameIsKeptInTheKitchen) {
-  const Motion motion = loadMotion(resolveMotionPath("pinch", kConfigDir), model("sag"), 1);
-  const RoomParams kitchen = builtinRoom("kitchen");
-  RoomSequenceOptions options;
-  options.frames = 60;
-  options.empty_frames = 0;
-  const auto results = evaluateRoomSequence(model("sag"), dexter5(), motion, &kitchen, kConfigDir,
-                                            {skinGateWithRoomCues()}, options);
-  ASSERT_EQ(results.size(), 1u);
-  const RoomRunResult& r = results[0];
+  const RoomRunResult r = kitchenFromTheFirstFrame("pinch", 60);
   std::printf("kitchen, pinch, the default model: %d/%d frames posed, %.1f mm, recall %.3f\n",
               r.frames_posed, r.frames, r.errors.mean_mm, r.recall());
   EXPECT_GE(r.frames_posed, 50);
@@ -1640,16 +1652,8 @@ TEST(StudioRooms, ThePalmThatHoldsStillFromTheFirstFrameIsKeptInTheKitchen) {
 // on). The starts are now scored with the model's area charged (PipelineParams::
 // skin_gate_start_area_weight); the track stays on the hand (18.7 mm over 110 frames).
 TEST(StudioRooms, AHandUnlikeTheModelStartsOnItselfInTheKitchen) {
-  const Motion motion = loadMotion(resolveMotionPath("adbadd", kConfigDir), model("sag"), 1);
-  const RoomParams kitchen = builtinRoom("kitchen");
-  RoomSequenceOptions options;
-  options.frames = 60;  // the start comes at the 17th set
-  options.empty_frames = 0;
-  options.hand = resolveHandShape("long_distal_large", kConfigDir);
-  const auto results = evaluateRoomSequence(model("sag"), dexter5(), motion, &kitchen, kConfigDir,
-                                            {skinGateWithRoomCues()}, options);
-  ASSERT_EQ(results.size(), 1u);
-  const RoomRunResult& r = results[0];
+  // 60 frames: the start comes at the 17th set.
+  const RoomRunResult r = kitchenFromTheFirstFrame("adbadd", 60, "long_distal_large");
   std::printf("kitchen, adbadd, long_distal_large: %d/%d frames posed, %.1f mm\n", r.frames_posed,
               r.frames, r.errors.mean_mm);
   EXPECT_GE(r.frames_posed, 40);
