@@ -31,7 +31,9 @@
 //   (below), skin_gate_from_model (true: publish cam<i>/skin_gate, above; false: the
 //   segmentations keep their own gate), mode (plate: the segmentations' mode; with skin the
 //   starts are scored with the model's area charged, TrackerParams::start_model_area_weight, as
-//   TrackingPipeline does offline without a plate, and 0 while the skin gate is the model's own),
+//   TrackingPipeline does offline without a plate, and 0 while the skin gate is the model's own;
+//   and, with the generic gate, searched again on the set after each start,
+//   TrackerParams::redetect_after_start, as offline),
 //   plus the dynamic_reconfigure parameters of cfg/Tracker.cfg (its start_model_area_weight, -1
 //   by default, replaces the mode's weight when it is at least 0; its curled_refine_iterations,
 //   -1 by default, the curled hand's refinement: as offline, on with mode plate and off with
@@ -401,7 +403,7 @@ class TrackerNodelet : public nodelet::Nodelet {
     params.min_cameras_for_start = config.min_cameras_for_start;
     std::lock_guard<std::mutex> lock(mutex_);
     configured_start_area_weight_ = config.start_model_area_weight;
-    params.start_model_area_weight = startAreaWeight();
+    setGateDependentParams(&params);
     tracker_->setParams(params);
     // Read back from the tracker: what it now runs (the replay_reconfigure rostest checks it).
     NODELET_INFO(
@@ -990,7 +992,7 @@ class TrackerNodelet : public nodelet::Nodelet {
       std::lock_guard<std::mutex> lock(mutex_);
       users_skin_gate_ = users_gate;
       TrackerParams params = tracker_->params();
-      params.start_model_area_weight = startAreaWeight();
+      setGateDependentParams(&params);
       tracker_->setParams(params);
     }
     *message = summary.str();
@@ -1006,6 +1008,15 @@ class TrackerNodelet : public nodelet::Nodelet {
     if (users_skin_gate_) return 0.0;
     if (configured_start_area_weight_ >= 0.0) return configured_start_area_weight_;
     return startModelAreaWeight(PipelineParams(), skin_mode_);  // the tracker's default: 0
+  }
+
+  // What follows the segmentations' gate, as in TrackingPipeline: the start's model-area weight
+  // (startAreaWeight) and the search on the set after a start (redetectAfterStart: with the
+  // generic gate in mode skin). Caller holds mutex_.
+  void setGateDependentParams(TrackerParams* params) const {
+    params->start_model_area_weight = startAreaWeight();
+    params->redetect_after_start =
+        redetectAfterStart(PipelineParams(), skin_mode_ && !users_skin_gate_);
   }
 
   // The segmentations' skin gate from `model`'s colours when they are the user's (latched on

@@ -1136,8 +1136,11 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
       }
     }
 
-    const bool redetect = !flipped && params_.redetect_interval > 0 &&
-                          frames_since_redetection_ + 1 >= params_.redetect_interval;
+    const bool redetect =
+        !flipped && ((params_.redetect_interval > 0 &&
+                      frames_since_redetection_ + 1 >= params_.redetect_interval) ||
+                     (params_.redetect_after_start > 0 &&
+                      frames_since_start_ + 1 == params_.redetect_after_start));
     // The forearm says the tracked hand is reversed, frame after frame: the track is lost.
     arm_reversed_streak_ =
         armSaysReversed(optimized->pose, observations) ? arm_reversed_streak_ + 1 : 0;

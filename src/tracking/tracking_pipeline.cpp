@@ -27,6 +27,10 @@ PipelineParams adjusted(PipelineParams params) {
     throw InputError("skin_gate_start_area_weight must be a finite number >= 0, got " +
                      std::to_string(params.skin_gate_start_area_weight));
   }
+  if (params.redetect_after_start_without_plate < 0) {
+    throw InputError("redetect_after_start_without_plate must be >= 0, got " +
+                     std::to_string(params.redetect_after_start_without_plate));
+  }
   validate(params.segmentation);
   validate(params.multi_view);
   // What the tracker runs with a plate and not without one.
@@ -126,6 +130,11 @@ double sizeStep(const PipelineParams& params, bool without_plate) {
   return without_plate && !params.size_adaptation_without_plate ? 0.0 : params.tracker.size_step;
 }
 
+int redetectAfterStart(const PipelineParams& params, bool generic_skin_gate_without_plate) {
+  return generic_skin_gate_without_plate ? params.redetect_after_start_without_plate
+                                         : params.tracker.redetect_after_start;
+}
+
 std::optional<StillStart> startOnStillScene(
     const HandModel& model, const TrackerParams& params,
     const std::vector<std::vector<CameraObservation>>& trials, const std::vector<Camera>& cameras,
@@ -168,13 +177,16 @@ TrackingPipeline::TrackingPipeline(const HandModel& model, const std::vector<Cam
       skin_gate_problem_ = e.what();  // the generic gate stays
     }
   }
-  // The generic skin gate keeps the wood, the coffee and the photographs beside the hand, and the
-  // starts are scored with the model's area charged; the user's own gate drops those things (the
-  // plate's other settings: adjusted).
-  const double start_weight =
-      startModelAreaWeight(params_, params_.background_frames == 0 && !skin_gate_from_model_);
-  if (start_weight != params_.tracker.start_model_area_weight) {
+  // The generic skin gate keeps the wood, the coffee and the photographs beside the hand: the
+  // starts are scored with the model's area charged and searched again on the next set; the
+  // user's own gate drops those things (the plate's other settings: adjusted).
+  const bool generic_gate_without_plate = params_.background_frames == 0 && !skin_gate_from_model_;
+  const double start_weight = startModelAreaWeight(params_, generic_gate_without_plate);
+  const int redetect_after_start = redetectAfterStart(params_, generic_gate_without_plate);
+  if (start_weight != params_.tracker.start_model_area_weight ||
+      redetect_after_start != params_.tracker.redetect_after_start) {
     params_.tracker.start_model_area_weight = start_weight;
+    params_.tracker.redetect_after_start = redetect_after_start;
     tracker_.setParams(params_.tracker);
   }
   for (const Camera& camera : cameras_) {

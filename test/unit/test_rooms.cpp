@@ -1611,9 +1611,10 @@ TEST(StudioRooms, TheTrackStartsInTheKitchenAndStaysOnTheUsersHand) {
 namespace {
 
 // `sequence` in the kitchen (the hand in view from the first frame) on the default hand or
-// `hand`, tracked by the default model with the generic skin gate and the room cues.
+// `hand`, tracked by `config` (the default model with the generic skin gate and the room cues).
 RoomRunResult kitchenFromTheFirstFrame(const std::string& sequence, int frames,
-                                       const std::string& hand = "") {
+                                       const std::string& hand = "",
+                                       const RoomRunConfig& config = skinGateWithRoomCues()) {
   const Motion motion = loadMotion(resolveMotionPath(sequence, kConfigDir), model("sag"), 1);
   const RoomParams kitchen = builtinRoom("kitchen");
   RoomSequenceOptions options;
@@ -1621,12 +1622,46 @@ RoomRunResult kitchenFromTheFirstFrame(const std::string& sequence, int frames,
   options.empty_frames = 0;
   if (!hand.empty()) options.hand = resolveHandShape(hand, kConfigDir);
   const auto results = evaluateRoomSequence(model("sag"), dexter5(), motion, &kitchen, kConfigDir,
-                                            {skinGateWithRoomCues()}, options);
+                                            {config}, options);
   EXPECT_EQ(results.size(), 1u);
   return results.at(0);
 }
 
+// The mean of errors_mm from `from` on.
+double meanErrorFrom(const RoomRunResult& r, size_t from) {
+  EXPECT_GT(r.errors_mm.size(), from);
+  if (r.errors_mm.size() <= from) return NAN;
+  double sum = 0.0;
+  for (size_t i = from; i < r.errors_mm.size(); ++i) sum += r.errors_mm[i];
+  return sum / static_cast<double>(r.errors_mm.size() - from);
+}
+
 }  // namespace
+
+// Adbadd in the kitchen, the default model with the generic gate, the hand in view from the first
+// frame: the start is fitted to the candidates' blobs, which hold the wooden table with the hand,
+// and took a hand 34-47 mm off; nothing told that track from the hand (its energy 0.65 against
+// the hand's 0.76, no loss) until the periodic re-detection 25 sets later. The set after a start
+// is segmented in the started hand's region, and the search there
+// (PipelineParams::redetect_after_start_without_plate) finds the hand.
+TEST(StudioRooms, TheKitchensStartIsSearchedAgainOnTheNextSet) {
+  constexpr int kFrames = 26;
+  const RoomRunResult searched = kitchenFromTheFirstFrame("adbadd", kFrames);
+  RoomRunConfig once = skinGateWithRoomCues();
+  once.pipeline.redetect_after_start_without_plate = 0;
+  const RoomRunResult started_once = kitchenFromTheFirstFrame("adbadd", kFrames, "", once);
+  const double after = meanErrorFrom(searched, 3), before = meanErrorFrom(started_once, 3);
+  std::printf(
+      "kitchen, adbadd, from the fourth posed frame on: %.1f mm with the search after the start, "
+      "%.1f mm without (%d / %d frames posed)\n",
+      after, before, searched.frames_posed, started_once.frames_posed);
+  EXPECT_EQ(searched.frames_posed, started_once.frames_posed);
+  EXPECT_GT(before, 30.0);  // the start this test is about; if it changed, the test needs another
+  EXPECT_LT(after, 0.6 * before);
+  for (size_t i = 3; i < searched.errors_mm.size(); ++i) {
+    EXPECT_LT(searched.errors_mm[i], 30.0) << "posed frame " << i;
+  }
+}
 
 // Pinch in the kitchen, the default model with the generic gate: the hand is in view from the
 // first frame and only its fingers move. Cue 8 (what lay there before the hand) took its age

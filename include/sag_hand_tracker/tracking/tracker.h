@@ -41,6 +41,13 @@ struct TrackerParams {
   // recovers tracks that converged to a wrong but stable pose, which the similarity cannot flag.
   int redetect_interval = 25;
   double redetect_margin = 0.005;
+  // The re-detection also runs on the redetect_after_start-th set after every start (a first
+  // start, a restart after a loss, an adopted re-detection), whatever redetect_interval; 0: not.
+  // With the generic skin gate and no plate a start fits the candidates' blobs, which hold
+  // skin-coloured wood with the hand, and the sets after it are segmented in the started hand's
+  // region: the same search there finds the hand the start missed (TrackingPipeline and the live
+  // tracker set it then, PipelineParams::redetect_after_start_without_plate).
+  int redetect_after_start = 0;
   // A search made while the tracker has a pose (a re-detection, or a restart after a loss: that
   // pose is one of its candidates) refines only this many of its scored orientation hypotheses in
   // the coarse stage (the first start: 24). The searches are about half of all optimisation
