@@ -32,8 +32,8 @@
 //   segmentations keep their own gate), mode (plate: the segmentations' mode; with skin the
 //   starts are scored with the model's area charged, TrackerParams::start_model_area_weight, as
 //   TrackingPipeline does offline without a plate, and 0 while the skin gate is the model's own;
-//   and, with the generic gate, searched again on the set after each start,
-//   TrackerParams::redetect_after_start, as offline),
+//   and, with the generic gate and room_cues, searched again on the first set segmented in the
+//   started hand's region, PipelineParams::redetect_in_started_region, as offline),
 //   plus the dynamic_reconfigure parameters of cfg/Tracker.cfg (its start_model_area_weight, -1
 //   by default, replaces the mode's weight when it is at least 0; its curled_refine_iterations,
 //   -1 by default, the curled hand's refinement: as offline, on with mode plate and off with
@@ -408,12 +408,14 @@ class TrackerNodelet : public nodelet::Nodelet {
     // Read back from the tracker: what it now runs (the replay_reconfigure rostest checks it).
     NODELET_INFO(
         "tracker: parameters set: %d optimizer iterations per set (up to %d more while the ascent "
-        "rises), the starts' model-area weight %g",
+        "rises), the starts' model-area weight %g, %s",
         tracker_->params().optimizer.iterations, tracker_->params().rising_extra_iterations,
-        tracker_->params().start_model_area_weight);
+        tracker_->params().start_model_area_weight,
+        redetect_in_started_region_ ? "a start searched again in its region"
+                                    : "no search in a start's region");
     if (config.reset) {
       NODELET_INFO("tracker reset requested");
-      tracker_->reset();
+      resetTracker();
       room_.reset();
       config.reset = false;
     }
@@ -467,7 +469,7 @@ class TrackerNodelet : public nodelet::Nodelet {
               "time jumped back by %.3f s (bag loop?): resetting the tracker and its "
               "buffers",
               event.seconds);
-          tracker_->reset();
+          resetTracker();
           room_.reset();
           for (CameraInput& input : cameras_) input.images.clear();
           tf_buffer_->clear();
@@ -533,18 +535,23 @@ class TrackerNodelet : public nodelet::Nodelet {
         still_start = tryStillScene(still, stamp.toSec(), set.stamp_ns, &observations, &result);
       }
       if (!still_start) {
+        if (segmentedInStartedRegion(set)) {
+          tracker_->requestRedetection();
+          started_stamp_.reset();
+        }
         result = tracker_->update(observations, stamp.toSec(), set.stamp_ns);
         late_results = tracker_->takeLateResults();
       }
     } catch (const std::exception& e) {
       NODELET_ERROR_THROTTLE(2.0, "tracker failed on the set at %.3f: %s", stamp.toSec(), e.what());
-      tracker_->reset();
+      resetTracker();
       room_.reset();
       return;
     }
     const double seconds = secondsSince(start);
     // The catch-up's sets first, oldest first, each with its own stamp.
     publishLateResults(late_results);
+    noteStart(result);
     ++frames_;
     seconds_sum_ += seconds;
     last_result_ = result;
@@ -552,7 +559,7 @@ class TrackerNodelet : public nodelet::Nodelet {
     const bool pose_ok = result.has_pose && result.pose.allFinite();
     if (result.has_pose && !pose_ok) {
       NODELET_ERROR_THROTTLE(2.0, "tracker returned a non-finite pose: not published; reset");
-      tracker_->reset();
+      resetTracker();
     }
     if (recording_) {
       record(stamp.toSec(), result, pose_ok, observations);
@@ -589,7 +596,7 @@ class TrackerNodelet : public nodelet::Nodelet {
     }
     if (room_.beforeUpdate(views, still, stamp)) {
       NODELET_INFO("room cues: a hand that more views agree on replaces the track; restarting");
-      tracker_->reset();
+      resetTracker();
     }
     for (size_t v = 0; v < views->size(); ++v) {
       (*observations)[v].sog = std::move((*views)[v].sog);
@@ -688,6 +695,7 @@ class TrackerNodelet : public nodelet::Nodelet {
     for (const FrameResult& late : late_results) {
       publishLateResult(late);
       if (recording_) recordLate(late);
+      noteStart(late);
     }
   }
 
@@ -1011,12 +1019,48 @@ class TrackerNodelet : public nodelet::Nodelet {
   }
 
   // What follows the segmentations' gate, as in TrackingPipeline: the start's model-area weight
-  // (startAreaWeight) and the search on the set after a start (redetectAfterStart: with the
-  // generic gate in mode skin). Caller holds mutex_.
-  void setGateDependentParams(TrackerParams* params) const {
+  // (startAreaWeight) and the search in a started hand's region (redetectsInStartedRegion: with
+  // the generic gate in mode skin, with the room cues). Caller holds mutex_.
+  void setGateDependentParams(TrackerParams* params) {
     params->start_model_area_weight = startAreaWeight();
-    params->redetect_after_start =
-        redetectAfterStart(PipelineParams(), skin_mode_ && !users_skin_gate_);
+    redetect_in_started_region_ =
+        redetectsInStartedRegion(PipelineParams(), skin_mode_ && !users_skin_gate_, room_cues_);
+    if (!redetect_in_started_region_) started_stamp_.reset();
+  }
+
+  // The tracker forgets its track, and a start waiting for its search goes with it. Caller holds
+  // mutex_.
+  void resetTracker() {
+    tracker_->reset();
+    started_stamp_.reset();
+  }
+
+  // A start (a first start, a restart, an adopted re-detection) that is still to be searched
+  // again in its region (PipelineParams::redetect_in_started_region). Caller holds mutex_.
+  void noteStart(const FrameResult& result) {
+    if (!redetect_in_started_region_ || !result.has_pose ||
+        result.status != TrackStatus::kStarted) {
+      return;
+    }
+    started_stamp_ = started_stamp_ ? std::max(*started_stamp_, result.stamp) : result.stamp;
+  }
+
+  // Whether `set` is segmented in a started hand's region: at least half of its cameras used a
+  // hand_region of the start's set or a later one (the regions reach the segmentations a set or
+  // two after the tracker posts them). Caller holds mutex_.
+  bool segmentedInStartedRegion(const Synchronizer::Set& set) const {
+    if (!started_stamp_) return false;
+    int cameras = 0, in_region = 0;
+    for (int i = 0; i < num_cameras_; ++i) {
+      if (!set.messages[i]) continue;
+      const SumOfGaussians& msg = **set.messages[i];
+      ++cameras;
+      if (msg.region == SumOfGaussians::REGION_TRACKED &&
+          msg.region_stamp.toSec() >= *started_stamp_ - 1e-6) {
+        ++in_region;
+      }
+    }
+    return cameras > 0 && 2 * in_region >= cameras;
   }
 
   // The segmentations' skin gate from `model`'s colours when they are the user's (latched on
@@ -1248,6 +1292,8 @@ class TrackerNodelet : public nodelet::Nodelet {
   bool skin_gate_from_model_ = true;            // publish cam<i>/skin_gate
   bool skin_mode_ = false;                      // ~mode == skin: the segmentations have no plate
   bool users_skin_gate_ = false;                // publishSkinGate published the model's own gate
+  bool redetect_in_started_region_ = false;     // setGateDependentParams
+  std::optional<double> started_stamp_;         // noteStart: a start not yet searched in its region
   double configured_start_area_weight_ = -1.0;  // cfg/Tracker.cfg start_model_area_weight
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   boost::recursive_mutex reconfigure_mutex_;

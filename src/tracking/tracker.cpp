@@ -333,7 +333,8 @@ struct HandTracker::HandedFrame {
   std::vector<CameraObservation> observations;
   double stamp = 0.0;
   std::int64_t frame_id = 0;
-  bool reported_pose = false;  // the frame path's own result for it had a pose
+  bool reported_pose = false;          // the frame path's own result for it had a pose
+  bool redetection_requested = false;  // requestRedetection before the frame path's update
 };
 
 // The worker of asynchronous_search: a synchronous tracker on its own thread that tracks the sets
@@ -391,6 +392,7 @@ struct HandTracker::Worker {
       std::optional<FrameResult> result;
       std::exception_ptr failure;
       try {
+        if (frame.redetection_requested) tracker->requestRedetection();
         result = tracker->update(frame.observations, frame.stamp, frame.frame_id);
       } catch (...) {
         failure = std::current_exception();
@@ -441,6 +443,7 @@ HandTracker& HandTracker::operator=(HandTracker&&) noexcept = default;
 void HandTracker::reset() {
   stopWorker();
   late_results_.clear();
+  redetection_requested_ = false;
   setTrackState(TrackState());
 }
 
@@ -752,9 +755,11 @@ FrameResult HandTracker::update(const std::vector<CameraObservation>& observatio
   // The state before this set: where a worker starts when this set asks for a search.
   const TrackState before = worker_ ? TrackState() : trackState();
   search_wanted_ = false;
+  const bool requested = redetection_requested_;
   FrameResult result = step(observations, stamp);
+  redetection_requested_ = false;
   result.frame_id = frame_id;
-  HandedFrame frame{observations, stamp, frame_id, result.has_pose};
+  HandedFrame frame{observations, stamp, frame_id, result.has_pose, requested};
   if (worker_) {
     handToWorker(std::move(frame));
   } else if (search_wanted_) {
@@ -1139,8 +1144,7 @@ FrameResult HandTracker::step(const std::vector<CameraObservation>& observations
     const bool redetect =
         !flipped && ((params_.redetect_interval > 0 &&
                       frames_since_redetection_ + 1 >= params_.redetect_interval) ||
-                     (params_.redetect_after_start > 0 &&
-                      frames_since_start_ + 1 == params_.redetect_after_start));
+                     redetection_requested_);
     // The forearm says the tracked hand is reversed, frame after frame: the track is lost.
     arm_reversed_streak_ =
         armSaysReversed(optimized->pose, observations) ? arm_reversed_streak_ + 1 : 0;

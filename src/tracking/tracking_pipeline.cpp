@@ -27,10 +27,6 @@ PipelineParams adjusted(PipelineParams params) {
     throw InputError("skin_gate_start_area_weight must be a finite number >= 0, got " +
                      std::to_string(params.skin_gate_start_area_weight));
   }
-  if (params.redetect_after_start_without_plate < 0) {
-    throw InputError("redetect_after_start_without_plate must be >= 0, got " +
-                     std::to_string(params.redetect_after_start_without_plate));
-  }
   validate(params.segmentation);
   validate(params.multi_view);
   // What the tracker runs with a plate and not without one.
@@ -130,9 +126,9 @@ double sizeStep(const PipelineParams& params, bool without_plate) {
   return without_plate && !params.size_adaptation_without_plate ? 0.0 : params.tracker.size_step;
 }
 
-int redetectAfterStart(const PipelineParams& params, bool generic_skin_gate_without_plate) {
-  return generic_skin_gate_without_plate ? params.redetect_after_start_without_plate
-                                         : params.tracker.redetect_after_start;
+bool redetectsInStartedRegion(const PipelineParams& params, bool generic_skin_gate_without_plate,
+                              bool room_cues) {
+  return params.redetect_in_started_region && generic_skin_gate_without_plate && room_cues;
 }
 
 std::optional<StillStart> startOnStillScene(
@@ -182,13 +178,12 @@ TrackingPipeline::TrackingPipeline(const HandModel& model, const std::vector<Cam
   // user's own gate drops those things (the plate's other settings: adjusted).
   const bool generic_gate_without_plate = params_.background_frames == 0 && !skin_gate_from_model_;
   const double start_weight = startModelAreaWeight(params_, generic_gate_without_plate);
-  const int redetect_after_start = redetectAfterStart(params_, generic_gate_without_plate);
-  if (start_weight != params_.tracker.start_model_area_weight ||
-      redetect_after_start != params_.tracker.redetect_after_start) {
+  if (start_weight != params_.tracker.start_model_area_weight) {
     params_.tracker.start_model_area_weight = start_weight;
-    params_.tracker.redetect_after_start = redetect_after_start;
     tracker_.setParams(params_.tracker);
   }
+  redetect_in_started_region_ = redetectsInStartedRegion(params_, generic_gate_without_plate,
+                                                         params_.segmentation.room.enabled);
   for (const Camera& camera : cameras_) {
     validateCamera(camera);
     segmenters_.emplace_back(params_.segmentation);
@@ -203,6 +198,7 @@ void TrackingPipeline::reset() {
   }
   sets_seen_ = 0;
   tracked_regions_ = false;
+  redetect_next_set_ = false;
   sets_since_recheck_ = 0;
   provisional_track_ = false;
   still_kept_.clear();
@@ -376,6 +372,10 @@ ProcessedFrame TrackingPipeline::process(const FrameSet& set,
   const auto tracking_start = std::chrono::steady_clock::now();
   std::optional<FrameResult> still_start;
   if (still) still_start = startOnStillHypotheses(set, still_regions, &observations);
+  // The first set segmented in a started hand's region (PipelineParams::
+  // redetect_in_started_region).
+  if (redetect_next_set_ && !still_start) tracker_.requestRedetection();
+  redetect_next_set_ = false;
   processed.result =
       still_start ? *still_start : tracker_.update(observations, set.stamp(), sets_seen_ - 1);
   processed.late = tracker_.takeLateResults();
@@ -400,6 +400,8 @@ ProcessedFrame TrackingPipeline::process(const FrameSet& set,
                                              : cv::Mat());
     }
     tracked_regions_ = tracked;
+    redetect_next_set_ =
+        redetect_in_started_region_ && tracked && result.status == TrackStatus::kStarted;
     if (tracked) {
       tracked_centre_.setZero();
       for (const WorldGaussian& g : hand.gaussians) tracked_centre_ += g.mean;

@@ -391,6 +391,53 @@ TEST(TrackerCatchUp, AfterARedetectionTheFramePathGoesOnAsTheSynchronousTracker)
   EXPECT_GT(adopted_then_compared, 10);
 }
 
+// A requested re-detection (HandTracker::requestRedetection, the live tracker's search in a
+// started hand's region) with the asynchronous search: the request goes with its set to the
+// worker, which re-tracks it with the synchronous search (every candidate adopted here); once the
+// worker is adopted, the frame path goes on exactly as a synchronous tracker asked the same.
+TEST(TrackerCatchUp, ARequestedRedetectionGoesToTheWorkerWithItsSet) {
+  const HandModel model = loadHandModel(modelPath("sag"));
+  const std::vector<Camera> cameras = fiveCameraRig();
+  TrackerParams params;
+  params.asynchronous_search = true;
+  params.redetect_interval = 0;
+  params.redetect_margin = -1.0;
+  HandTracker tracker(model, params);
+  TrackerParams synchronous_params = params;
+  synchronous_params.asynchronous_search = false;
+  HandTracker synchronous(model, synchronous_params);
+  constexpr int kRequested = 6, kFrames = 14;
+  bool searched = false;
+  int compared = 0;
+  for (int frame = 0; frame < kFrames; ++frame) {
+    const std::vector<CameraObservation> observations =
+        modelObservations(model, movingHand(model, frame), cameras, 3.0);
+    if (frame == kRequested) {
+      tracker.requestRedetection();
+      synchronous.requestRedetection();
+    }
+    const FrameResult expected = synchronous.update(observations, frame * kFramePeriod, frame);
+    const FrameResult result = tracker.update(observations, frame * kFramePeriod, frame);
+    tracker.takeLateResults();
+    if (frame == 0 || frame == kRequested) {
+      if (frame == kRequested) {
+        searched = tracker.searching();
+        EXPECT_TRUE(expected.restarted);  // the synchronous search adopted its candidate
+      }
+      tracker.waitForSearch();
+      continue;
+    }
+    ASSERT_TRUE(result.has_pose) << "frame " << frame;
+    if (frame > kRequested) {
+      EXPECT_LT(fingertipDifference(result, expected), 1e-9) << "frame " << frame;
+      EXPECT_EQ(result.status, expected.status) << "frame " << frame;
+      ++compared;
+    }
+  }
+  EXPECT_TRUE(searched);
+  EXPECT_EQ(compared, kFrames - kRequested - 1);
+}
+
 // The live graph publishes a late result as soon as the worker has it: the worker calls the late
 // result callback once per set it found a pose for that the frame path had reported without one,
 // and takeReadyLateResults hands those results over between updates, in order, equal to the ones

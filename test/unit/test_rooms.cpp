@@ -1643,12 +1643,12 @@ double meanErrorFrom(const RoomRunResult& r, size_t from) {
 // and took a hand 34-47 mm off; nothing told that track from the hand (its energy 0.65 against
 // the hand's 0.76, no loss) until the periodic re-detection 25 sets later. The set after a start
 // is segmented in the started hand's region, and the search there
-// (PipelineParams::redetect_after_start_without_plate) finds the hand.
-TEST(StudioRooms, TheKitchensStartIsSearchedAgainOnTheNextSet) {
+// (PipelineParams::redetect_in_started_region) finds the hand.
+TEST(StudioRooms, TheKitchensStartIsSearchedAgainInItsRegion) {
   constexpr int kFrames = 26;
   const RoomRunResult searched = kitchenFromTheFirstFrame("adbadd", kFrames);
   RoomRunConfig once = skinGateWithRoomCues();
-  once.pipeline.redetect_after_start_without_plate = 0;
+  once.pipeline.redetect_in_started_region = false;
   const RoomRunResult started_once = kitchenFromTheFirstFrame("adbadd", kFrames, "", once);
   const double after = meanErrorFrom(searched, 3), before = meanErrorFrom(started_once, 3);
   std::printf(

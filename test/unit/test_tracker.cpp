@@ -588,30 +588,31 @@ TEST(TrackerOrientation, FollowsAFastRollWithoutRollingOver) {
   EXPECT_LT(worst, 0.02) << "worst fingertip error " << worst * 1000 << " mm";
 }
 
-// TrackerParams::redetect_after_start: a re-detection on the n-th set after every start, whatever
-// the periodic ones, and an adopted re-detection is a start too. With every candidate adopted
-// (redetect_margin -1) and no periodic re-detection, a still hand's track is searched again on
-// every n-th set, and never with 0.
-TEST(Tracker, SearchesAgainTheNthSetAfterEveryStart) {
+// HandTracker::requestRedetection: the next update runs the re-detection whatever the periodic
+// ones, once; reset forgets the request. With every candidate adopted (redetect_margin -1) and no
+// periodic re-detection, a still hand's track restarts exactly on the requested sets.
+TEST(Tracker, ARequestedRedetectionRunsOnTheNextSetOnly) {
   const HandModel model = loadHandModel(modelPath("sag"));
   const auto observations = modelObservations(model, typicalPose(model), fiveCameraRig(), 3.0);
-  constexpr int kFrames = 7;
-  for (const int after : {0, 1, 2, 3}) {
-    TrackerParams params;
-    params.redetect_interval = 0;
-    params.redetect_margin = -1.0;
-    params.redetect_after_start = after;
-    HandTracker tracker(model, params);
-    std::vector<int> restarts;
-    for (int frame = 0; frame < kFrames; ++frame) {
-      const FrameResult result = tracker.update(observations, frame * 0.04);
-      ASSERT_TRUE(result.has_pose) << after << ", frame " << frame;
-      if (result.restarted) restarts.push_back(frame);
+  TrackerParams params;
+  params.redetect_interval = 0;
+  params.redetect_margin = -1.0;
+  HandTracker tracker(model, params);
+  const std::vector<int> requested{2, 3, 6};
+  std::vector<int> restarts;
+  for (int frame = 0; frame < 8; ++frame) {
+    if (std::find(requested.begin(), requested.end(), frame) != requested.end()) {
+      tracker.requestRedetection();
     }
-    std::vector<int> expected;
-    for (int frame = after; after > 0 && frame < kFrames; frame += after) expected.push_back(frame);
-    EXPECT_EQ(restarts, expected) << "redetect_after_start " << after;
+    const FrameResult result = tracker.update(observations, frame * 0.04);
+    ASSERT_TRUE(result.has_pose) << "frame " << frame;
+    if (result.restarted) restarts.push_back(frame);
   }
+  EXPECT_EQ(restarts, requested);
+  tracker.requestRedetection();
+  tracker.reset();
+  ASSERT_EQ(tracker.update(observations, 1.0).status, TrackStatus::kStarted);
+  EXPECT_EQ(tracker.update(observations, 1.04).status, TrackStatus::kTracking);
 }
 
 namespace {

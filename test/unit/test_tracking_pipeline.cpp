@@ -165,39 +165,18 @@ TEST(Pipeline, TheSizeAdaptationRunsWithThePlate) {
   EXPECT_EQ(sizeStep(skin, true), step);
 }
 
-// With the generic skin gate and no plate a start is searched for again on the next set, segmented
-// in the started hand's region (PipelineParams::redetect_after_start_without_plate); with a plate
-// or with the gate around a calibrated model's colours the tracker's own setting (none) stays, and
-// a negative setting is named.
-TEST(Pipeline, WithTheGenericGateTheSetAfterAStartIsSearchedAgain) {
-  const HandModel model = loadHandModel(modelPath("sag"));
-  const std::vector<Camera> cameras = renderedRig();
-  ASSERT_EQ(TrackerParams().redetect_after_start, 0);
-  EXPECT_EQ(
-      TrackingPipeline(model, cameras, PipelineParams()).tracker().params().redetect_after_start,
-      0);
-  PipelineParams skin;
-  skin.background_frames = 0;
-  EXPECT_EQ(skin.redetect_after_start_without_plate, 1);
-  EXPECT_EQ(TrackingPipeline(model, cameras, skin).tracker().params().redetect_after_start, 1);
-  EXPECT_EQ(redetectAfterStart(skin, true), 1);
-  const HandModel fitted =
-      loadHandModel(std::string(SAG_SOURCE_DIR) + "/test/data/default_fitted.yaml");
-  ASSERT_TRUE(fitted.colours_fitted);
-  const TrackingPipeline own_gate(fitted, cameras, skin);
-  ASSERT_TRUE(own_gate.skinGateFromModel());
-  EXPECT_EQ(own_gate.tracker().params().redetect_after_start, 0);
-  skin.skin_gate_from_model = false;
-  EXPECT_EQ(TrackingPipeline(fitted, cameras, skin).tracker().params().redetect_after_start, 1);
-  skin.redetect_after_start_without_plate = 0;
-  EXPECT_EQ(TrackingPipeline(model, cameras, skin).tracker().params().redetect_after_start, 0);
-  PipelineParams plate;
-  plate.tracker.redetect_after_start = 3;
-  EXPECT_EQ(TrackingPipeline(model, cameras, plate).tracker().params().redetect_after_start, 3);
-  EXPECT_EQ(redetectAfterStart(plate, false), 3);
-  skin.redetect_after_start_without_plate = -1;
-  EXPECT_EQ(sag_test::inputErrorOf([&] { TrackingPipeline(model, cameras, skin); }),
-            "redetect_after_start_without_plate must be >= 0, got -1");
+// A start is searched for again in its region (PipelineParams::redetect_in_started_region) with
+// the generic skin gate, no plate and the room cues (which segment in the tracked hand's region);
+// not with a plate, the user's own gate or without the cues.
+TEST(Pipeline, WithTheGenericGateAStartIsSearchedAgainInItsRegion) {
+  PipelineParams params;
+  ASSERT_TRUE(params.redetect_in_started_region);
+  EXPECT_TRUE(redetectsInStartedRegion(params, /*generic_skin_gate_without_plate=*/true,
+                                       /*room_cues=*/true));
+  EXPECT_FALSE(redetectsInStartedRegion(params, false, true));
+  EXPECT_FALSE(redetectsInStartedRegion(params, true, false));
+  params.redetect_in_started_region = false;
+  EXPECT_FALSE(redetectsInStartedRegion(params, true, true));
 }
 
 // Without a plate the generic skin gate's foreground holds more than the hand: the tracker's starts

@@ -41,13 +41,6 @@ struct TrackerParams {
   // recovers tracks that converged to a wrong but stable pose, which the similarity cannot flag.
   int redetect_interval = 25;
   double redetect_margin = 0.005;
-  // The re-detection also runs on the redetect_after_start-th set after every start (a first
-  // start, a restart after a loss, an adopted re-detection), whatever redetect_interval; 0: not.
-  // With the generic skin gate and no plate a start fits the candidates' blobs, which hold
-  // skin-coloured wood with the hand, and the sets after it are segmented in the started hand's
-  // region: the same search there finds the hand the start missed (TrackingPipeline and the live
-  // tracker set it then, PipelineParams::redetect_after_start_without_plate).
-  int redetect_after_start = 0;
   // A search made while the tracker has a pose (a re-detection, or a restart after a loss: that
   // pose is one of its candidates) refines only this many of its scored orientation hypotheses in
   // the coarse stage (the first start: 24). The searches are about half of all optimisation
@@ -483,6 +476,11 @@ class HandTracker {
   }
 
   void reset();
+  // The next update runs the re-detection (the start routine, its result adopted as a periodic
+  // re-detection's is) whatever redetect_interval, when it tracks a pose then; reset forgets the
+  // request. The front ends ask for it on the first set segmented in a started hand's region
+  // (PipelineParams::redetect_in_started_region).
+  void requestRedetection() { redetection_requested_ = true; }
   // Takes over `other`'s track (a trial start on the same model: one of a still scene's
   // hypotheses, startOnStillScene): its pose and motion history, the flip hypothesis it carries and
   // its learnt colours; this tracker's parameters and late-result callback stay. A search this
@@ -654,6 +652,7 @@ class HandTracker {
   // the track does not make its fingers the search's.
   int frames_since_start_ = 0;
   int frames_since_redetection_ = 0;
+  bool redetection_requested_ = false;  // requestRedetection, for the next update
   std::optional<Alternative> alternative_;
   // The forearm's world direction (EnergyParams::forearm_gaussians) of the track and of the
   // carried alternative, refined every frame; empty: straight on from the palm.

@@ -72,17 +72,18 @@ struct PipelineParams {
   // reads the hand's size off the foreground, which without a plate holds skin-coloured wood and
   // the other arm beside the hand, as for the open toggles above.
   bool size_adaptation_without_plate = false;
-  // The re-detection on this set after every start with the generic skin gate and no plate
-  // (TrackerParams::redetect_after_start; else the tracker's own). Such a start is fitted to the
-  // candidates' blobs (MultiViewParams), which hold the wooden table with the hand; the next set
-  // is segmented in the started hand's region. In the studio's kitchen, the hand in view from the
-  // first frame, the default model's start on `adbadd` was 34-47 mm off and stayed so until the
-  // periodic re-detection 25 sets later; the search on the next set finds the hand. Not with the
-  // user's own gate (skin_gate_from_model), which drops the table: there the start is off only
-  // when it took the other arm's hand, and the search made two such tracks stick (the re-check
-  // took the track to the user's hand 24 sets later or never; doc/segmentation.md "Session 52").
-  // 0: none.
-  int redetect_after_start_without_plate = 1;
+  // With the generic skin gate, no plate and the room cues, the tracker searches again
+  // (HandTracker::requestRedetection) on the first set segmented in the region of a hand it
+  // started (or restarted, or took from a re-detection: that set's search checks the new pose in
+  // turn). Such a start is fitted to the candidates' blobs (MultiViewParams), which hold the
+  // wooden table with the hand; the next set is segmented in the started hand's region. In the
+  // studio's kitchen, the hand in view from the first frame, the default model's start on
+  // `adbadd` was 34-47 mm off and stayed so until the periodic re-detection 25 sets later; the
+  // search in the region finds the hand. Not with the user's own gate (skin_gate_from_model),
+  // which drops the table: there the start is off only when it took the other arm's hand, and
+  // the search made two such tracks stick (the re-check took the track to the user's hand 24 sets
+  // later or never; doc/segmentation.md "Session 52").
+  bool redetect_in_started_region = true;
 };
 
 // The box around a posed hand in one camera's image (pixels, clipped to the image; empty when the
@@ -133,11 +134,12 @@ double toggleCurledFlexion(const PipelineParams& params, bool without_plate);
 // TrackingPipeline and the live tracker nodelet decide it here.
 double sizeStep(const PipelineParams& params, bool without_plate);
 
-// The re-detection after a start (TrackerParams::redetect_after_start) the tracker runs with:
-// params.redetect_after_start_without_plate with the generic skin gate and no plate
-// (`generic_skin_gate_without_plate`), else params.tracker's own. TrackingPipeline and the live
-// tracker nodelet decide it here.
-int redetectAfterStart(const PipelineParams& params, bool generic_skin_gate_without_plate);
+// Whether the tracker searches again in a started hand's region (PipelineParams::
+// redetect_in_started_region): with the generic skin gate and no plate
+// (`generic_skin_gate_without_plate`) and the room cues on (`room_cues`, which segment in the
+// tracked hand's region). TrackingPipeline and the live tracker nodelet decide it here.
+bool redetectsInStartedRegion(const PipelineParams& params, bool generic_skin_gate_without_plate,
+                              bool room_cues);
 
 // The start of a still scene (MultiViewParams::still_hypotheses) that won: which trial, its
 // result and score, and the tracker that holds its track.
@@ -221,7 +223,9 @@ class TrackingPipeline {
   std::vector<ImageSegmenter> segmenters_;
   HandTracker tracker_;
   int sets_seen_ = 0;
-  bool tracked_regions_ = false;  // the segmenters hold regions from a tracked pose
+  bool tracked_regions_ = false;             // the segmenters hold regions from a tracked pose
+  bool redetect_in_started_region_ = false;  // redetectsInStartedRegion, decided once
+  bool redetect_next_set_ = false;  // the segmenters hold the region of a start: search again
   Eigen::Vector3d tracked_centre_ = Eigen::Vector3d::Zero();  // mean of the tracked model's means
   int sets_since_recheck_ = 0;
   // Per camera, what the last set kept when it tried still hypotheses (empty: the segmenter's
