@@ -403,7 +403,7 @@ class TrackerNodelet : public nodelet::Nodelet {
     params.min_cameras_for_start = config.min_cameras_for_start;
     std::lock_guard<std::mutex> lock(mutex_);
     configured_start_area_weight_ = config.start_model_area_weight;
-    setGateDependentParams(&params);
+    applyGateDependentSettings(&params);
     tracker_->setParams(params);
     // Read back from the tracker: what it now runs (the replay_reconfigure rostest checks it).
     NODELET_INFO(
@@ -1000,7 +1000,7 @@ class TrackerNodelet : public nodelet::Nodelet {
       std::lock_guard<std::mutex> lock(mutex_);
       users_skin_gate_ = users_gate;
       TrackerParams params = tracker_->params();
-      setGateDependentParams(&params);
+      applyGateDependentSettings(&params);
       tracker_->setParams(params);
     }
     *message = summary.str();
@@ -1019,9 +1019,10 @@ class TrackerNodelet : public nodelet::Nodelet {
   }
 
   // What follows the segmentations' gate, as in TrackingPipeline: the start's model-area weight
-  // (startAreaWeight) and the search in a started hand's region (redetectsInStartedRegion: with
-  // the generic gate in mode skin, with the room cues). Caller holds mutex_.
-  void setGateDependentParams(TrackerParams* params) {
+  // (startAreaWeight, into `params`) and whether this nodelet asks for the search in a started
+  // hand's region (redetectsInStartedRegion: the generic gate in mode skin, with the room cues).
+  // Caller holds mutex_.
+  void applyGateDependentSettings(TrackerParams* params) {
     params->start_model_area_weight = startAreaWeight();
     redetect_in_started_region_ =
         redetectsInStartedRegion(PipelineParams(), skin_mode_ && !users_skin_gate_, room_cues_);
@@ -1292,7 +1293,7 @@ class TrackerNodelet : public nodelet::Nodelet {
   bool skin_gate_from_model_ = true;            // publish cam<i>/skin_gate
   bool skin_mode_ = false;                      // ~mode == skin: the segmentations have no plate
   bool users_skin_gate_ = false;                // publishSkinGate published the model's own gate
-  bool redetect_in_started_region_ = false;     // setGateDependentParams
+  bool redetect_in_started_region_ = false;     // applyGateDependentSettings
   std::optional<double> started_stamp_;         // noteStart: a start not yet searched in its region
   double configured_start_area_weight_ = -1.0;  // cfg/Tracker.cfg start_model_area_weight
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;

@@ -57,6 +57,13 @@ void collect(const std::vector<FrameResult>& late_results, const FrameResult& re
   addPosed(result, run);
 }
 
+// The tracker a live graph's worker is: `params` searching on the frame path, on one thread.
+TrackerParams synchronousParams(TrackerParams params) {
+  params.asynchronous_search = false;
+  params.search_threads = 1;
+  return params;
+}
+
 double fingertipDifference(const FrameResult& a, const FrameResult& b) {
   return meanFingertipError(a.fingertips, b.fingertips);
 }
@@ -75,10 +82,7 @@ TEST(TrackerCatchUp, EverySetDuringTheStartSearchGetsItsPoseAfterwards) {
   HandTracker tracker(model, params);
   std::promise<void> gate;
   tracker.holdSearchesUntil(gate.get_future().share());
-  TrackerParams synchronous_params = params;
-  synchronous_params.asynchronous_search = false;
-  synchronous_params.search_threads = 1;
-  HandTracker synchronous(model, synchronous_params);
+  HandTracker synchronous(model, synchronousParams(params));
 
   constexpr int kHeld = 6, kFrames = 10;
   TrackedRun run;
@@ -148,10 +152,7 @@ TEST(TrackerCatchUp, EverySetDuringARestartSearchGetsItsPoseAfterwards) {
   params.redetect_interval = 0;  // only the restart searches
   HandTracker tracker(model, params);
   std::promise<void> gate;
-  TrackerParams synchronous_params = params;
-  synchronous_params.asynchronous_search = false;
-  synchronous_params.search_threads = 1;
-  HandTracker synchronous(model, synchronous_params);
+  HandTracker synchronous(model, synchronousParams(params));
 
   constexpr int kTracked = 8, kHeld = 4, kFrames = kTracked + kHeld + 4;
   const Eigen::Vector3d jump(-0.1, 0.2, 0.05);
@@ -349,9 +350,7 @@ TEST(TrackerCatchUp, AfterARedetectionTheFramePathGoesOnAsTheSynchronousTracker)
   params.asynchronous_search = true;
   params.redetect_interval = 5;
   HandTracker tracker(model, params);
-  TrackerParams synchronous_params = params;
-  synchronous_params.asynchronous_search = false;
-  HandTracker synchronous(model, synchronous_params);
+  HandTracker synchronous(model, synchronousParams(params));
   std::promise<void> gate;
   int held = 0, adopted_then_compared = 0;
   bool adopted = false;
@@ -403,9 +402,7 @@ TEST(TrackerCatchUp, ARequestedRedetectionGoesToTheWorkerWithItsSet) {
   params.redetect_interval = 0;
   params.redetect_margin = -1.0;
   HandTracker tracker(model, params);
-  TrackerParams synchronous_params = params;
-  synchronous_params.asynchronous_search = false;
-  HandTracker synchronous(model, synchronous_params);
+  HandTracker synchronous(model, synchronousParams(params));
   constexpr int kRequested = 6, kFrames = 14;
   bool searched = false;
   int compared = 0;
